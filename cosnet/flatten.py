@@ -1,0 +1,278 @@
+"""One pass from a validated Net to contiguous arrays (see cosnet.kernels.layout).
+
+Builds, per line, the staggered grid (vertices, elements, Voronoi points) in the principal
+axes of its cross-section, and per node the composite rigid body: the node's own mass and
+inertia plus the lumped masses of its line ends (at their offsets xi) and a quarter of the
+rotary inertia of each end element (the dual cell [0, l/4] of the node's rotation), all about the composite centre of mass, in principal axes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .kernels.layout import Model, State
+from .net import Line, Net, frame_from_tangent
+
+
+def quat_from_matrix(m: np.ndarray) -> np.ndarray:
+    """Quaternion(s) (w, x, y, z) of rotation matrix/matrices m (..., 3, 3)."""
+    xyzw = Rotation.from_matrix(m).as_quat()
+    return np.concatenate([xyzw[..., 3:], xyzw[..., :3]], axis=-1)
+
+
+def matrix_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix/matrices of quaternion(s) q (..., 4) in (w, x, y, z) order."""
+    q = np.asarray(q, dtype=float)
+    return Rotation.from_quat(np.concatenate([q[..., 1:], q[..., :1]], axis=-1)).as_matrix()
+
+
+NODE_ROTARY_SHARE = 0.25
+
+
+def _rz(phi: float) -> np.ndarray:
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _log(r: np.ndarray) -> np.ndarray:
+    return Rotation.from_matrix(r).as_rotvec()
+
+
+@dataclass
+class LineGrid:
+    """The staggered grid of one line before packing."""
+
+    x: np.ndarray          # (n+1, 3)
+    frames: np.ndarray     # (n, 3, 3) principal director frames
+    rest_length: np.ndarray  # (n,)
+    stiffness: np.ndarray  # (n, 3)
+    inertia: np.ndarray    # (n, 3) rotary inertia per element
+    mass: np.ndarray       # (n+1,) lumped vertex masses
+    vor_length: np.ndarray  # (n+1,)
+    bend: np.ndarray       # (n+1, 3)
+    curvature: np.ndarray  # (n+1, 3) rest curvature, principal frame
+    end_frames: tuple      # (D_start, D_end): line-end director frames in the lab (principal)
+
+
+def _principal_angle(line: Line) -> float:
+    n = line.elements
+    phis = [line.section_at(float(s)).principal()[2] for s in np.linspace(0, 1, 2 * n + 1)]
+    if max(phis) - min(phis) > 1e-9:
+        raise ValueError(f"line {line.name!r}: the principal axes of the cross-section (I12 != 0) "
+                         f"must not turn along the line")
+    return phis[0]
+
+
+def _element_frames(line: Line, phi: float) -> np.ndarray:
+    """Director frames of the elements: d3 along each segment, d1 from the hint, transported
+    along the polyline without twist, then turned by phi to the section's principal axes."""
+    pts = line.points
+    t = np.diff(pts, axis=0)
+    frames = np.empty((line.elements, 3, 3))
+    d1 = line.d1
+    if d1 is None and line.start_frame is not None:
+        d1 = (line.start.frame @ line.start_frame)[:, 0]
+    prev = None
+    for k in range(line.elements):
+        if prev is None:
+            f = frame_from_tangent(t[k], d1)
+        else:
+            # parallel transport of the previous frame onto the new tangent
+            a, b = prev[:, 2], t[k] / np.linalg.norm(t[k])
+            axis = np.cross(a, b)
+            s, c = np.linalg.norm(axis), float(np.dot(a, b))
+            rot = np.eye(3) if s < 1e-15 else Rotation.from_rotvec(axis / s * math.atan2(s, c)).as_matrix()
+            f = rot @ prev
+        frames[k] = f
+        prev = f
+    return frames @ _rz(phi) if phi != 0.0 else frames
+
+
+def build_line_grid(line: Line) -> LineGrid:
+    n = line.elements
+    mat = line.material
+    phi = _principal_angle(line)
+    frames = _element_frames(line, phi)
+    seg = np.linalg.norm(np.diff(line.points, axis=0), axis=1)
+    s_vert = np.concatenate([[0.0], np.cumsum(seg)]) / seg.sum()
+    s_mid = 0.5 * (s_vert[1:] + s_vert[:-1])
+    secs = [line.section_at(float(s)) for s in s_mid]
+    vsecs = [line.section_at(float(s)) for s in s_vert]
+    stiffness = np.array([[sc.shear_coefficient * mat.G * sc.A] * 2 + [mat.E * sc.A] for sc in secs])
+    p_mid = np.array([sc.principal()[:2] for sc in secs])
+    inertia = mat.density * seg[:, None] * np.column_stack([p_mid[:, 0], p_mid[:, 1], p_mid.sum(axis=1)])
+    # rotations live at the element centres and at the nodes (s = 0, L): the dual cell of a
+    # node is [0, l/4], so a node takes a quarter of its end element's rotary inertia
+    inertia[0] *= 1.0 - NODE_ROTARY_SHARE
+    inertia[-1] *= 1.0 - NODE_ROTARY_SHARE
+    emass = mat.density * np.array([sc.A for sc in secs]) * seg
+    mass = np.zeros(n + 1)
+    mass[:-1] += 0.5 * emass
+    mass[1:] += 0.5 * emass
+    vor = np.zeros(n + 1)
+    vor[:-1] += 0.5 * seg
+    vor[1:] += 0.5 * seg
+    p_v = np.array([sc.principal()[:2] for sc in vsecs])
+    bend = np.column_stack([mat.E * p_v[:, 0], mat.E * p_v[:, 1], [mat.G * sc.J for sc in vsecs]])
+    # line-end frames D(nu) X(nu, lambda); the default X makes the junction stress free (§2.3)
+    ends = []
+    for node, X, frame in ((line.start, line.start_frame, frames[0]), (line.end, line.end_frame, frames[-1])):
+        ends.append(frame if X is None else node.frame @ X @ _rz(phi))
+    curvature = np.zeros((n + 1, 3))
+    if line.rest_curvature is not None:
+        rz = _rz(phi)
+        for k, s in enumerate(s_vert):
+            curvature[k] = rz.T @ line.curvature_at(float(s))
+    else:
+        # rest shape = built polyline: interior Voronoi points are stress free
+        for k in range(1, n):
+            curvature[k] = _log(frames[k - 1].T @ frames[k]) / vor[k]
+    return LineGrid(line.points.copy(), frames, seg, stiffness, inertia, mass, vor, bend,
+                    curvature, tuple(ends))
+
+
+def _composite_body(node, ends):
+    """Return (mass, com_offset_user, inertia_user (3,3), locked (3,)) of node + line ends.
+    ends: list of (offset xi (user body frame), end mass, rotary inertia share (3,3) user frame)."""
+    locked = node.locked_axes.copy()
+    m_end = sum(m for _, m, _ in ends)
+    if math.isinf(node.mass):
+        mass, com = math.inf, np.zeros(3)
+    else:
+        mass = node.mass + m_end
+        com = sum((m * xi for xi, m, _ in ends), np.zeros(3)) / mass
+    I = np.where(np.isinf(node.inertia), 0.0, node.inertia)
+
+    def shift(x):
+        return np.dot(x, x) * np.eye(3) - np.outer(x, x)
+
+    if not math.isinf(node.mass):
+        I = I + node.mass * shift(-com)
+    for xi, m, j in ends:
+        I = I + m * shift(xi - com) + j
+    # a locked axis is infinitely stiff: its couplings to the free axes vanish in the limit
+    I[locked, :] = 0.0
+    I[:, locked] = 0.0
+    return mass, com, I, locked
+
+
+def _principal_frame(I, locked):
+    """Return (P, diag): rotation P (user body -> principal, columns principal axes) and the
+    principal inertia with inf on locked axes."""
+    free = np.flatnonzero(~locked)
+    P = np.eye(3)
+    diag = np.full(3, math.inf)
+    if free.size:
+        vals, vecs = np.linalg.eigh(I[np.ix_(free, free)])
+        block = np.eye(3)
+        block[np.ix_(free, free)] = vecs
+        if np.linalg.det(block) < 0:
+            block[:, free[0]] *= -1.0
+        P = block
+        diag[free] = vals
+    return P, diag
+
+
+def flatten(net: Net) -> tuple[Model, State, list[LineGrid]]:
+    """Return the static Model, the initial State (at rest) and each line's grid."""
+    net.validate()
+    grids = [build_line_grid(l) for l in net.lines]
+    nl, nn = len(net.lines), len(net.nodes)
+    nverts = np.array([g.x.shape[0] for g in grids], dtype=np.int64)
+    vo = np.concatenate([[0], np.cumsum(nverts)]).astype(np.int64)
+    eo = np.concatenate([[0], np.cumsum(nverts - 1)]).astype(np.int64)
+    cat = (lambda key, shape: np.concatenate([getattr(g, key) for g in grids]) if grids
+           else np.zeros(shape))
+    x = cat("x", (0, 3))
+    vmass = cat("mass", (0,))
+    frames = cat("frames", (0, 3, 3))
+    rest_length = cat("rest_length", (0,))
+    inertia = cat("inertia", (0, 3))
+    inv_mass = np.where(vmass > 0, 1.0 / np.where(vmass > 0, vmass, 1.0), 0.0)
+    inv_mass[vo[:-1]] = 0.0
+    inv_mass[vo[1:] - 1] = 0.0
+
+    # attachments: 2 l start, 2 l + 1 end
+    na = 2 * nl
+    attach_node = np.zeros(na, dtype=np.int64)
+    attach_vertex = np.zeros(na, dtype=np.int64)
+    attach_element = np.zeros(na, dtype=np.int64)
+    ends_of = {n.index: [] for n in net.nodes}
+    for l, (line, g) in enumerate(zip(net.lines, grids)):
+        for side, node, xi in ((0, line.start, line.start_offset), (1, line.end, line.end_offset)):
+            a = 2 * l + side
+            attach_node[a] = node.index
+            attach_vertex[a] = vo[l] if side == 0 else vo[l + 1] - 1
+            attach_element[a] = eo[l] if side == 0 else eo[l + 1] - 1
+            end_frame = g.end_frames[side]
+            e_local = 0 if side == 0 else line.elements - 1
+            Xfull = node.frame.T @ end_frame          # X in the node's user frame (principal section axes)
+            whole = g.inertia[e_local] / (1.0 - NODE_ROTARY_SHARE * (2 if line.elements == 1 else 1))
+            end_rot = NODE_ROTARY_SHARE * Xfull @ np.diag(whole) @ Xfull.T
+            ends_of[node.index].append((a, xi, g.mass[0 if side == 0 else -1], end_rot, Xfull))
+
+    node_mass = np.zeros(nn)
+    node_own = np.zeros(nn)
+    node_J = np.zeros((nn, 3))
+    node_locked = np.zeros((nn, 3))
+    node_com = np.zeros((nn, 3))
+    node_P = np.zeros((nn, 4))
+    node_x = np.zeros((nn, 3))
+    node_q = np.zeros((nn, 4))
+    attach_offset = np.zeros((na, 3))
+    attach_frame = np.zeros((na, 4))
+    for node in net.nodes:
+        i = node.index
+        ends = ends_of[i]
+        mass, com, I, locked = _composite_body(node, [(xi, m, j) for _, xi, m, j, _ in ends])
+        P, diag = _principal_frame(I, locked)
+        node_mass[i] = mass
+        node_own[i] = node.mass if math.isfinite(node.mass) else 0.0
+        node_J[i] = diag
+        node_locked[i] = locked.astype(float)
+        node_com[i] = P.T @ com
+        node_P[i] = quat_from_matrix(P)
+        node_x[i] = node.position + node.frame @ com
+        node_q[i] = quat_from_matrix(node.frame @ P)
+        for a, xi, _, _, Xfull in ends:
+            attach_offset[a] = P.T @ (xi - com)
+            attach_frame[a] = quat_from_matrix(P.T @ Xfull)
+    order = np.argsort(attach_node, kind="stable")
+    counts = np.bincount(attach_node, minlength=nn) if na else np.zeros(nn, dtype=np.int64)
+    node_attach_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+    with np.errstate(divide="ignore"):
+        inv = lambda a: np.where(np.isinf(a), 0.0, 1.0 / a)
+        model = Model(
+            line_vertex_offsets=vo, line_element_offsets=eo,
+            vertex_mass=vmass, vertex_inv_mass=inv_mass,
+            element_rest_length=rest_length, element_stiffness=cat("stiffness", (0, 3)),
+            element_inertia=inertia, element_inv_inertia=1.0 / inertia if inertia.size else inertia,
+            voronoi_rest_length=cat("vor_length", (0,)), voronoi_stiffness=cat("bend", (0, 3)),
+            voronoi_rest_curvature=cat("curvature", (0, 3)),
+            attach_node=attach_node, attach_vertex=attach_vertex, attach_element=attach_element,
+            attach_offset=attach_offset, attach_frame=attach_frame,
+            node_attach_offsets=node_attach_offsets, node_attach_list=order.astype(np.int64),
+            node_mass=node_mass, node_inv_mass=inv(node_mass), node_own_mass=node_own,
+            node_inertia=node_J, node_inv_inertia=inv(node_J), node_locked=node_locked,
+            node_com_offset=node_com, node_principal=node_P,
+        )
+    state = State(
+        x=x, v=np.zeros_like(x), q=quat_from_matrix(frames) if frames.size else np.zeros((0, 4)),
+        w=np.zeros((rest_length.shape[0], 3)), node_x=node_x, node_v=np.zeros((nn, 3)),
+        node_q=node_q, node_w=np.zeros((nn, 3)), node_hold=np.zeros((nn, 3)), clock=np.zeros(1),
+    )
+    _check_finite(model, state)
+    return model, state, grids
+
+
+def _check_finite(model: Model, state: State):
+    for name, arr in list(model._asdict().items()) + list(state._asdict().items()):
+        a = np.asarray(arr, dtype=float)
+        bad = np.isnan(a) if name in ("node_mass", "node_inertia") else ~np.isfinite(a)
+        if np.any(bad):
+            raise ValueError(f"net: non-finite values in {name} after flattening")

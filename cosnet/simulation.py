@@ -1,0 +1,283 @@
+"""The simulation driver: flattens a net once, binds the declared effects, and advances the
+state with a compiled symplectic stepper (no Python loop over lines or elements per step)."""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from . import kernels  # noqa: F401  (package import; registers nothing)
+from .effects import Effect
+from .flatten import flatten, matrix_from_quat
+from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
+from .kernels.diagnostics import line_fields, measure_energy, measure_momenta
+from .kernels.layout import empty_loads
+from .kernels.motion import place_line_ends
+from .kernels.stability import bound_max_omega2
+from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, advance_verlet
+from .net import Line, Net, Node
+
+STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
+CHUNK_STEPS = 2000  # steps between the driver's cheap health checks
+
+
+class InstabilityError(RuntimeError):
+    """The simulation blew up; the message names the time, the place and a safe dt."""
+
+
+@lru_cache(maxsize=None)
+def stability_interval(stepper: str) -> float:
+    """Largest omega*h for which the scheme is stable on the harmonic oscillator."""
+    def step_matrix(wh):
+        drift = lambda c: np.array([[1.0, c], [0.0, 1.0]])
+        kick = lambda c: np.array([[1.0, 0.0], [-wh * wh * c, 1.0]])
+        if stepper == "verlet":
+            seq = [drift(0.5), kick(1.0), drift(0.5)]
+        else:
+            xi, lam, chi = PEFRL_XI, PEFRL_LAMBDA, PEFRL_CHI
+            seq = [drift(xi), kick(0.5 - lam), drift(chi), kick(lam), drift(1 - 2 * (chi + xi)),
+                   kick(lam), drift(chi), kick(0.5 - lam), drift(xi)]
+        m = np.eye(2)
+        for s in seq:
+            m = s @ m
+        return m
+    grid = np.linspace(1e-3, 8.0, 8000)
+    for wh in grid:
+        if abs(np.trace(step_matrix(wh))) > 2.0:
+            return float(wh)
+    return float(grid[-1])
+
+
+class Simulation:
+    """A net in motion.
+
+    net: the Net (flattened once; later changes to it are not seen).
+    effects: declared effects (Gravity, NodeLoad, LineLoad, Damping, ...); nothing else acts.
+    stepper: "verlet" (position Verlet, order 2) or "pefrl" (order 4).
+    dt: time step; None uses the estimated stable step ``stable_dt()``. A dt above the estimate
+        is refused unless ``force_dt=True``.
+    """
+
+    def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
+                 force_dt: bool = False, safety: float = 0.9):
+        if not isinstance(net, Net):
+            raise ValueError(f"Simulation: net must be a cosnet.Net, got {net!r}")
+        if stepper not in STEPPERS:
+            raise ValueError(f"Simulation: stepper must be one of {sorted(STEPPERS)}, got {stepper!r}")
+        self.net = net
+        self.stepper = stepper
+        self.safety = float(safety)
+        self.model, self.state, self.grids = flatten(net)
+        self.loads = empty_loads(self.model)
+        self._momenta = np.zeros((2, 3))
+        self.effects = list(effects)
+        for e in self.effects:
+            if not isinstance(e, Effect):
+                raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
+        self._load_params = tuple(e.bind(self) for e in self.effects if e.stage == "load")
+        self._flow_params = tuple(e.bind(self) for e in self.effects if e.stage == "flow")
+        self._advance = STEPPERS[stepper]
+        est = self.stable_dt()
+        if dt is None:
+            dt = est
+        else:
+            dt = float(dt)
+            if not math.isfinite(dt) or dt <= 0:
+                raise ValueError(f"Simulation: dt must be a positive number, got {dt}")
+            if dt > est and not force_dt:
+                raise ValueError(f"Simulation: dt = {dt:.4g} s exceeds the estimated stable step "
+                                 f"{est:.4g} s ({self.stiffest()}); pass force_dt=True to insist")
+        self.dt = dt
+        self.steps = 0
+
+    # ------------------------------------------------------------------ stepping
+    def stable_dt(self) -> float:
+        """Estimated largest stable step: safety * (scheme interval) / omega_max, with omega_max
+        bounded from above by Gershgorin's theorem on the linearised net."""
+        w2, _, _ = bound_max_omega2(self.model)
+        if w2 <= 0:
+            return math.inf
+        return self.safety * stability_interval(self.stepper) / math.sqrt(w2)
+
+    def stiffest(self) -> str:
+        """Where the highest frequency sits (for messages)."""
+        _, kind, idx = bound_max_omega2(self.model)
+        if kind == 2:
+            return f"node {self.net.nodes[idx].name!r}"
+        offsets = self.model.line_vertex_offsets if kind == 0 else self.model.line_element_offsets
+        l = int(np.searchsorted(offsets, idx, side="right") - 1)
+        what = "vertex" if kind == 0 else "element"
+        return f"line {self.net.lines[l].name!r} {what} {idx - offsets[l]}"
+
+    @property
+    def time(self) -> float:
+        return float(self.state.clock[0])
+
+    def run(self, until: float | None = None, steps: int | None = None):
+        """Advance to time ``until`` (the last step may overshoot by less than dt) or by
+        ``steps`` steps."""
+        if (until is None) == (steps is None):
+            raise ValueError("Simulation.run: give exactly one of until or steps")
+        if steps is None:
+            steps = max(0, int(math.ceil((float(until) - self.time) / self.dt - 1e-9)))
+        steps = int(steps)
+        if steps < 0:
+            raise ValueError(f"Simulation.run: steps must be >= 0, got {steps}")
+        self._check_locked_axes()
+        place_line_ends(self.model, self.state)
+        while steps > 0:
+            n = min(steps, CHUNK_STEPS)
+            self._advance(self.model, self.state, self.loads, self._load_params,
+                          self._flow_params, self.dt, n)
+            self.steps += n
+            steps -= n
+            self._check_health()
+        return self
+
+    def _check_locked_axes(self):
+        bad = (self.model.node_locked > 0) & (self.state.node_w != 0)
+        if np.any(bad):
+            nd = int(np.argwhere(bad)[0, 0])
+            raise ValueError(f"node {self.net.nodes[nd].name!r}: its angular velocity about a locked "
+                             f"(infinite-inertia) axis must be zero")
+
+    def _check_health(self):
+        s = self.state
+        for name, arr in (("position", s.x), ("velocity", s.v), ("angular velocity", s.w),
+                          ("node position", s.node_x), ("node velocity", s.node_v)):
+            if not np.all(np.isfinite(arr)):
+                idx = int(np.argwhere(~np.isfinite(arr))[0, 0])
+                raise InstabilityError(
+                    f"unstable at t = {self.time:.6g} s: non-finite {name} at {self._where(name, idx)}; "
+                    f"dt = {self.dt:.4g} s, a stable dt is below {self.stable_dt():.4g} s")
+
+    def _where(self, name: str, idx: int) -> str:
+        if name.startswith("node"):
+            return f"node {self.net.nodes[idx].name!r}"
+        offsets = self.model.line_element_offsets if name == "angular velocity" else self.model.line_vertex_offsets
+        l = int(np.searchsorted(offsets, idx, side="right") - 1)
+        return f"line {self.net.lines[l].name!r} {'element' if name == 'angular velocity' else 'vertex'} {idx - offsets[l]}"
+
+    # ------------------------------------------------------------------ access
+    def check_node(self, node: Node, who: str = "Simulation"):
+        if not isinstance(node, Node) or node.index >= len(self.net.nodes) or self.net.nodes[node.index] is not node:
+            raise ValueError(f"{who}: {node!r} is not a node of this simulation's net")
+
+    def check_line(self, line: Line, who: str = "Simulation"):
+        if not isinstance(line, Line) or line.index >= len(self.net.lines) or self.net.lines[line.index] is not line:
+            raise ValueError(f"{who}: {line!r} is not a line of this simulation's net")
+
+    def _vrange(self, line):
+        self.check_line(line)
+        o = self.model.line_vertex_offsets
+        return slice(o[line.index], o[line.index + 1])
+
+    def _erange(self, line):
+        self.check_line(line)
+        o = self.model.line_element_offsets
+        return slice(o[line.index], o[line.index + 1])
+
+    def line_positions(self, line: Line) -> np.ndarray:
+        """(n+1, 3) vertex positions, first row at the start node; a writable view (the end
+        rows follow the nodes and are overwritten by them)."""
+        return self.state.x[self._vrange(line)]
+
+    def line_velocities(self, line: Line) -> np.ndarray:
+        """(n+1, 3) vertex velocities; a writable view (end rows follow the nodes)."""
+        return self.state.v[self._vrange(line)]
+
+    def line_directors(self, line: Line) -> np.ndarray:
+        """(n, 3, 3) element director frames, columns d1 d2 d3 (principal axes) in the lab."""
+        return matrix_from_quat(self.state.q[self._erange(line)])
+
+    def line_angular_velocities(self, line: Line) -> np.ndarray:
+        """(n, 3) element angular velocities in each element's body (director) frame; writable view."""
+        return self.state.w[self._erange(line)]
+
+    def node_position(self, node: Node) -> np.ndarray:
+        """(3,) position r(nu) of the node's reference point (the centroid of its own body)."""
+        self.check_node(node)
+        i = node.index
+        d = matrix_from_quat(self.state.node_q[i])
+        return self.state.node_x[i] - d @ self.model.node_com_offset[i]
+
+    def node_rotation(self, node: Node) -> np.ndarray:
+        """(3, 3) D(nu): columns d1 d2 d3 of the node's body frame in the lab."""
+        self.check_node(node)
+        i = node.index
+        return matrix_from_quat(self.state.node_q[i]) @ matrix_from_quat(self.model.node_principal[i]).T
+
+    def node_velocity(self, node: Node) -> np.ndarray:
+        """(3,) velocity of the node's composite centre of mass (its body plus its line ends'
+        lumped masses); a writable view."""
+        self.check_node(node)
+        return self.state.node_v[node.index]
+
+    def node_angular_velocity(self, node: Node) -> np.ndarray:
+        """(3,) angular velocity in the node's principal body frame (equal to its body frame
+        when the inertia is diagonal); a writable view."""
+        self.check_node(node)
+        return self.state.node_w[node.index]
+
+    # ------------------------------------------------------------------ diagnostics
+    def energy_parts(self) -> dict:
+        place_line_ends(self.model, self.state)
+        kt, kr, u = measure_energy(self.model, self.state)
+        pot = sum(e.potential_energy(self) for e in self.effects)
+        return {"kinetic": kt + kr, "translational": kt, "rotational": kr, "strain": u, "potential": pot}
+
+    def energy(self) -> float:
+        """Total energy: kinetic (translational and rotational, lines and nodes), strain (3.25)
+        and the potential of conservative effects (gravity)."""
+        p = self.energy_parts()
+        return p["kinetic"] + p["strain"] + p["potential"]
+
+    def momentum(self) -> np.ndarray:
+        """(3,) total linear momentum of everything with finite mass."""
+        place_line_ends(self.model, self.state)
+        measure_momenta(self.model, self.state, self._momenta)
+        return self._momenta[0].copy()
+
+    def angular_momentum(self) -> np.ndarray:
+        """(3,) total angular momentum about the origin."""
+        place_line_ends(self.model, self.state)
+        measure_momenta(self.model, self.state, self._momenta)
+        return self._momenta[1].copy()
+
+    def line_fields(self, line: Line) -> dict:
+        """Per-vertex fields of a line, each (n+1, ...): position, velocity, d1, d2, d3, force
+        n and torque m (lab), strain v - d3 and curvature u - u0 (director frame) (3.22)."""
+        place_line_ends(self.model, self.state)
+        n = line.elements
+        frames = np.empty((n + 1, 4))
+        force, torque, strain, curv = (np.empty((n + 1, 3)) for _ in range(4))
+        line_fields(line.index, self.model, self.state, frames, force, torque, strain, curv)
+        d = matrix_from_quat(frames)
+        sl = self._vrange(line)
+        return {"position": self.state.x[sl].copy(), "velocity": self.state.v[sl].copy(),
+                "d1": d[:, :, 0], "d2": d[:, :, 1], "d3": d[:, :, 2], "force": force,
+                "torque": torque, "strain": strain, "curvature": curv}
+
+    # ------------------------------------------------------------------ checkpoints
+    def save_checkpoint(self, path):
+        """Write the whole state (and step count, dt, stepper) to an .npz file atomically."""
+        import os
+        tmp = f"{path}.tmp.npz"
+        np.savez(tmp, steps=self.steps, dt=self.dt, stepper=self.stepper, **self.state._asdict())
+        os.replace(tmp, path)
+
+    def load_checkpoint(self, path):
+        """Restore a state written by save_checkpoint (same net and stepper), bit-exactly."""
+        with np.load(path) as data:
+            if str(data["stepper"]) != self.stepper:
+                raise ValueError(f"checkpoint {path}: stepper {data['stepper']} differs from {self.stepper}")
+            for name, arr in self.state._asdict().items():
+                if data[name].shape != arr.shape:
+                    raise ValueError(f"checkpoint {path}: {name} has shape {data[name].shape}, "
+                                     f"this net needs {arr.shape}")
+                arr[...] = data[name]
+            self.steps = int(data["steps"])
+            self.dt = float(data["dt"])
+        return self

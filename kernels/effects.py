@@ -1,0 +1,140 @@
+"""Kernels of the built-in effects: gravity, node loads, line loads, damping.
+
+Each effect is a NamedTuple of its parameters plus one registered kernel. The arrays a kernel
+reads and writes are stated in its docstring; nothing else is touched.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compose import flow_kernel, load_kernel
+from .rotations import cross, quat_rotate, quat_rotate_inv
+
+
+class GravityParams(NamedTuple):
+    g: np.ndarray  # (3,) acceleration, lab frame
+
+
+class NodeLoadParams(NamedTuple):
+    nodes: np.ndarray    # (k,) int64
+    force: np.ndarray    # (k, 3) lab force at the node's reference point
+    torque: np.ndarray   # (k, 3) lab torque
+    times: np.ndarray    # (m,) amplitude table abscissae (m = 0: constant amplitude 1)
+    values: np.ndarray   # (m,) amplitude table
+    omega: float         # harmonic factor sin(omega t + phase) when omega != 0
+    phase: float
+
+
+class LineLoadParams(NamedTuple):
+    lines: np.ndarray    # (k,) int64
+    force: np.ndarray    # (k, 3) force per unit length f, lab frame (1.4)
+    torque: np.ndarray   # (k, 3) torque per unit length l, lab frame (1.4)
+    times: np.ndarray
+    values: np.ndarray
+    omega: float
+    phase: float
+
+
+class DampingParams(NamedTuple):
+    translational: float  # decay rate nu (1/s): v <- v exp(-nu h)
+    rotational: float     # decay rate of angular velocities
+
+
+@njit(cache=True, inline="always")
+def load_amplitude(p, t):
+    """Return the time factor of a load: table interpolation times sin(omega t + phase)."""
+    a = 1.0
+    if p.times.shape[0] > 0:
+        a = np.interp(t, p.times, p.values)
+    if p.omega != 0.0:
+        a *= math.sin(p.omega * t + p.phase)
+    return a
+
+
+@load_kernel(GravityParams)
+@njit(cache=True)
+def add_gravity(p, model, state, loads):
+    """Update loads.f (nv,3), loads.node_f, loads.node_tau given vertex and node masses:
+    f = mu g along the lines and F = M g on the nodes (1.4)-(1.5)."""
+    g = p.g
+    for i in range(loads.f.shape[0]):
+        m = model.vertex_mass[i]
+        loads.f[i, 0] += m * g[0]
+        loads.f[i, 1] += m * g[1]
+        loads.f[i, 2] += m * g[2]
+    for nd in range(model.node_mass.shape[0]):
+        m = model.node_own_mass[nd]
+        if m == 0.0:
+            continue
+        add_node_force(model, state, loads, nd, m * g[0], m * g[1], m * g[2])
+
+
+@njit(cache=True, inline="always")
+def add_node_force(model, state, loads, nd, fx, fy, fz):
+    """Update loads.node_f, loads.node_tau with a force applied at node nd's reference point
+    (its torque about the composite centre of mass included, (4.5))."""
+    q = state.node_q[nd]
+    c = model.node_com_offset[nd]
+    rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], -c[0], -c[1], -c[2])
+    tx, ty, tz = cross(rx, ry, rz, fx, fy, fz)
+    loads.node_f[nd, 0] += fx
+    loads.node_f[nd, 1] += fy
+    loads.node_f[nd, 2] += fz
+    loads.node_tau[nd, 0] += tx
+    loads.node_tau[nd, 1] += ty
+    loads.node_tau[nd, 2] += tz
+
+
+@load_kernel(NodeLoadParams)
+@njit(cache=True)
+def add_node_loads(p, model, state, loads):
+    """Update loads.node_f, loads.node_tau given the node loads F(t, nu), L(t, nu) (1.5)/(1.7)."""
+    a = load_amplitude(p, state.clock[0])
+    for j in range(p.nodes.shape[0]):
+        nd = p.nodes[j]
+        add_node_force(model, state, loads, nd, a * p.force[j, 0], a * p.force[j, 1], a * p.force[j, 2])
+        for k in range(3):
+            loads.node_tau[nd, k] += a * p.torque[j, k]
+
+
+@load_kernel(LineLoadParams)
+@njit(cache=True)
+def add_line_loads(p, model, state, loads):
+    """Update loads.f (nv,3), loads.tau (ne,3) given distributed loads f, l per unit length
+    on the listed lines (1.4): vertices take f times their Voronoi length, elements l times
+    their length (in their body frame)."""
+    a = load_amplitude(p, state.clock[0])
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        for vt in range(model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]):
+            s = a * model.voronoi_rest_length[vt]
+            for k in range(3):
+                loads.f[vt, k] += s * p.force[j, k]
+        for e in range(model.line_element_offsets[l], model.line_element_offsets[l + 1]):
+            s = a * model.element_rest_length[e]
+            q = state.q[e]
+            bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], s * p.torque[j, 0],
+                                         s * p.torque[j, 1], s * p.torque[j, 2])
+            loads.tau[e, 0] += bx
+            loads.tau[e, 1] += by
+            loads.tau[e, 2] += bz
+
+
+@flow_kernel(DampingParams)
+@njit(cache=True)
+def damp_velocities(p, model, state, h):
+    """Update state.v, state.w, state.node_v, state.node_w by the exact flow of linear,
+    mass-proportional viscous damping over time h (unconditionally stable)."""
+    ct = math.exp(-p.translational * h)
+    cr = math.exp(-p.rotational * h)
+    state.v[:] *= ct
+    state.w[:] *= cr
+    for nd in range(state.node_v.shape[0]):
+        if model.node_inv_mass[nd] > 0.0:  # an infinitely heavy node keeps its velocity
+            for k in range(3):
+                state.node_v[nd, k] *= ct
+        for k in range(3):
+            state.node_w[nd, k] *= cr

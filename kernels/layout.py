@@ -1,0 +1,86 @@
+"""The flattened net: static model, time-varying state and per-step load accumulators.
+
+Packing convention: every ``*_offsets`` array is a CSR offset of length n + 1 whose last entry
+is the sentinel total. Per line l (n_l elements):
+  vertices  line_vertex_offsets[l]  .. line_vertex_offsets[l+1]   (n_l + 1 of them)
+  elements  line_element_offsets[l] .. line_element_offsets[l+1]  (n_l)
+  Voronoi points share the vertex numbering: Voronoi point k of a line sits at vertex k; the
+  interior ones (0 < k < n_l) join elements k-1 and k, the two boundary ones (k = 0, n_l) join
+  the end element to the node's frame D(nu) X(nu, lambda) over half an element (1.3).
+Each line end is an *attachment*: attachment 2 l is the start (Omega = -1), 2 l + 1 the end
+(Omega = +1) (2.3). node_attach_offsets / node_attach_list give each node its attachments.
+
+Frames: element and node quaternions rotate principal body axes to the lab. A node's state is
+that of its composite rigid body (its own mass plus the lumped masses of its line ends), whose
+centre of mass sits at node_com_offset from the node's reference point.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Model(NamedTuple):
+    """Static constants of a flattened net (nl lines, nv vertices, ne elements, na = 2 nl
+    attachments, nn nodes)."""
+
+    line_vertex_offsets: np.ndarray   # (nl+1,) int64
+    line_element_offsets: np.ndarray  # (nl+1,) int64
+    vertex_mass: np.ndarray           # (nv,) lumped mass (end vertices: their share, carried by the node)
+    vertex_inv_mass: np.ndarray       # (nv,) 1/mass, 0 for end vertices (moved by their node)
+    element_rest_length: np.ndarray   # (ne,)
+    element_stiffness: np.ndarray     # (ne, 3) K = (k G A, k G A, E A), principal frame (3.23)
+    element_inertia: np.ndarray       # (ne, 3) rotary inertia rho l (I1, I2, I1 + I2) (3.4)
+    element_inv_inertia: np.ndarray   # (ne, 3)
+    voronoi_rest_length: np.ndarray   # (nv,) Voronoi length (half an element at the line ends)
+    voronoi_stiffness: np.ndarray     # (nv, 3) B = (E I1, E I2, G J), principal frame (3.23)
+    voronoi_rest_curvature: np.ndarray  # (nv, 3) u0, principal frame (2.27)
+    attach_node: np.ndarray           # (na,) int64 node of each line end
+    attach_vertex: np.ndarray         # (na,) int64 global vertex index of the line end
+    attach_element: np.ndarray        # (na,) int64 global index of the end element
+    attach_offset: np.ndarray         # (na, 3) line end relative to the node's centre of mass, node principal frame
+    attach_frame: np.ndarray          # (na, 4) quaternion X'(nu, lambda): line-end frame in the node principal frame
+    node_attach_offsets: np.ndarray   # (nn+1,) int64
+    node_attach_list: np.ndarray      # (na,) int64 attachment ids grouped by node
+    node_mass: np.ndarray             # (nn,) composite mass (inf: fixed position)
+    node_inv_mass: np.ndarray         # (nn,)
+    node_own_mass: np.ndarray         # (nn,) the node's own finite mass (0 if infinite), at its reference point
+    node_inertia: np.ndarray          # (nn, 3) composite principal inertia about the centre of mass (inf: locked)
+    node_inv_inertia: np.ndarray      # (nn, 3)
+    node_locked: np.ndarray           # (nn, 3) 1.0 on locked (infinite-inertia) principal axes
+    node_com_offset: np.ndarray       # (nn, 3) centre of mass minus reference point, node principal frame
+    node_principal: np.ndarray        # (nn, 4) quaternion P: user body frame -> principal frame (D_user = D P^T)
+
+
+class State(NamedTuple):
+    """Time-varying state; a checkpoint is a dump of these arrays."""
+
+    x: np.ndarray        # (nv, 3) vertex positions (line ends follow their node exactly)
+    v: np.ndarray        # (nv, 3) vertex velocities
+    q: np.ndarray        # (ne, 4) element director quaternions
+    w: np.ndarray        # (ne, 3) element angular velocities, body (principal) frame
+    node_x: np.ndarray   # (nn, 3) composite centre of mass
+    node_v: np.ndarray   # (nn, 3)
+    node_q: np.ndarray   # (nn, 4) node principal frame
+    node_w: np.ndarray   # (nn, 3) body-frame angular velocity (0 on locked axes)
+    node_hold: np.ndarray  # (nn, 3) body-frame angular momentum on locked axes (their reaction)
+    clock: np.ndarray    # (1,) simulated time
+
+
+class Loads(NamedTuple):
+    """Per-step accumulators written by the internal-force kernel and the declared effects."""
+
+    f: np.ndarray        # (nv, 3) vertex forces, lab frame
+    tau: np.ndarray      # (ne, 3) element torques, body frame
+    end_tau: np.ndarray  # (na, 3) torques on the nodes through the boundary Voronoi points, line-end frame
+    node_f: np.ndarray   # (nn, 3) node forces, lab frame
+    node_tau: np.ndarray  # (nn, 3) node torques about the centre of mass, lab frame
+
+
+def empty_loads(model: Model) -> Loads:
+    nv = model.vertex_mass.shape[0]
+    ne = model.element_rest_length.shape[0]
+    na = model.attach_node.shape[0]
+    nn = model.node_mass.shape[0]
+    z = np.zeros
+    return Loads(z((nv, 3)), z((ne, 3)), z((na, 3)), z((nn, 3)), z((nn, 3)))

@@ -1,0 +1,188 @@
+"""Free flights and kicks: the two halves of every splitting step.
+
+Drifts are exact (or symplectic) flows of the kinetic energy: vertices and centres of mass
+move on straight lines; elements and nodes rotate as free rigid bodies. Kicks are exact flows
+of the loads: velocities change by the impulse, angular momenta (body frame) by the torque
+impulse. Both keep the junction conditions (1.1)/(1.3) exact: a line end is always placed at
+r(nu) + D(nu) xi(nu, lambda) with frame D(nu) X(nu, lambda).
+"""
+
+import math
+
+from numba import njit
+
+from .rotations import cross, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
+
+# Yoshida's triple jump lifts a symmetric second-order flow to fourth order
+YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
+
+
+@njit(cache=True, inline="always")
+def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
+    """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
+    q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact)."""
+    p = (p0, p1, p2)
+    phi = h * inv_j * p[axis]
+    c, s = math.cos(0.5 * phi), math.sin(0.5 * phi)
+    cp, sp = c * c - s * s, 2.0 * s * c
+    if axis == 0:
+        qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, c, s, 0.0, 0.0)
+        return qw, qx, qy, qz, p0, cp * p1 + sp * p2, -sp * p1 + cp * p2
+    if axis == 1:
+        qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, c, 0.0, s, 0.0)
+        return qw, qx, qy, qz, -sp * p2 + cp * p0, p1, cp * p2 + sp * p0
+    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, c, 0.0, 0.0, s)
+    return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
+
+
+@njit(cache=True, inline="always")
+def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
+    """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
+    free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
+    momentum exact."""
+    r = spin_about_axis(qw, qx, qy, qz, p0, p1, p2, i0, 0, 0.5 * h)
+    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h)
+    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i2, 2, h)
+    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h)
+    return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h)
+
+
+@njit(cache=True, inline="always")
+def spin_free_body(q, p, inv_j, h, order):
+    """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
+    h to the given order (2: Strang; 4: Yoshida's triple jump of it)."""
+    r = (q[0], q[1], q[2], q[3], p[0], p[1], p[2])
+    if order == 4:
+        for c in (YOSHIDA_1, YOSHIDA_0, YOSHIDA_1):
+            r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], c * h)
+    else:
+        r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], h)
+    q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
+    p[0], p[1], p[2] = r[4], r[5], r[6]
+
+
+@njit(cache=True, inline="always")
+def spin_element(q, w, J, inv_j, h, order):
+    """Update element quaternion q (4,) and body angular velocity w (3,) by the free-rotation
+    flow for time h. The kinetic energy |p|^2/(2 J1) + (1/J2 - 1/J1) p2^2/2 + (1/J3 - 1/J1) p3^2/2
+    splits into a Casimir flow (rotation by h p/J1) that commutes with the rest, so a round
+    section (J1 = J2) rotates exactly; otherwise the last two terms are split symmetrically."""
+    p0, p1, p2 = J[0] * w[0], J[1] * w[1], J[2] * w[2]
+    i1 = inv_j[0]
+    ew, ex, ey, ez = quat_exp(h * i1 * p0, h * i1 * p1, h * i1 * p2)
+    r = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez) + (p0, p1, p2)
+    d1, d2 = inv_j[1] - i1, inv_j[2] - i1
+    if d1 == 0.0:
+        r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, h)
+    else:
+        for c in ((YOSHIDA_1, YOSHIDA_0, YOSHIDA_1) if order == 4 else (1.0, 0.0, 0.0)):
+            if c != 0.0:
+                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, c * h)
+                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+    q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
+    w[0], w[1], w[2] = r[4] * inv_j[0], r[5] * inv_j[1], r[6] * inv_j[2]
+
+
+@njit(cache=True)
+def drift_state(model, state, h, order):
+    """Update state (positions, quaternions, clock) by the free flight of time h, then place
+    every line end on its node (1.1)/(1.3)."""
+    x, v = state.x, state.v
+    for i in range(x.shape[0]):
+        x[i, 0] += h * v[i, 0]
+        x[i, 1] += h * v[i, 1]
+        x[i, 2] += h * v[i, 2]
+    for e in range(state.q.shape[0]):
+        spin_element(state.q[e], state.w[e], model.element_inertia[e],
+                     model.element_inv_inertia[e], h, order)
+    p = state.node_hold  # locked axes keep their momentum here; free axes are converted below
+    for nd in range(state.node_x.shape[0]):
+        for k in range(3):
+            state.node_x[nd, k] += h * state.node_v[nd, k]
+            if model.node_locked[nd, k] == 0.0:
+                p[nd, k] = model.node_inertia[nd, k] * state.node_w[nd, k]
+        spin_free_body(state.node_q[nd], p[nd], model.node_inv_inertia[nd], h, order)
+        for k in range(3):
+            if model.node_locked[nd, k] == 0.0:
+                state.node_w[nd, k] = p[nd, k] * model.node_inv_inertia[nd, k]
+                p[nd, k] = 0.0
+    place_line_ends(model, state)
+    state.clock[0] += h
+
+
+@njit(cache=True)
+def place_line_ends(model, state):
+    """Update state.x, state.v at every line end given its node: r_lambda = r + D xi (1.1)."""
+    for a in range(model.attach_node.shape[0]):
+        nd = model.attach_node[a]
+        vt = model.attach_vertex[a]
+        qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
+        o = model.attach_offset[a]
+        w = state.node_w[nd]
+        rx, ry, rz = quat_rotate(qw, qx, qy, qz, o[0], o[1], o[2])
+        cx, cy, cz = cross(w[0], w[1], w[2], o[0], o[1], o[2])
+        ux, uy, uz = quat_rotate(qw, qx, qy, qz, cx, cy, cz)
+        state.x[vt, 0] = state.node_x[nd, 0] + rx
+        state.x[vt, 1] = state.node_x[nd, 1] + ry
+        state.x[vt, 2] = state.node_x[nd, 2] + rz
+        state.v[vt, 0] = state.node_v[nd, 0] + ux
+        state.v[vt, 1] = state.node_v[nd, 1] + uy
+        state.v[vt, 2] = state.node_v[nd, 2] + uz
+
+
+@njit(cache=True)
+def gather_node_loads(model, state, loads):
+    """Update loads.node_f, loads.node_tau (lab, about the centre of mass) given the loads at
+    the line ends: F - sum Omega n_lambda and L - sum Omega (m_lambda + zeta x n_lambda)
+    (4.3)/(4.4); the sign Omega is already in the end-vertex forces and end torques."""
+    for nd in range(model.node_mass.shape[0]):
+        qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
+        for j in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+            a = model.node_attach_list[j]
+            vt = model.attach_vertex[a]
+            f = loads.f[vt]
+            o = model.attach_offset[a]
+            rx, ry, rz = quat_rotate(qw, qx, qy, qz, o[0], o[1], o[2])
+            cx, cy, cz = cross(rx, ry, rz, f[0], f[1], f[2])
+            xq = model.attach_frame[a]
+            t = loads.end_tau[a]
+            ew, ex, ey, ez = quat_mul(qw, qx, qy, qz, xq[0], xq[1], xq[2], xq[3])
+            tx, ty, tz = quat_rotate(ew, ex, ey, ez, t[0], t[1], t[2])
+            loads.node_f[nd, 0] += f[0]
+            loads.node_f[nd, 1] += f[1]
+            loads.node_f[nd, 2] += f[2]
+            loads.node_tau[nd, 0] += cx + tx
+            loads.node_tau[nd, 1] += cy + ty
+            loads.node_tau[nd, 2] += cz + tz
+
+
+@njit(cache=True)
+def kick_state(model, state, loads, h):
+    """Update velocities and body angular momenta given the loads over time h:
+    mu r'' = n' + f (3.2), (I w)' = m' + r' x n + l (3.3), (4.3), (4.4)."""
+    v, f, im = state.v, loads.f, model.vertex_inv_mass
+    for i in range(v.shape[0]):
+        s = h * im[i]
+        v[i, 0] += s * f[i, 0]
+        v[i, 1] += s * f[i, 1]
+        v[i, 2] += s * f[i, 2]
+    w, tau, ij = state.w, loads.tau, model.element_inv_inertia
+    for e in range(w.shape[0]):
+        w[e, 0] += h * ij[e, 0] * tau[e, 0]
+        w[e, 1] += h * ij[e, 1] * tau[e, 1]
+        w[e, 2] += h * ij[e, 2] * tau[e, 2]
+    for nd in range(state.node_x.shape[0]):
+        s = h * model.node_inv_mass[nd]
+        for k in range(3):
+            state.node_v[nd, k] += s * loads.node_f[nd, k]
+        q = state.node_q[nd]
+        t = loads.node_tau[nd]
+        bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], t[0], t[1], t[2])
+        tb = (bx, by, bz)
+        for k in range(3):
+            if model.node_locked[nd, k] == 0.0:
+                state.node_w[nd, k] += h * model.node_inv_inertia[nd, k] * tb[k]
+            else:
+                state.node_hold[nd, k] += h * tb[k]
