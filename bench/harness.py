@@ -1,0 +1,49 @@
+"""Shared benchmark harness: timing in one process, tables on stdout, JSON next to the script.
+
+Figures are throughputs (element-steps per second) and ratios measured side by side in the
+same run, since absolute times on a shared machine are noisy."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import numba
+
+
+def best_of(fn, repeat=3):
+    """Smallest wall time of ``repeat`` calls of fn() (after one warm-up call)."""
+    fn()
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def machine() -> dict:
+    return {"python": platform.python_version(), "numba": numba.__version__,
+            "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+            "threads": numba.get_num_threads()}
+
+
+def table(title: str, header: list[str], rows: list[list]) -> str:
+    cells = [[f"{c:.4g}" if isinstance(c, float) else str(c) for c in row] for row in rows]
+    widths = [max(len(h), *(len(r[i]) for r in cells)) for i, h in enumerate(header)]
+    line = lambda r: "| " + " | ".join(c.rjust(w) for c, w in zip(r, widths)) + " |"
+    out = [f"\n{title}", line(header), "|" + "|".join("-" * (w + 2) for w in widths) + "|"]
+    out += [line(r) for r in cells]
+    text = "\n".join(out)
+    print(text)
+    return text
+
+
+def write_json(script: str, payload: dict):
+    path = Path(script).with_suffix(".json")
+    payload = {"machine": machine(), **payload}
+    path.write_text(json.dumps(payload, indent=2))
+    print(f"\nwrote {path}")

@@ -1,0 +1,55 @@
+"""Throughput: element-steps per second of cosnet's compiled stepper.
+
+Cases: a clamped rod of 100 and 1,000 elements under gravity, and nets of 100 and 1,000
+lines x 10 elements (a chain joined at point junctions). Run: python bench/throughput.py
+"""
+
+import sys
+
+import numpy as np
+
+import cosnet
+from harness import best_of, table, write_json
+
+STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0)
+
+
+def rod(n):
+    net = cosnet.Net()
+    a = net.add_node((0, 0, 0), fixed=True)
+    b = net.add_node((1, 0, 0))
+    net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=n)
+    return net
+
+
+def chain(lines, per_line=10):
+    net = cosnet.Net()
+    prev = net.add_node((0, 0, 0), fixed=True)
+    for k in range(lines):
+        node = net.add_node((0.1 * (k + 1), 0, 0))
+        net.add_line(prev, node, material=STEEL, section=cosnet.Circle(0.002), elements=per_line)
+        prev = node
+    return net
+
+
+def measure(name, net, steps):
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity()])
+    sim.run(steps=10)                       # compile (or load the cache)
+    t = best_of(lambda: sim.run(steps=steps))
+    ne = net.element_count
+    return {"case": name, "elements": ne, "steps_per_s": steps / t,
+            "element_steps_per_s": steps * ne / t, "us_per_step": 1e6 * t / steps}
+
+
+def main():
+    quick = "--quick" in sys.argv
+    cases = [("rod 100", rod(100), 20_000), ("rod 1000", rod(1000), 2_000),
+             ("chain 100 x 10", chain(100), 2_000), ("chain 1000 x 10", chain(1000), 200)]
+    results = [measure(n, net, s // (10 if quick else 1)) for n, net, s in cases]
+    table("cosnet throughput (Verlet, gravity)", ["case", "elements", "steps/s", "element-steps/s", "us/step"],
+          [[r["case"], r["elements"], r["steps_per_s"], r["element_steps_per_s"], r["us_per_step"]] for r in results])
+    write_json(__file__, {"throughput": results})
+
+
+if __name__ == "__main__":
+    main()
