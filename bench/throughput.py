@@ -32,12 +32,12 @@ def chain(lines, per_line=10):
     return net
 
 
-def measure(name, net, steps):
-    sim = cosnet.Simulation(net, effects=[cosnet.Gravity()])
+def measure(name, net, steps, threads=None):
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=threads)
     sim.run(steps=10)                       # compile (or load the cache)
     t = best_of(lambda: sim.run(steps=steps))
     ne = net.element_count
-    return {"case": name, "elements": ne, "steps_per_s": steps / t,
+    return {"case": name, "elements": ne, "threads": sim.threads, "steps_per_s": steps / t,
             "element_steps_per_s": steps * ne / t, "us_per_step": 1e6 * t / steps}
 
 
@@ -45,10 +45,18 @@ def main():
     quick = "--quick" in sys.argv
     cases = [("rod 100", rod(100), 20_000), ("rod 1000", rod(1000), 2_000),
              ("chain 100 x 10", chain(100), 2_000), ("chain 1000 x 10", chain(1000), 200)]
-    results = [measure(n, net, s // (10 if quick else 1)) for n, net, s in cases]
-    table("cosnet throughput (Verlet, gravity)", ["case", "elements", "steps/s", "element-steps/s", "us/step"],
-          [[r["case"], r["elements"], r["steps_per_s"], r["element_steps_per_s"], r["us_per_step"]] for r in results])
-    write_json(__file__, {"throughput": results})
+    div = 10 if quick else 1
+    results = [measure(n, net, s // div) for n, net, s in cases]
+    big = chain(10_000)
+    threads = [measure("chain 10000 x 10", big, 200 // div, threads=k) for k in (1, 2)]
+    results += threads
+    table("cosnet throughput (Verlet, gravity)",
+          ["case", "elements", "threads", "steps/s", "element-steps/s", "us/step"],
+          [[r["case"], r["elements"], r["threads"], r["steps_per_s"], r["element_steps_per_s"], r["us_per_step"]]
+           for r in results])
+    speedup = threads[1]["element_steps_per_s"] / threads[0]["element_steps_per_s"]
+    print(f"\n2 threads vs 1 on {big.element_count:,} elements: {speedup:.2f}x")
+    write_json(__file__, {"throughput": results, "thread_speedup": speedup})
 
 
 if __name__ == "__main__":

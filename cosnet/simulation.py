@@ -6,12 +6,14 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+import numba
 import numpy as np
 
 from . import kernels  # noqa: F401  (package import; registers nothing)
 from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
+from .kernels.backend import Parallel, Serial
 from .kernels.diagnostics import line_fields, measure_energy, measure_momenta
 from .kernels.layout import empty_loads
 from .kernels.motion import place_line_ends
@@ -21,6 +23,7 @@ from .net import Line, Net, Node
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
 CHUNK_STEPS = 2000  # steps between the driver's cheap health checks
+PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs more than it saves
 
 
 class InstabilityError(RuntimeError):
@@ -58,10 +61,12 @@ class Simulation:
     stepper: "verlet" (position Verlet, order 2) or "pefrl" (order 4).
     dt: time step; None uses the estimated stable step ``stable_dt()``. A dt above the estimate
         is refused unless ``force_dt=True``.
+    threads: None picks one thread for nets under 20,000 elements and numba's thread count
+        above; an integer forces that many (1 = serial loops).
     """
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
-                 force_dt: bool = False, safety: float = 0.9):
+                 force_dt: bool = False, safety: float = 0.9, threads: int | None = None):
         if not isinstance(net, Net):
             raise ValueError(f"Simulation: net must be a cosnet.Net, got {net!r}")
         if stepper not in STEPPERS:
@@ -79,6 +84,8 @@ class Simulation:
         self._load_params = tuple(e.bind(self) for e in self.effects if e.stage == "load")
         self._flow_params = tuple(e.bind(self) for e in self.effects if e.stage == "flow")
         self._advance = STEPPERS[stepper]
+        self.threads = self._choose_threads(threads)
+        self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
         est = self.stable_dt()
         if dt is None:
             dt = est
@@ -93,6 +100,15 @@ class Simulation:
         self.steps = 0
 
     # ------------------------------------------------------------------ stepping
+    def _choose_threads(self, threads):
+        available = numba.config.NUMBA_NUM_THREADS
+        if threads is None:
+            big = self.model.element_rest_length.shape[0] >= PARALLEL_MIN_ELEMENTS
+            return available if big else 1
+        if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= available:
+            raise ValueError(f"Simulation: threads must be an integer in [1, {available}], got {threads!r}")
+        return threads
+
     def stable_dt(self) -> float:
         """Estimated largest stable step: safety * (scheme interval) / omega_max, with omega_max
         bounded from above by Gershgorin's theorem on the linearised net."""
@@ -129,8 +145,10 @@ class Simulation:
         place_line_ends(self.model, self.state)
         while steps > 0:
             n = min(steps, CHUNK_STEPS)
+            if self.threads > 1:
+                numba.set_num_threads(self.threads)
             self._advance(self.model, self.state, self.loads, self._load_params,
-                          self._flow_params, self.dt, n)
+                          self._flow_params, self.dt, n, self._backend)
             self.steps += n
             steps -= n
             self._check_health()

@@ -9,15 +9,17 @@ discrete contact force is n = D K (v - d3) and the contact torque m = D B (u - u
 and the time stepper is variational: energy has no secular drift.
 """
 
-from numba import njit
+from numba import njit, prange
 
-from .rotations import cross, quat_mul, quat_rotate, quat_rotate_inv, relative_rotation
+from .backend import dispatch3
+
+from .rotations import FAST, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_rotation
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FAST)
 def bend_moment(model, k, theta_x, theta_y, theta_z):
     """Return m = B (theta/L - u0) at Voronoi point k (principal frame) (3.22)."""
-    inv_l = 1.0 / model.voronoi_rest_length[k]
+    inv_l = model.voronoi_inv_rest_length[k]
     b = model.voronoi_stiffness[k]
     u0 = model.voronoi_rest_curvature[k]
     return (b[0] * (theta_x * inv_l - u0[0]),
@@ -25,7 +27,7 @@ def bend_moment(model, k, theta_x, theta_y, theta_z):
             b[2] * (theta_z * inv_l - u0[2]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FAST)
 def bend_torques(tx, ty, tz, c, mx, my, mz):
     """Return the body torques on the left frame (+J_r^-1 m) and right frame (-J_l^-1 m) of a
     Voronoi point with relative rotation theta and bending moment m."""
@@ -36,7 +38,7 @@ def bend_torques(tx, ty, tz, c, mx, my, mz):
             -(sx - 0.5 * ax), -(sy - 0.5 * ay), -(sz - 0.5 * az))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FAST)
 def end_frame(model, state, a):
     """Return the quaternion of line end a's director frame D(nu) X(nu, lambda) (1.3)."""
     nq = state.node_q[model.attach_node[a]]
@@ -44,7 +46,7 @@ def end_frame(model, state, a):
     return quat_mul(nq[0], nq[1], nq[2], nq[3], xq[0], xq[1], xq[2], xq[3])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FAST)  # not inline="always": called inside prange (see backend.py)
 def compute_line_loads(l, model, state, loads):
     """Update loads.f, loads.tau, loads.end_tau of line l given state.x, state.q, state.node_q
     (3.2)-(3.3), (3.22)-(3.25)."""
@@ -60,7 +62,7 @@ def compute_line_loads(l, model, state, loads):
         e = e0 + i
         qw, qx, qy, qz = q[e, 0], q[e, 1], q[e, 2], q[e, 3]
         # stretch and shear: sigma = D^T r'/l - e3, n = K sigma
-        inv_l = 1.0 / model.element_rest_length[e]
+        inv_l = model.element_inv_rest_length[e]
         sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[v0 + i + 1, 0] - x[v0 + i, 0],
                                      x[v0 + i + 1, 1] - x[v0 + i, 1], x[v0 + i + 1, 2] - x[v0 + i, 2])
         k = model.element_stiffness[e]
@@ -101,7 +103,7 @@ def compute_line_loads(l, model, state, loads):
     et[0], et[1], et[2] = rx, ry, rz
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def compute_internal_loads(model, state, loads):
     """Update loads.f (nv,3), loads.tau (ne,3), loads.end_tau (na,3) given the state: the
     internal force and torque balances (3.2)/(3.3) of every line."""
@@ -109,7 +111,17 @@ def compute_internal_loads(model, state, loads):
         compute_line_loads(l, model, state, loads)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST, parallel=True)
+def compute_internal_loads_parallel(model, state, loads):
+    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads, a line per task."""
+    for l in prange(model.line_vertex_offsets.shape[0] - 1):
+        compute_line_loads(l, model, state, loads)
+
+
+internal_loads_on = dispatch3(compute_internal_loads, compute_internal_loads_parallel)
+
+
+@njit(cache=True, fastmath=FAST)
 def line_strain_energy(l, model, state):
     """Return the strain energy (3.25) of line l given state.x, state.q, state.node_q."""
     x, q = state.x, state.q

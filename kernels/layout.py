@@ -28,11 +28,14 @@ class Model(NamedTuple):
     line_element_offsets: np.ndarray  # (nl+1,) int64
     vertex_mass: np.ndarray           # (nv,) lumped mass (end vertices: their share, carried by the node)
     vertex_inv_mass: np.ndarray       # (nv,) 1/mass, 0 for end vertices (moved by their node)
+    vertex_inv_mass3: np.ndarray      # (nv, 3) the same repeated per component (uniform kick kernel)
     element_rest_length: np.ndarray   # (ne,)
+    element_inv_rest_length: np.ndarray  # (ne,) 1 / rest length
     element_stiffness: np.ndarray     # (ne, 3) K = (k G A, k G A, E A), principal frame (3.23)
     element_inertia: np.ndarray       # (ne, 3) rotary inertia rho l (I1, I2, I1 + I2) (3.4)
     element_inv_inertia: np.ndarray   # (ne, 3)
     voronoi_rest_length: np.ndarray   # (nv,) Voronoi length (half an element at the line ends)
+    voronoi_inv_rest_length: np.ndarray  # (nv,) 1 / Voronoi length
     voronoi_stiffness: np.ndarray     # (nv, 3) B = (E I1, E I2, G J), principal frame (3.23)
     voronoi_rest_curvature: np.ndarray  # (nv, 3) u0, principal frame (2.27)
     attach_node: np.ndarray           # (na,) int64 node of each line end

@@ -9,16 +9,18 @@ r(nu) + D(nu) xi(nu, lambda) with frame D(nu) X(nu, lambda).
 
 import math
 
-from numba import njit
+from numba import literally, njit, prange
 
-from .rotations import cross, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
+from .backend import dispatch4
+
+from .rotations import FAST, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # Yoshida's triple jump lifts a symmetric second-order flow to fourth order
 YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FAST)
 def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
     """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
     q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact)."""
@@ -36,7 +38,7 @@ def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
     return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FAST)
 def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
     """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
     free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
@@ -48,7 +50,7 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
     return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FAST)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
     h to the given order (2: Strang; 4: Yoshida's triple jump of it)."""
@@ -62,41 +64,81 @@ def spin_free_body(q, p, inv_j, h, order):
     p[0], p[1], p[2] = r[4], r[5], r[6]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FAST, inline="always")
 def spin_element(q, w, J, inv_j, h, order):
     """Update element quaternion q (4,) and body angular velocity w (3,) by the free-rotation
     flow for time h. The kinetic energy |p|^2/(2 J1) + (1/J2 - 1/J1) p2^2/2 + (1/J3 - 1/J1) p3^2/2
-    splits into a Casimir flow (rotation by h p/J1) that commutes with the rest, so a round
-    section (J1 = J2) rotates exactly; otherwise the last two terms are split symmetrically."""
+    splits into a Casimir flow (rotation about p) that commutes with the rest, so a round
+    section (J1 = J2) needs no splitting; otherwise the last two terms are split symmetrically.
+    Order 2 turns by Cayley angles 2 atan(phi/2) instead of phi: the exact flow of a kinetic
+    energy differing by O(h^2), hence still symplectic with exact momenta, and free of trig."""
     p0, p1, p2 = J[0] * w[0], J[1] * w[1], J[2] * w[2]
     i1 = inv_j[0]
-    ew, ex, ey, ez = quat_exp(h * i1 * p0, h * i1 * p1, h * i1 * p2)
-    r = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez) + (p0, p1, p2)
     d1, d2 = inv_j[1] - i1, inv_j[2] - i1
-    if d1 == 0.0:
-        r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, h)
+    if order == 2 and d1 == 0.0:
+        ew, ex, ey, ez = quat_cayley(h * i1 * p0, h * i1 * p1, h * i1 * p2)
+        t = 0.5 * h * d2 * p2
+        n = 1.0 / (1.0 + t * t)
+        cw, cz = math.sqrt(n), t * math.sqrt(n)
+        # q <- q exp_cay(h p / J1) exp_cay(h d2 p3 e3);  p <- rotation of (p0, p1) by -2 atan(t)
+        ew, ex, ey, ez = ew * cw - ez * cz, ex * cw + ey * cz, ey * cw - ex * cz, ez * cw + ew * cz
+        qw, qx, qy, qz = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez)
+        cp, sp = (1.0 - t * t) * n, 2.0 * t * n
+        p0, p1 = cp * p0 + sp * p1, -sp * p0 + cp * p1
+        r = (qw, qx, qy, qz, p0, p1, p2)
     else:
-        for c in ((YOSHIDA_1, YOSHIDA_0, YOSHIDA_1) if order == 4 else (1.0, 0.0, 0.0)):
-            if c != 0.0:
-                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
-                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, c * h)
-                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+        ew, ex, ey, ez = quat_exp(h * i1 * p0, h * i1 * p1, h * i1 * p2)
+        r = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez) + (p0, p1, p2)
+        if d1 == 0.0:
+            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, h)
+        else:
+            for c in ((YOSHIDA_1, YOSHIDA_0, YOSHIDA_1) if order == 4 else (1.0, 0.0, 0.0)):
+                if c != 0.0:
+                    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+                    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, c * h)
+                    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
     q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
     w[0], w[1], w[2] = r[4] * inv_j[0], r[5] * inv_j[1], r[6] * inv_j[2]
 
 
-@njit(cache=True)
-def drift_state(model, state, h, order):
+@njit(cache=True, fastmath=FAST, inline="always")
+def drift_vertex(i, x, v, h):
+    """Update x[i] (nv,3) by h v[i]."""
+    x[i, 0] += h * v[i, 0]
+    x[i, 1] += h * v[i, 1]
+    x[i, 2] += h * v[i, 2]
+
+
+@njit(cache=True, fastmath=FAST)
+def drift_bodies(model, state, h, order):
+    """Update vertex positions and element frames by the free flight of time h."""
+    literally(order)  # one specialisation per scheme order: the untaken branch is compiled out
+    x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
+    for i in range(x.shape[0]):
+        drift_vertex(i, x, v, h)
+    for e in range(q.shape[0]):
+        spin_element(q[e], w[e], J[e], ij[e], h, order)
+
+
+@njit(cache=True, fastmath=FAST, parallel=True)
+def drift_bodies_parallel(model, state, h, order):
+    """Update vertex positions and element frames by the free flight of time h (threads)."""
+    literally(order)
+    x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
+    for i in prange(x.shape[0]):
+        drift_vertex(i, x, v, h)
+    for e in prange(q.shape[0]):
+        spin_element(q[e], w[e], J[e], ij[e], h, order)
+
+
+drift_bodies_on = dispatch4(drift_bodies, drift_bodies_parallel)
+
+
+@njit(cache=True, fastmath=FAST)
+def drift_state(model, state, h, order, backend):
     """Update state (positions, quaternions, clock) by the free flight of time h, then place
     every line end on its node (1.1)/(1.3)."""
-    x, v = state.x, state.v
-    for i in range(x.shape[0]):
-        x[i, 0] += h * v[i, 0]
-        x[i, 1] += h * v[i, 1]
-        x[i, 2] += h * v[i, 2]
-    for e in range(state.q.shape[0]):
-        spin_element(state.q[e], state.w[e], model.element_inertia[e],
-                     model.element_inv_inertia[e], h, order)
+    drift_bodies_on(backend, model, state, h, order)
     p = state.node_hold  # locked axes keep their momentum here; free axes are converted below
     for nd in range(state.node_x.shape[0]):
         for k in range(3):
@@ -112,7 +154,7 @@ def drift_state(model, state, h, order):
     state.clock[0] += h
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def place_line_ends(model, state):
     """Update state.x, state.v at every line end given its node: r_lambda = r + D xi (1.1)."""
     for a in range(model.attach_node.shape[0]):
@@ -132,7 +174,7 @@ def place_line_ends(model, state):
         state.v[vt, 2] = state.node_v[nd, 2] + uz
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def gather_node_loads(model, state, loads):
     """Update loads.node_f, loads.node_tau (lab, about the centre of mass) given the loads at
     the line ends: F - sum Omega n_lambda and L - sum Omega (m_lambda + zeta x n_lambda)
@@ -158,21 +200,41 @@ def gather_node_loads(model, state, loads):
             loads.node_tau[nd, 2] += cz + tz
 
 
-@njit(cache=True)
-def kick_state(model, state, loads, h):
+@njit(cache=True, fastmath=FAST, inline="always")
+def kick_row(i, u, inv_m, load, h):
+    """Update u[i] (n,3) by the impulse h inv_m[i] (componentwise) load[i] (3.2)/(3.3)."""
+    u[i, 0] += h * inv_m[i, 0] * load[i, 0]
+    u[i, 1] += h * inv_m[i, 1] * load[i, 1]
+    u[i, 2] += h * inv_m[i, 2] * load[i, 2]
+
+
+@njit(cache=True, fastmath=FAST)
+def kick_bodies(model, state, loads, h):
+    """Update vertex velocities and element angular velocities given the loads over time h."""
+    for i in range(state.v.shape[0]):
+        kick_row(i, state.v, model.vertex_inv_mass3, loads.f, h)
+    for e in range(state.w.shape[0]):
+        kick_row(e, state.w, model.element_inv_inertia, loads.tau, h)
+
+
+@njit(cache=True, fastmath=FAST, parallel=True)
+def kick_bodies_parallel(model, state, loads, h):
+    """Update vertex velocities and element angular velocities given the loads (threads)."""
+    v, w, im, ij, f, tau = state.v, state.w, model.vertex_inv_mass3, model.element_inv_inertia, loads.f, loads.tau
+    for i in prange(v.shape[0]):
+        kick_row(i, v, im, f, h)
+    for e in prange(w.shape[0]):
+        kick_row(e, w, ij, tau, h)
+
+
+kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
+
+
+@njit(cache=True, fastmath=FAST)
+def kick_state(model, state, loads, h, backend):
     """Update velocities and body angular momenta given the loads over time h:
     mu r'' = n' + f (3.2), (I w)' = m' + r' x n + l (3.3), (4.3), (4.4)."""
-    v, f, im = state.v, loads.f, model.vertex_inv_mass
-    for i in range(v.shape[0]):
-        s = h * im[i]
-        v[i, 0] += s * f[i, 0]
-        v[i, 1] += s * f[i, 1]
-        v[i, 2] += s * f[i, 2]
-    w, tau, ij = state.w, loads.tau, model.element_inv_inertia
-    for e in range(w.shape[0]):
-        w[e, 0] += h * ij[e, 0] * tau[e, 0]
-        w[e, 1] += h * ij[e, 1] * tau[e, 1]
-        w[e, 2] += h * ij[e, 2] * tau[e, 2]
+    kick_bodies_on(backend, model, state, loads, h)
     for nd in range(state.node_x.shape[0]):
         s = h * model.node_inv_mass[nd]
         for k in range(3):

@@ -9,7 +9,10 @@ import math
 
 from numba import njit
 
-OPTS = dict(cache=True, inline="always")
+# fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
+# propagate so that a blow-up stays visible to the instability watch
+FAST = {"contract", "arcp", "reassoc", "nsz"}
+OPTS = dict(cache=True, inline="always", fastmath=FAST)
 
 
 @njit(**OPTS)
@@ -87,11 +90,28 @@ def relative_rotation(aw, ax, ay, az, bw, bx, by, bz):
     """Return (theta, c): the rotation vector of A^T B (its components agree in both frames)
     and c(theta) = 1/theta^2 - (1 + cos theta)/(2 theta sin theta) of the inverse Jacobians."""
     rw, rx, ry, rz = quat_mul(aw, -ax, -ay, -az, bw, bx, by, bz)
+    if rw < 0.0:
+        rw, rx, ry, rz = -rw, -rx, -ry, -rz
+    s2 = rx * rx + ry * ry + rz * rz
+    if s2 < 0.01 * rw * rw:
+        # |theta| < 0.2: theta = (2/w) atan(x)/x r_vec with x = s/w, both as series (no trig)
+        x2 = s2 / (rw * rw)
+        p = 1.0 / 17.0
+        for k in (15.0, 13.0, 11.0, 9.0, 7.0, 5.0, 3.0, 1.0):
+            p = 1.0 / k - x2 * p
+        f = 2.0 * p / rw
+        t2 = f * f * s2
+        c = 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 * (1.0 / 1209600.0 + t2 / 47900160.0)))
+        return f * rx, f * ry, f * rz, c
     tx, ty, tz = quat_log(rw, rx, ry, rz)
     theta2 = tx * tx + ty * ty + tz * tz
-    if theta2 < 1e-4:
-        c = 1.0 / 12.0 + theta2 / 720.0 + theta2 * theta2 / 30240.0
-    else:
-        # with cos(theta/2) = |rw| and sin(theta/2) = s: (1 + cos)/(2 theta sin) = |rw|/(2 theta s)
-        c = 1.0 / theta2 - abs(rw) / (2.0 * math.sqrt(theta2 * (rx * rx + ry * ry + rz * rz)))
+    # with cos(theta/2) = w and sin(theta/2) = s: (1 + cos)/(2 theta sin) = w/(2 theta s)
+    c = 1.0 / theta2 - rw / (2.0 * math.sqrt(theta2 * s2))
     return tx, ty, tz, c
+
+
+@njit(**OPTS)
+def quat_cayley(px, py, pz):
+    """Return the unit quaternion (1, phi/2)/|.|: a rotation about phi by 2 atan(|phi|/2)."""
+    n = 1.0 / math.sqrt(1.0 + 0.25 * (px * px + py * py + pz * pz))
+    return n, 0.5 * n * px, 0.5 * n * py, 0.5 * n * pz

@@ -9,7 +9,7 @@ Consecutive steps share their outer drift (first-same-as-last), so n steps cost 
 from numba import njit
 
 from .compose import apply_flows, apply_loads
-from .elastic import compute_internal_loads
+from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads, kick_state
 
 # Omelyan, Mryglod & Folk (2002), position-extended Forest-Ruth-like coefficients
@@ -19,46 +19,46 @@ PEFRL_CHI = -0.06626458266981849
 
 
 @njit(cache=True)
-def evaluate_loads(model, state, loads, load_effects):
+def evaluate_loads(model, state, loads, load_effects, backend):
     """Update loads given the state: internal loads (3.2)/(3.3), the declared effects, then
     the node balances (4.3)/(4.4)."""
     loads.node_f[:] = 0.0
     loads.node_tau[:] = 0.0
-    compute_internal_loads(model, state, loads)
+    internal_loads_on(backend, model, state, loads)
     apply_loads(load_effects, model, state, loads)
     gather_node_loads(model, state, loads)
 
 
 @njit(cache=True)
-def kick_loads(model, state, loads, load_effects, flow_effects, h):
+def kick_loads(model, state, loads, load_effects, flow_effects, h, backend):
     """Update velocities by a kick of length h, wrapped in half flows of the velocity effects."""
     apply_flows(flow_effects, model, state, 0.5 * h)
-    evaluate_loads(model, state, loads, load_effects)
-    kick_state(model, state, loads, h)
+    evaluate_loads(model, state, loads, load_effects, backend)
+    kick_state(model, state, loads, h, backend)
     apply_flows(flow_effects, model, state, 0.5 * h)
 
 
 @njit(cache=True)
-def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps):
+def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps, backend):
     """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h."""
-    drift_state(model, state, 0.5 * h, 2)
+    drift_state(model, state, 0.5 * h, 2, backend)
     for s in range(steps):
-        kick_loads(model, state, loads, load_effects, flow_effects, h)
-        drift_state(model, state, h if s < steps - 1 else 0.5 * h, 2)
+        kick_loads(model, state, loads, load_effects, flow_effects, h, backend)
+        drift_state(model, state, h if s < steps - 1 else 0.5 * h, 2, backend)
 
 
 @njit(cache=True)
-def advance_pefrl(model, state, loads, load_effects, flow_effects, h, steps):
+def advance_pefrl(model, state, loads, load_effects, flow_effects, h, steps, backend):
     """Update state by ``steps`` PEFRL steps (fourth order):
     D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi)."""
     xi, lam, chi = PEFRL_XI * h, PEFRL_LAMBDA * h, PEFRL_CHI * h
-    drift_state(model, state, xi, 4)
+    drift_state(model, state, xi, 4, backend)
     for s in range(steps):
-        kick_loads(model, state, loads, load_effects, flow_effects, 0.5 * h - lam)
-        drift_state(model, state, chi, 4)
-        kick_loads(model, state, loads, load_effects, flow_effects, lam)
-        drift_state(model, state, h - 2.0 * (chi + xi), 4)
-        kick_loads(model, state, loads, load_effects, flow_effects, lam)
-        drift_state(model, state, chi, 4)
-        kick_loads(model, state, loads, load_effects, flow_effects, 0.5 * h - lam)
-        drift_state(model, state, 2.0 * xi if s < steps - 1 else xi, 4)
+        kick_loads(model, state, loads, load_effects, flow_effects, 0.5 * h - lam, backend)
+        drift_state(model, state, chi, 4, backend)
+        kick_loads(model, state, loads, load_effects, flow_effects, lam, backend)
+        drift_state(model, state, h - 2.0 * (chi + xi), 4, backend)
+        kick_loads(model, state, loads, load_effects, flow_effects, lam, backend)
+        drift_state(model, state, chi, 4, backend)
+        kick_loads(model, state, loads, load_effects, flow_effects, 0.5 * h - lam, backend)
+        drift_state(model, state, 2.0 * xi if s < steps - 1 else xi, 4, backend)
