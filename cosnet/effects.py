@@ -18,9 +18,11 @@ from .net import Line, Node
 
 
 class Effect:
-    """Base of all declared effects. ``stage`` is "load" or "flow"."""
+    """Base of all declared effects. ``stage`` is "load" or "flow"; ``adds_energy`` says
+    whether it can feed energy in (the instability watch then skips its energy test)."""
 
     stage = "load"
+    adds_energy = False
 
     def bind(self, sim):
         """Return the kernel's parameter record for this simulation."""
@@ -82,6 +84,8 @@ class NodeLoad(Effect):
     (1.5)/(1.7), scaled by amplitude(t) = interp(t, times, values) * sin(omega t + phase)
     (each factor 1 when not given)."""
 
+    adds_energy = True
+
     def __init__(self, node: Node, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), *,
                  times=None, values=None, omega=0.0, phase=0.0):
         who = f"NodeLoad on {node!r}"
@@ -100,6 +104,8 @@ class NodeLoad(Effect):
 
 class LineLoad(Effect):
     """Distributed force f and torque l per unit rest length on a line, lab frame (1.4)."""
+
+    adds_energy = True
 
     def __init__(self, line: Line, force_per_length=(0.0, 0.0, 0.0), torque_per_length=(0.0, 0.0, 0.0),
                  *, times=None, values=None, omega=0.0, phase=0.0):

@@ -14,7 +14,7 @@ from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
-from .kernels.diagnostics import line_fields, measure_energy, measure_momenta
+from .kernels.diagnostics import line_fields, measure_energy, measure_momenta, measure_worst_strain
 from .kernels.layout import empty_loads
 from .kernels.motion import place_line_ends
 from .kernels.stability import bound_max_omega2
@@ -26,8 +26,18 @@ CHUNK_STEPS = 2000  # steps between the driver's cheap health checks
 PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs more than it saves
 
 
+STRAIN_LIMIT = 1.0  # |v - d3| beyond this (100 % stretch or shear) means the run has blown up
+ENERGY_GROWTH = 10.0  # energy rising by this many times its scale, with nothing feeding it in
+
+
 class InstabilityError(RuntimeError):
-    """The simulation blew up; the message names the time, the place and a safe dt."""
+    """The simulation blew up. Attributes: time, where (line/node and element), quantity,
+    safe_dt; the message says all four."""
+
+    def __init__(self, time, where, quantity, dt, safe_dt):
+        self.time, self.where, self.quantity, self.safe_dt = time, where, quantity, safe_dt
+        super().__init__(f"unstable at t = {time:.6g} s: {quantity} at {where}; dt = {dt:.4g} s, "
+                         f"a dt below {safe_dt:.4g} s should be stable")
 
 
 @lru_cache(maxsize=None)
@@ -143,6 +153,7 @@ class Simulation:
             raise ValueError(f"Simulation.run: steps must be >= 0, got {steps}")
         self._check_locked_axes()
         place_line_ends(self.model, self.state)
+        self._watch_start()
         while steps > 0:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
@@ -161,22 +172,49 @@ class Simulation:
             raise ValueError(f"node {self.net.nodes[nd].name!r}: its angular velocity about a locked "
                              f"(infinite-inertia) axis must be zero")
 
+    def _watch_start(self):
+        """Reference for the energy watch (only when no effect feeds energy in)."""
+        self._watch_energy = all(not e.adds_energy for e in self.effects)
+        if self._watch_energy:
+            p = self.energy_parts()
+            self._e_start = p["kinetic"] + p["strain"] + p["potential"]
+            # floor: round-off of a net at rest must not count as growth (1e-6 strain energy)
+            floor = 1e-12 * float(np.sum(self.model.element_stiffness[:, 2] * self.model.element_rest_length))
+            self._scale = max(p["kinetic"] + p["strain"] + abs(p["potential"]), floor)
+
     def _check_health(self):
+        """Stop with InstabilityError on non-finite values, runaway strain, or energy growth."""
         s = self.state
         for name, arr in (("position", s.x), ("velocity", s.v), ("angular velocity", s.w),
-                          ("node position", s.node_x), ("node velocity", s.node_v)):
+                          ("node position", s.node_x), ("node velocity", s.node_v),
+                          ("node angular velocity", s.node_w)):
             if not np.all(np.isfinite(arr)):
                 idx = int(np.argwhere(~np.isfinite(arr))[0, 0])
-                raise InstabilityError(
-                    f"unstable at t = {self.time:.6g} s: non-finite {name} at {self._where(name, idx)}; "
-                    f"dt = {self.dt:.4g} s, a stable dt is below {self.stable_dt():.4g} s")
+                self._fail(f"non-finite {name}", self._where(name, idx))
+        worst, e = measure_worst_strain(self.model, self.state)
+        if worst > STRAIN_LIMIT:
+            self._fail(f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})", self._where("element", e))
+        if self._watch_energy:
+            p = self.energy_parts()
+            e_now = p["kinetic"] + p["strain"] + p["potential"]
+            if self._scale > 0 and e_now - self._e_start > ENERGY_GROWTH * self._scale:
+                worst, e = measure_worst_strain(self.model, self.state)
+                self._fail(f"energy grew from {self._e_start:.4g} J to {e_now:.4g} J with nothing "
+                           f"feeding it (largest strain {worst:.3g})", self._where("element", e))
+            self._scale = max(self._scale, p["kinetic"] + p["strain"] + abs(p["potential"]))
+
+    def _fail(self, quantity, where):
+        est = self.stable_dt()
+        safe = est if self.dt > est else 0.5 * self.dt
+        raise InstabilityError(self.time, where, quantity, self.dt, safe)
 
     def _where(self, name: str, idx: int) -> str:
         if name.startswith("node"):
             return f"node {self.net.nodes[idx].name!r}"
-        offsets = self.model.line_element_offsets if name == "angular velocity" else self.model.line_vertex_offsets
+        on_elements = name in ("angular velocity", "element")
+        offsets = self.model.line_element_offsets if on_elements else self.model.line_vertex_offsets
         l = int(np.searchsorted(offsets, idx, side="right") - 1)
-        return f"line {self.net.lines[l].name!r} {'element' if name == 'angular velocity' else 'vertex'} {idx - offsets[l]}"
+        return f"line {self.net.lines[l].name!r} {'element' if on_elements else 'vertex'} {idx - offsets[l]}"
 
     # ------------------------------------------------------------------ access
     def check_node(self, node: Node, who: str = "Simulation"):

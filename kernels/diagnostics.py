@@ -123,3 +123,22 @@ def line_fields(l, model, state, frames, force, torque, strain, curvature):
         for k in range(3):
             force[j, k] *= 2.0
             strain[j, k] *= 2.0
+
+
+@njit(cache=True)
+def measure_worst_strain(model, state):
+    """Return (max |v - d3| over elements, its element index): stretch and shear (3.22)."""
+    x, q = state.x, state.q
+    worst, where = 0.0, 0
+    for l in range(model.line_vertex_offsets.shape[0] - 1):
+        v0 = model.line_vertex_offsets[l]
+        e0 = model.line_element_offsets[l]
+        for i in range(model.line_element_offsets[l + 1] - e0):
+            e = e0 + i
+            inv_l = model.element_inv_rest_length[e]
+            sx, sy, sz = quat_rotate_inv(q[e, 0], q[e, 1], q[e, 2], q[e, 3], x[v0 + i + 1, 0] - x[v0 + i, 0],
+                                         x[v0 + i + 1, 1] - x[v0 + i, 1], x[v0 + i + 1, 2] - x[v0 + i, 2])
+            s = abs(sx * inv_l) + abs(sy * inv_l) + abs(sz * inv_l - 1.0)
+            if not s <= worst:  # also catches NaN
+                worst, where = s, e
+    return worst, where

@@ -1,0 +1,219 @@
+"""The ``cosnet`` command.
+
+    cosnet run [SCENE] [--out DIR] [--until T] [--resume]   run a scene, writing a VTK series
+    cosnet info SCENE                                        net size, mass, stable dt, effects
+    cosnet render DIR [--png|--gif|--mp4] [--field NAME]     pictures of a written series
+
+``run`` writes a frame, a probes row and a checkpoint every output interval. Frame k sits
+exactly at step ceil(k * interval / dt), and the steps between frames are taken in chunks
+whose boundaries depend only on the absolute step count, so ``--resume`` (continue from the
+last checkpoint in DIR) reproduces an uninterrupted run bit for bit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+CHECKPOINT = "checkpoint.npz"
+PROBES = "probes.csv"
+CHUNK = 2000  # steps per compiled call; boundaries at multiples of CHUNK (see module docstring)
+
+
+def default_scene() -> Path:
+    """cases/bridge.toml of the repository checkout (or of the installed package)."""
+    here = Path(__file__).resolve().parent
+    for cand in (here.parent / "cases" / "bridge.toml", here / "cases" / "bridge.toml",
+                 Path.cwd() / "cases" / "bridge.toml"):
+        if cand.exists():
+            return cand
+    raise ValueError("no SCENE given and cases/bridge.toml was not found next to the package")
+
+
+def frame_steps(k: int, interval: float, dt: float, end_steps: int) -> int:
+    """Step count at which output frame k is written."""
+    return min(int(math.ceil(k * interval / dt - 1e-9)), end_steps)
+
+
+def advance_to(sim, target: int, progress=None):
+    """Step ``sim`` to ``target`` steps in chunks aligned on multiples of CHUNK."""
+    while sim.steps < target:
+        n = min(target, (sim.steps // CHUNK + 1) * CHUNK) - sim.steps
+        sim.run(steps=n)
+        if progress is not None:
+            progress(sim)
+
+
+class Progress:
+    """One status line on stderr: simulated time, steps per second, estimated time left."""
+
+    def __init__(self, until: float, dt: float, stream=sys.stderr):
+        self.until, self.dt, self.stream = until, dt, stream
+        self.t0 = time.perf_counter()
+        self.steps0 = None
+        self.last = 0.0
+
+    def __call__(self, sim, force=False):
+        now = time.perf_counter()
+        if self.steps0 is None:
+            self.steps0, self.t0 = sim.steps, now
+            return
+        if not force and now - self.last < 0.5:
+            return
+        self.last = now
+        rate = (sim.steps - self.steps0) / max(now - self.t0, 1e-9)
+        left = max(self.until - sim.time, 0.0) / self.dt / rate if rate > 0 else math.inf
+        self.stream.write(f"\r  t = {sim.time:.5g} / {self.until:.5g} s  {rate:,.0f} steps/s  "
+                          f"ETA {left:.0f} s   ")
+        self.stream.flush()
+
+
+def _probe_header(probes) -> str:
+    cols = ["frame", "time"] + [f"{p.name}_{a}" for p in probes for a in "xyz"]
+    return ",".join(cols) + "\n"
+
+
+def _probe_row(k, sim, probes) -> str:
+    vals = [repr(float(x)) for p in probes for x in p.position(sim)]
+    return ",".join([str(k), repr(sim.time)] + vals) + "\n"
+
+
+def _keep_probe_rows(path: Path, header: str, last_frame: int):
+    rows = [header]
+    if path.exists():
+        for line in path.read_text().splitlines(keepends=True)[1:]:
+            if line.strip() and int(line.split(",", 1)[0]) <= last_frame:
+                rows.append(line)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text("".join(rows))
+    os.replace(tmp, path)
+
+
+def cmd_run(args) -> int:
+    from .io import SeriesWriter
+    from .scene import load_scene
+    scene = load_scene(args.scene or default_scene())
+    out = Path(args.out)
+    until = scene.run.until if args.until is None else float(args.until)
+    if not until > 0:
+        raise ValueError(f"--until must be positive, got {args.until}")
+    sim = scene.simulation()
+    ckpt = out / CHECKPOINT
+    probes = scene.run.probes
+    header = _probe_header(probes)
+    interval = min(scene.run.interval, until)
+    if args.resume:
+        if not ckpt.exists():
+            raise ValueError(f"{out}: nothing to resume (no {CHECKPOINT})")
+        sim.load_checkpoint(ckpt)
+    end = int(math.ceil(until / sim.dt - 1e-9))
+    frames = int(math.ceil(until / interval - 1e-9))
+    if args.resume:
+        k = next((j for j in range(frames + 1) if frame_steps(j, interval, sim.dt, end) == sim.steps), None)
+        if k is None:
+            raise ValueError(f"{ckpt}: its step {sim.steps} is not an output frame of this run "
+                             f"(same scene and --until needed to resume)")
+        writer = SeriesWriter(out, scene.net, resume_after=k)
+        _keep_probe_rows(out / PROBES, header, k)
+        print(f"resuming {scene.path} from frame {k} at t = {sim.time:.6g} s", file=sys.stderr)
+    else:
+        writer = SeriesWriter(out, scene.net)
+        (out / PROBES).write_text(header)
+        k = writer.write(sim)
+        with open(out / PROBES, "a") as f:
+            f.write(_probe_row(k, sim, probes))
+        sim.save_checkpoint(ckpt)
+    print(f"{scene.title}: {len(scene.net.lines)} lines, {scene.net.element_count} elements, "
+          f"dt = {sim.dt:.4g} s, {end - sim.steps} steps to t = {until:g} s -> {out}", file=sys.stderr)
+    progress = Progress(until, sim.dt)
+    progress(sim)
+    with open(out / PROBES, "a") as pf:
+        while k < frames:
+            k += 1
+            advance_to(sim, frame_steps(k, interval, sim.dt, end), progress)
+            writer.write(sim)
+            pf.write(_probe_row(k, sim, probes))
+            pf.flush()
+            sim.save_checkpoint(ckpt)
+    progress(sim, force=True)
+    sys.stderr.write(f"\ndone: {writer.frames} frames in {out}\n")
+    return 0
+
+
+def cmd_info(args) -> int:
+    from .scene import load_scene
+    scene = load_scene(args.scene)
+    net = scene.net
+    sim = scene.simulation()
+    nv = sum(l.elements + 1 for l in net.lines)
+    fixed = [n.name for n in net.nodes if n.fixed_position]
+    bodies = [n.name for n in net.nodes if 0 < n.mass < math.inf]
+    est = sim.stable_dt()
+    print(f"scene      {scene.path}  ({scene.title})")
+    print(f"net        {len(net.nodes)} nodes, {len(net.lines)} lines, {net.element_count} elements, "
+          f"{nv} vertices")
+    print(f"nodes      fixed: {', '.join(fixed) or '-'}; with mass: {', '.join(bodies) or '-'}")
+    print(f"mass       {net.total_mass():.6g} kg (nodes of finite mass and lines)")
+    print(f"stable dt  {est:.4g} s (estimate, {sim.stepper}; stiffest at {sim.stiffest()})")
+    print(f"dt         {sim.dt:.4g} s ({'auto' if scene.run.dt is None else 'from the scene'})")
+    print(f"run        until {scene.run.until:g} s = {math.ceil(scene.run.until / sim.dt):,} steps, "
+          f"output every {scene.run.interval:g} s")
+    print(f"effects    {'; '.join(scene.describe_effects()) or 'none'}")
+    if scene.run.probes:
+        print(f"probes     {', '.join(p.name for p in scene.run.probes)}")
+    return 0
+
+
+def cmd_render(args) -> int:
+    from .render import render
+    kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
+    path = render(args.dir, kind=kind, field=args.field, output=args.output, frame=args.frame,
+                  every=args.every)
+    print(path)
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="cosnet", description="Dynamics of Cosserat nets.")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene and write a VTK time series")
+    r.add_argument("scene", nargs="?", help="scene file (default: cases/bridge.toml)")
+    r.add_argument("--out", default="out", help="output directory (default: ./out)")
+    r.add_argument("--until", type=float, help="end time in s (default: the scene's [run] until)")
+    r.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    i = sub.add_parser("info", help="describe a scene")
+    i.add_argument("scene")
+    v = sub.add_parser("render", help="render a written series off screen")
+    v.add_argument("dir")
+    g = v.add_mutually_exclusive_group()
+    g.add_argument("--png", action="store_true", help="one picture (default: the last frame)")
+    g.add_argument("--gif", action="store_true", help="an animated GIF of the series")
+    g.add_argument("--mp4", action="store_true", help="an MP4 movie (needs ffmpeg)")
+    v.add_argument("--field", default="velocity", help="line field to colour by (magnitude)")
+    v.add_argument("--frame", type=int, default=-1, help="frame for --png (default: last)")
+    v.add_argument("--every", type=int, default=1, help="use every n-th frame for --gif/--mp4")
+    v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4)")
+    return p
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return {"run": cmd_run, "info": cmd_info, "render": cmd_render}[args.command](args)
+    except ValueError as e:
+        print(f"cosnet: error: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:  # InstabilityError and other run failures
+        print(f"\ncosnet: error: {e}", file=sys.stderr)
+        return 3
+    except KeyboardInterrupt:
+        print("\ncosnet: interrupted (resume with --resume)", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,680 @@
+"""Scene files: a whole simulation (net, effects, initial conditions, run settings) in TOML.
+
+``load_scene(path)`` reads the file with the standard ``tomllib`` and builds the net through
+the public ``Net.add_node`` / ``Net.add_line`` calls, so a scene and the same net built in
+Python are identical. Tables (all numbers SI unless a [scale] table is present):
+
+    title = "..."                   optional (and description)
+    [scale]                         optional §5 reference scales time, length, area, density
+                                    (torque): every number in the file is then in the scaled
+                                    units (Table 5.2) and is converted to SI on loading
+    [materials.NAME]                E, density, and G or poisson
+    [sections.NAME]                 kind = circle | tube | rectangle | ellipse | explicit
+    [nodes.NAME]                    position, frame, mass ("inf" allowed), inertia, fixed
+    [lines.NAME]                    start, end, material, section, elements, start_offset,
+                                    end_offset, start_frame, end_frame, rest_curvature, points, d1
+    [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping
+    [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
+                                    [initial.lines.NAME]; [initial.perturbation]
+    [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
+                                    force_dt
+
+A frame (node ``frame``, line ``start_frame`` / ``end_frame``) is the 3x3 matrix written as
+its three rows (its columns are d1 d2 d3) or an inline table with two or three of d1, d2, d3
+(a missing one completes the right-handed triad). A line's ``section`` names a
+[sections.NAME] table or is an inline table of the same form.
+
+Every unknown or misspelt key, wrong type, missing reference or unphysical value raises a
+``ValueError`` whose one-line message names the file, the table and the key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import materials as M
+from .net import Net
+from .scaling import Scale
+
+TOP_KEYS = ("title", "description", "scale", "materials", "sections", "nodes", "lines",
+            "effects", "initial", "run")
+_REQUIRED = object()
+
+
+def _one_line(e) -> str:
+    return " ".join(str(e).split())
+
+
+class _Bad(Exception):
+    """A value of the wrong type or range (caught and re-raised with file/table/key)."""
+
+
+# ---------------------------------------------------------------------- tables and values
+class Table:
+    """A TOML table being read: remembers which keys were used so ``done`` can refuse the rest."""
+
+    def __init__(self, file: str, name: str, data):
+        self.file, self.name = file, name
+        if not isinstance(data, dict):
+            raise ValueError(f"{file}: [{name}] must be a table, got {type(data).__name__}")
+        self.data, self.used, self.known = data, set(), None
+
+    def expect(self, *keys) -> Table:
+        """Declare the table's keys, so a missing required key can be told from a misspelt one."""
+        self.known = set(keys)
+        return self
+
+    def err(self, key, msg) -> ValueError:
+        where = f"[{self.name}] {key}" if self.name else f"{key}"
+        return ValueError(f"{self.file}: {where}: {_one_line(msg)}")
+
+    def get(self, key, conv, default=_REQUIRED):
+        self.used.add(key)
+        if key not in self.data:
+            if default is _REQUIRED:
+                spare = [k for k in self.data if k not in (self.known or self.used)]
+                near = difflib.get_close_matches(key, spare, n=1)
+                if near:
+                    raise self.err(near[0], f"unknown key; did you mean {key!r}?")
+                raise self.err(key, "is required but missing")
+            return default
+        try:
+            return conv(self.data[key])
+        except _Bad as e:
+            raise self.err(key, str(e)) from None
+
+    def sub(self, key, optional=False) -> Table | None:
+        self.used.add(key)
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.err(key, f"the [{self._join(key)}] table is required but missing")
+        return Table(self.file, self._join(key), self.data[key])
+
+    def _join(self, key) -> str:
+        k = key if key.replace("_", "").replace("-", "").isalnum() and key.isascii() else f'"{key}"'
+        return f"{self.name}.{k}" if self.name else k
+
+    def tables(self, key):
+        """(name, Table) for each sub-table of [key] (in file order)."""
+        t = self.sub(key, optional=True)
+        if t is None:
+            return []
+        t.used.update(t.data)
+        return [(n, Table(self.file, t._join(n), v)) for n, v in t.data.items()]
+
+    def done(self, allowed=None):
+        """Refuse every key that was not read (a misspelling gets a suggestion)."""
+        known = set(allowed or ()) | self.used | (self.known or set())
+        for key in self.data:
+            if key not in known:
+                near = difflib.get_close_matches(key, sorted(known), n=1)
+                hint = f"; did you mean {near[0]!r}?" if near else f"; expected one of {sorted(known)}"
+                raise self.err(key, f"unknown key{hint}")
+
+
+def number(v) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise _Bad(f"must be a number, got {v!r}")
+    if not math.isfinite(v):
+        raise _Bad(f"must be finite, got {v!r}")
+    return float(v)
+
+
+def positive(v) -> float:
+    x = number(v)
+    if x <= 0:
+        raise _Bad(f"must be positive, got {v!r}")
+    return x
+
+
+def nonnegative(v) -> float:
+    x = number(v)
+    if x < 0:
+        raise _Bad(f"must be >= 0, got {v!r}")
+    return x
+
+
+def mass_value(v) -> float:
+    if isinstance(v, str) and v.strip().lower() == "inf":
+        return math.inf
+    try:
+        return nonnegative(v)
+    except _Bad:
+        raise _Bad(f'must be a number >= 0 or "inf", got {v!r}') from None
+
+
+def integer(v) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise _Bad(f"must be a positive integer, got {v!r}")
+    return v
+
+
+def boolean(v) -> bool:
+    if not isinstance(v, bool):
+        raise _Bad(f"must be true or false, got {v!r}")
+    return v
+
+
+def seed(v) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        raise _Bad(f"must be an integer >= 0, got {v!r}")
+    return v
+
+
+def string(v) -> str:
+    if not isinstance(v, str):
+        raise _Bad(f"must be a string, got {v!r}")
+    return v
+
+
+def choice(*options):
+    def conv(v):
+        if v not in options:
+            raise _Bad(f"must be one of {list(options)}, got {v!r}")
+        return v
+    return conv
+
+
+def array(shape, allow_inf=False):
+    """Numbers of the given shape (-1: any length >= 2 along that axis)."""
+    def conv(v):
+        if not isinstance(v, list):
+            raise _Bad(f"must be a list of numbers of shape {tuple(shape)}, got {v!r}")
+
+        def walk(x):
+            if isinstance(x, list):
+                return [walk(y) for y in x]
+            if allow_inf and isinstance(x, str) and x.strip().lower() == "inf":
+                return math.inf
+            return number(x)
+        try:
+            a = np.array(walk(v), dtype=float)
+        except ValueError:
+            raise _Bad(f"must be numbers of shape {shape}, got {v!r}") from None
+        ok = a.ndim == len(shape) and all(s == -1 and n >= 2 or s == n for s, n in zip(shape, a.shape))
+        if not ok:
+            raise _Bad(f"must have shape {tuple(shape)} (a nested list), got {v!r}")
+        return a
+    return conv
+
+
+vec3 = array((3,))
+
+
+def floats(v):
+    if not isinstance(v, list) or not v:
+        raise _Bad(f"must be a non-empty list of numbers, got {v!r}")
+    return np.array([number(x) for x in v])
+
+
+def string_list(v):
+    if not isinstance(v, list):
+        raise _Bad(f"must be a list of strings, got {v!r}")
+    return [string(x) for x in v]
+
+
+def auto_or_positive(v):
+    return "auto" if v == "auto" else positive(v)
+
+
+def frame(v):
+    """A rotation: matrix rows, or a table with two or three of d1, d2, d3 (lab columns)."""
+    if isinstance(v, list):
+        return array((3, 3))(v)
+    if not isinstance(v, dict):
+        raise _Bad(f"must be a 3x3 matrix (rows) or a table of d1, d2, d3, got {v!r}")
+    bad = set(v) - {"d1", "d2", "d3"}
+    if bad:
+        raise _Bad(f"unknown key {sorted(bad)[0]!r} (a frame table takes d1, d2, d3)")
+    if len(v) < 2:
+        raise _Bad("a frame table needs at least two of d1, d2, d3")
+    d = {k: vec3(x) for k, x in v.items()}
+    if "d1" not in d:
+        d["d1"] = np.cross(d["d2"], d["d3"])
+    if "d2" not in d:
+        d["d2"] = np.cross(d["d3"], d["d1"])
+    if "d3" not in d:
+        d["d3"] = np.cross(d["d1"], d["d2"])
+    return np.column_stack([d["d1"], d["d2"], d["d3"]])
+
+
+# ---------------------------------------------------------------------- units (§5)
+class Units:
+    """Conversion of scene numbers to SI: identity without [scale]."""
+
+    def __init__(self, scale: Scale | None):
+        self.L, self.M, self.T = (1.0, 1.0, 1.0) if scale is None else scale._units()
+
+    def factor(self, length=0, mass=0, time=0) -> float:
+        return self.L**length * self.M**mass * self.T**time
+
+
+# dimensions (length, mass, time) of the keys that carry units outside the net
+DIM = {"g": (1, 0, -2), "force": (1, 1, -2), "torque": (2, 1, -2), "force_per_length": (0, 1, -2),
+       "torque_per_length": (1, 1, -2), "times": (0, 0, 1), "omega": (0, 0, -1),
+       "translational": (0, 0, -1), "rotational": (0, 0, -1), "velocity": (1, 0, -1),
+       "angular_velocity": (0, 0, -1), "center": (1, 0, 0)}
+
+
+def _si(units: Units, key, value):
+    return value * units.factor(*DIM[key]) if key in DIM and value is not None else value
+
+
+# ---------------------------------------------------------------------- net tables
+def _material(t: Table, name) -> M.Material:
+    t.expect("E", "density", "G", "poisson")
+    kw = dict(E=t.get("E", positive), density=t.get("density", positive),
+              G=t.get("G", positive, default=None), poisson=t.get("poisson", number, default=None))
+    t.done()
+    try:
+        return M.Material(name=name, **kw)
+    except ValueError as e:
+        raise t.err("G" if kw["G"] is not None else "poisson", e) from None
+
+
+SECTIONS = {  # kind -> (constructor, required keys)
+    "circle": (M.Circle, ("radius",)),
+    "tube": (M.Tube, ("radius", "thickness")),
+    "rectangle": (M.Rectangle, ("width", "height")),
+    "ellipse": (M.Ellipse, ("a", "b")),
+    "explicit": (M.Section, ("A", "I11", "I22", "J")),
+}
+
+
+def _section(t: Table) -> M.Section:
+    kind = t.get("kind", choice(*SECTIONS))
+    make, keys = SECTIONS[kind]
+    t.expect("kind", "shear_coefficient", *keys, *(("I12", "radius") if kind == "explicit" else ()))
+    kw = {k: t.get(k, positive) for k in keys}
+    kw["shear_coefficient"] = t.get("shear_coefficient", positive, default=1.0)
+    if kind == "explicit":
+        kw["I12"] = t.get("I12", number, default=0.0)
+        kw["radius"] = t.get("radius", positive, default=None)
+    t.done()
+    try:
+        return make(**kw)
+    except ValueError as e:
+        raise t.err(keys[-1], e) from None
+
+
+def _node(t: Table, net: Net, name: str):
+    t.expect("position", "frame", "mass", "inertia", "fixed")
+    kw = dict(position=t.get("position", vec3), frame=t.get("frame", frame, default=None),
+              mass=t.get("mass", mass_value, default=0.0),
+              inertia=t.get("inertia", _inertia, default=None),
+              fixed=t.get("fixed", boolean, default=False))
+    t.done()
+    if kw["fixed"] and ("mass" in t.data or "inertia" in t.data):
+        raise t.err("fixed", "a fixed node has infinite mass and inertia; drop mass/inertia")
+    _wrap(t, "frame", lambda: net.add_node(name=name, **kw))
+
+
+def _inertia(v):
+    """(3,) diagonal or (3, 3) matrix rows; "inf" entries lock an axis."""
+    nested = isinstance(v, list) and any(isinstance(x, list) for x in v)
+    return array((3, 3) if nested else (3,), allow_inf=True)(v)
+
+
+def _line(t: Table, net: Net, name: str, materials, sections):
+    t.expect("start", "end", "material", "section", "elements", "start_offset", "end_offset",
+             "rest_curvature", "d1", "start_frame", "end_frame", "points")
+    ends = []
+    for role in ("start", "end"):
+        ref = t.get(role, string)
+        try:
+            ends.append(net.node(ref))
+        except KeyError:
+            raise t.err(role, f"unknown node {ref!r}; nodes are {[n.name for n in net.nodes]}") from None
+    mname = t.get("material", string)
+    if mname not in materials:
+        raise t.err("material", f"unknown material {mname!r}; materials are {sorted(materials)}")
+    sec = t.get("section", lambda v: v)
+    if isinstance(sec, dict):
+        sec = _section(Table(t.file, f"{t.name}.section", sec))
+    elif isinstance(sec, str) and sec in sections:
+        sec = sections[sec]
+    else:
+        raise t.err("section", f"must name one of the sections {sorted(sections)} or be an "
+                               f"inline table, got {sec!r}")
+    kw = dict(material=materials[mname], section=sec, elements=t.get("elements", integer))
+    for key in ("start_offset", "end_offset", "rest_curvature", "d1"):
+        kw[key] = t.get(key, vec3, default=None)
+    for key in ("start_frame", "end_frame"):
+        kw[key] = t.get(key, frame, default=None)
+    kw["points"] = t.get("points", array((-1, 3)), default=None)
+    t.done()
+    for key in ("start_offset", "end_offset"):
+        if kw[key] is None:
+            kw[key] = (0.0, 0.0, 0.0)
+    _wrap(t, "points", lambda: net.add_line(*ends, name=name, **kw))
+
+
+def _wrap(t: Table, fallback_key, build):
+    """Run a Net call, turning its ValueError into one naming the file, table and key."""
+    try:
+        return build()
+    except ValueError as e:
+        msg = _one_line(e)
+        said = msg.split(":", 1)[1] if ":" in msg else msg
+        words = set(re.findall(r"[A-Za-z_0-9]+", said))
+        if "points" in t.data and words & {"point", "points"}:
+            words = {"points"}
+        key = next((k for k in sorted(t.data, key=len, reverse=True) if k in words), fallback_key)
+        raise t.err(key, msg) from None
+
+
+# ---------------------------------------------------------------------- effects
+@dataclass(frozen=True)
+class EffectKind:
+    """One [[effects]] kind: the cosnet class (looked up lazily on the cosnet module) and its
+    keys -> converter; a converter ``"node"`` / ``"line"`` resolves a name in the net."""
+
+    cls: str
+    keys: dict
+    required: tuple = ()
+
+
+_AMPLITUDE = {"times": floats, "values": floats, "omega": number, "phase": number}
+EFFECTS = {
+    "gravity": EffectKind("Gravity", {"g": vec3}),
+    "node_load": EffectKind("NodeLoad", {"node": "node", "force": vec3, "torque": vec3, **_AMPLITUDE},
+                            ("node",)),
+    "line_load": EffectKind("LineLoad", {"line": "line", "force_per_length": vec3,
+                                         "torque_per_length": vec3, **_AMPLITUDE}, ("line",)),
+    "damping": EffectKind("Damping", {"translational": nonnegative, "rotational": nonnegative},
+                          ("translational",)),
+}
+
+
+def _ref(t: Table, key, kind, net: Net):
+    name = t.get(key, string)
+    try:
+        return net.node(name) if kind == "node" else net.line(name)
+    except KeyError:
+        have = [x.name for x in (net.nodes if kind == "node" else net.lines)]
+        raise t.err(key, f"unknown {kind} {name!r}; {kind}s are {have}") from None
+
+
+def _named(t: Table, name, kind, net: Net):
+    """The node or line a sub-table [...nodes.NAME] refers to."""
+    try:
+        return net.node(name) if kind == "node" else net.line(name)
+    except KeyError:
+        have = [x.name for x in (net.nodes if kind == "node" else net.lines)]
+        raise ValueError(f"{t.file}: [{t.name}]: unknown {kind} {name!r}; {kind}s are {have}") from None
+
+
+def _effect(t: Table, net: Net, units: Units):
+    import cosnet
+    kind = EFFECTS[t.get("kind", choice(*EFFECTS))]
+    t.expect("kind", *kind.keys)
+    kw = {}
+    for key, conv in kind.keys.items():
+        if key not in t.data and key not in kind.required:
+            continue
+        kw[key] = _ref(t, key, conv, net) if isinstance(conv, str) else _si(units, key, t.get(key, conv))
+    t.done()
+    cls = getattr(cosnet, kind.cls, None)
+    if cls is None:
+        raise t.err("kind", f"effect {kind.cls} is not available in this version of cosnet")
+    return _wrap(t, "kind", lambda: cls(**kw))
+
+
+def _effects(top: Table, net: Net, units: Units) -> list:
+    if "effects" not in top.data:
+        top.used.add("effects")
+        return []
+    raw = top.data["effects"]
+    if isinstance(raw, list):
+        top.used.add("effects")
+        return [_effect(Table(top.file, f"effects[{i}]", e), net, units) for i, e in enumerate(raw)]
+    return [_effect(t, net, units) for _, t in top.tables("effects")]
+
+
+# ---------------------------------------------------------------------- initial conditions
+@dataclass
+class Initial:
+    """[initial] (SI, lab frame): a rigid motion of the whole net (velocity, angular_velocity
+    about center, default the centre of mass), per-node and per-line velocities, and a seeded
+    random velocity perturbation of the free vertices."""
+
+    velocity: np.ndarray | None = None
+    angular_velocity: np.ndarray | None = None
+    center: np.ndarray | None = None
+    nodes: dict = field(default_factory=dict)   # Node -> (velocity or None, angular_velocity or None)
+    lines: dict = field(default_factory=dict)   # Line -> velocity
+    perturbation: float = 0.0
+    seed: int = 0
+
+    def apply(self, sim, where="[initial]"):
+        """Set the simulation's velocities (call before running)."""
+        from .flatten import matrix_from_quat
+        m, s = sim.model, sim.state
+        if self.velocity is not None or self.angular_velocity is not None:
+            if any(n.fixed_position or n.locked_axes.any() for n in sim.net.nodes):
+                raise ValueError(f"{where} velocity: a rigid motion of the whole net needs a net "
+                                 f"without fixed nodes or locked axes")
+            v0 = np.zeros(3) if self.velocity is None else self.velocity
+            w = np.zeros(3) if self.angular_velocity is None else self.angular_velocity
+            c = _centre_of_mass(m, s) if self.center is None else self.center
+            s.v[:] = v0 + np.cross(w, s.x - c)
+            s.w[:] = np.einsum("eji,j->ei", matrix_from_quat(s.q), w)
+            s.node_v[:] = v0 + np.cross(w, s.node_x - c)
+            s.node_w[:] = np.einsum("nji,j->ni", matrix_from_quat(s.node_q), w)
+        for node, (v, w) in self.nodes.items():
+            if v is not None:
+                if node.fixed_position:
+                    raise ValueError(f"{where} nodes.{node.name} velocity: node {node.name!r} is fixed")
+                sim.node_velocity(node)[:] = v
+            if w is not None:
+                wb = matrix_from_quat(s.node_q[node.index]).T @ w
+                if np.any((m.node_locked[node.index] > 0) & (np.abs(wb) > 1e-12 * np.abs(w).max())):
+                    raise ValueError(f"{where} nodes.{node.name} angular_velocity: it turns node "
+                                     f"{node.name!r} about a locked (fixed) axis")
+                sim.node_angular_velocity(node)[:] = np.where(m.node_locked[node.index] > 0, 0.0, wb)
+        for line, v in self.lines.items():
+            sim.line_velocities(line)[1:-1] = v
+        if self.perturbation > 0:
+            free = m.vertex_inv_mass > 0
+            rng = np.random.default_rng(self.seed)
+            s.v[free] += self.perturbation * rng.standard_normal((int(free.sum()), 3))
+
+
+def _centre_of_mass(m, s) -> np.ndarray:
+    free = m.vertex_inv_mass > 0
+    mv = m.vertex_mass[free]
+    mn = np.where(np.isfinite(m.node_mass), m.node_mass, 0.0)
+    total = mv.sum() + mn.sum()
+    return (mv @ s.x[free] + mn @ s.node_x) / total
+
+
+def _initial(t: Table | None, net: Net, units: Units) -> Initial:
+    init = Initial()
+    if t is None:
+        return init
+    for key in ("velocity", "angular_velocity", "center"):
+        setattr(init, key, _si(units, key, t.get(key, vec3, default=None)))
+    for name, nt in t.tables("nodes"):
+        node = _named(nt, name, "node", net)
+        init.nodes[node] = tuple(_si(units, k, nt.get(k, vec3, default=None))
+                                 for k in ("velocity", "angular_velocity"))
+        nt.done()
+    for name, lt in t.tables("lines"):
+        lt.expect("velocity")
+        line = _named(lt, name, "line", net)
+        init.lines[line] = _si(units, "velocity", lt.get("velocity", vec3))
+        lt.done()
+    p = t.sub("perturbation", optional=True)
+    if p is not None:
+        p.expect("velocity", "seed")
+        init.perturbation = p.get("velocity", nonnegative) * units.factor(1, 0, -1)
+        init.seed = p.get("seed", seed, default=0)
+        p.done()
+    t.done()
+    return init
+
+
+# ---------------------------------------------------------------------- run settings
+@dataclass
+class Probe:
+    """A point recorded at every output frame: a node's reference point or the vertex of a
+    line nearest to the arc-length fraction s ("LINE@s"; plain "LINE" is its midpoint)."""
+
+    name: str
+    node: object = None
+    line: object = None
+    vertex: int = 0
+
+    def position(self, sim) -> np.ndarray:
+        if self.node is not None:
+            return sim.node_position(self.node)
+        return sim.line_positions(self.line)[self.vertex].copy()
+
+
+def _probe(t: Table, text: str, net: Net) -> Probe:
+    names = {n.name for n in net.nodes}
+    if text in names:
+        return Probe(text, node=net.node(text))
+    lname, _, frac = text.partition("@")
+    try:
+        line = net.line(lname)
+    except KeyError:
+        raise t.err("probes", f"{text!r} names no node or line (use NODE, LINE or LINE@s)") from None
+    try:
+        s = float(frac) if frac else 0.5
+    except ValueError:
+        s = -1.0
+    if not 0.0 <= s <= 1.0:
+        raise t.err("probes", f"{text!r}: the fraction after @ must be a number in [0, 1]")
+    return Probe(text, line=line, vertex=int(round(s * line.elements)))
+
+
+@dataclass
+class RunSettings:
+    """[run] (SI): end time ``until``, ``dt`` (None = the estimated stable step), ``stepper``,
+    ``output_interval`` (default until / 50), ``probes`` and ``force_dt``."""
+
+    until: float
+    dt: float | None = None
+    stepper: str = "verlet"
+    output_interval: float | None = None
+    probes: list = field(default_factory=list)
+    force_dt: bool = False
+
+    @property
+    def interval(self) -> float:
+        return self.until / 50.0 if self.output_interval is None else self.output_interval
+
+
+def _run(t: Table, net: Net, units: Units) -> RunSettings:
+    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt")
+    sec = units.factor(0, 0, 1)
+    until = t.get("until", positive) * sec
+    dt = t.get("dt", auto_or_positive, default="auto")
+    out = t.get("output_interval", positive, default=None)
+    run = RunSettings(until, None if dt == "auto" else dt * sec,
+                      t.get("stepper", choice("verlet", "pefrl"), default="verlet"),
+                      None if out is None else out * sec,
+                      [_probe(t, p, net) for p in t.get("probes", string_list, default=[])],
+                      t.get("force_dt", boolean, default=False))
+    if run.output_interval is not None and run.output_interval > until:
+        raise t.err("output_interval", f"must not exceed until = {until:g} s")
+    t.done()
+    return run
+
+
+# ---------------------------------------------------------------------- the scene
+@dataclass
+class Scene:
+    """A loaded scene: ``net``, ``effects`` (cosnet effect objects), ``run`` (RunSettings),
+    ``initial`` (Initial), the ``scale`` it was written in (or None), ``path`` and ``title``."""
+
+    path: Path
+    title: str
+    net: Net
+    effects: list
+    run: RunSettings
+    initial: Initial
+    scale: Scale | None = None
+
+    def simulation(self, **overrides):
+        """Build ``cosnet.Simulation`` with the scene's effects, stepper and dt and apply the
+        initial conditions; keyword overrides go to the Simulation (e.g. ``dt=...``)."""
+        from .simulation import Simulation
+        kw = dict(effects=self.effects, stepper=self.run.stepper, dt=self.run.dt,
+                  force_dt=self.run.force_dt)
+        kw.update(overrides)
+        try:
+            sim = Simulation(self.net, **kw)
+        except ValueError as e:
+            msg = _one_line(e)
+            key = next((k for k in ("dt", "stepper") if k in msg), "")
+            raise ValueError(f"{self.path}: [run] {key}{': ' if key else ''}{msg}") from None
+        self.initial.apply(sim, f"{self.path}: [initial]")
+        return sim
+
+    def describe_effects(self) -> list[str]:
+        return [e.describe() for e in self.effects]
+
+
+def load_scene(path) -> Scene:
+    """Read a TOML scene file and return a validated Scene."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read the scene file ({e.strerror})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{path}: not valid TOML: {_one_line(e)}") from None
+    return build_scene(data, path)
+
+
+def build_scene(data: dict, path="<scene>") -> Scene:
+    """Build a Scene from already-parsed TOML data (``path`` only appears in messages)."""
+    path = Path(path)
+    top = Table(str(path), "", data)
+    top.done(TOP_KEYS)
+    title = top.get("title", string, default=path.stem)
+    top.get("description", string, default="")
+    scale = None
+    st = top.sub("scale", optional=True)
+    if st is not None:
+        st.expect("time", "length", "area", "density", "torque")
+        kw = {k: st.get(k, positive) for k in ("time", "length", "area", "density")}
+        kw["torque"] = st.get("torque", positive, default=None)
+        st.done()
+        try:
+            scale = Scale(**kw)
+        except ValueError as e:
+            raise st.err("torque", e) from None
+    units = Units(scale)
+    materials = {n: _material(t, n) for n, t in top.tables("materials")}
+    sections = {n: _section(t) for n, t in top.tables("sections")}
+    net = Net()
+    for name, t in top.tables("nodes"):
+        _node(t, net, name)
+    for name, t in top.tables("lines"):
+        _line(t, net, name, materials, sections)
+    if not net.nodes:
+        raise top.err("nodes", "the scene needs at least one [nodes.NAME] table")
+    try:
+        net.validate()
+    except ValueError as e:
+        msg = _one_line(e)
+        name = msg.split("'")[1] if msg.startswith("node '") else ""
+        raise ValueError(f"{path}: [nodes.{name}] mass: {msg}") from None
+    if scale is not None:
+        net = scale.physical(net)
+    effects = _effects(top, net, units)
+    initial = _initial(top.sub("initial", optional=True), net, units)
+    run = _run(top.sub("run"), net, units)
+    return Scene(path, title, net, effects, run, initial, scale)

@@ -1,0 +1,237 @@
+"""The example scenes in cases/: each loads, runs, and shows a physical truth about itself
+(static sags against hand estimates, equilibrium of the supports, exact junctions and
+offsets, conservation laws, the pre-stressed triangle of §2.3)."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import cosnet
+from cosnet.scene import load_scene
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+G = 9.81
+STEEL_E, STEEL_RHO = 2.1e11, 7850.0
+
+
+def case(name):
+    return load_scene(CASES / f"{name}.toml")
+
+
+def free_weight(sim):
+    """Weight (N) of everything not carried straight by a fixed node: the free vertices and
+    the nodes' composite masses (line-end shares included)."""
+    m = sim.model
+    free = m.vertex_inv_mass > 0
+    fin = np.isfinite(m.node_mass)
+    return G * (m.vertex_mass[free].sum() + m.node_mass[fin].sum())
+
+
+def support_force(sim):
+    """Sum over the line ends at fixed nodes of the internal force the line exerts on them."""
+    r = np.zeros(3)
+    for line in sim.net.lines:
+        f = sim.line_fields(line)["force"]
+        if line.start.fixed_position:
+            r += f[0]
+        if line.end.fixed_position:
+            r -= f[-1]
+    return r
+
+
+def offsets_error(sim, node):
+    """Largest distance between a line end and its attachment point r + D xi on the node."""
+    x, d = sim.node_position(node), sim.node_rotation(node)
+    err = 0.0
+    for line, omega in sim.net.lines_at(node):
+        end = sim.line_positions(line)[0 if omega < 0 else -1]
+        xi = line.start_offset if omega < 0 else line.end_offset
+        err = max(err, float(np.linalg.norm(end - (x + d @ xi))))
+    return err
+
+
+@pytest.mark.parametrize("path", sorted(CASES.glob("*.toml")), ids=lambda p: p.stem)
+def test_every_case_loads_and_steps(path):
+    assert path.read_text().lstrip().startswith("#"), "each case starts with a comment"
+    scene = load_scene(path)
+    sim = scene.simulation()
+    assert sim.dt <= sim.stable_dt() and scene.run.until > 0 and scene.net.total_mass() > 0
+    e0 = sim.energy()
+    sim.run(steps=200)
+    assert np.isfinite(sim.energy()) and np.isfinite(e0)
+    assert all(np.all(np.isfinite(sim.line_positions(l))) for l in scene.net.lines)
+
+
+def test_default_case_is_the_bridge_of_figure_1_1():
+    """Its boundary is exactly the set of ordered pairs (2.2) of the paper."""
+    net = case("bridge").net
+    pairs = {(n.name, l.name) for n in net.nodes for l, _ in net.lines_at(n)}
+    want = {("v1", "λ1"), ("v2", "λ1"), ("v2", "λ2"), ("v2", "λ6"), ("v3", "λ2"), ("v3", "λ3"),
+            ("v3", "λ5"), ("v4", "λ3"), ("v4", "λ4"), ("v4", "λ7"), ("v5", "λ4"), ("v6", "λ5"),
+            ("v6", "λ6"), ("v6", "λ7")}
+    assert pairs == want and len(net.nodes) == 6 and len(net.lines) == 7
+    assert {n.name for n in net.nodes if n.fixed_position} == {"v1", "v3", "v5"}
+    assert net.line("λ6").material.name == "cable" and net.line("λ1").material.name == "steel"
+
+
+def test_bridge_sags_as_the_hand_estimate():
+    """Clamped-clamped half deck (span 10 m) propped at midspan by the cable, in series with
+    the tower's shortening; Euler-Bernoulli. The net's sag at v2 agrees within 5 % (cable
+    sag and discretisation are the neglected few per cent)."""
+    scene = case("bridge")
+    sim = scene.simulation()
+    sim.run(until=0.4)                                   # damping 30/s: transient < 0.3 %
+    deck, cable, tower = (scene.net.line(n) for n in ("λ1", "λ6", "λ5"))
+    EI = STEEL_E * deck.section.I11
+    span = 10.0
+    w = STEEL_RHO * deck.section.A * G
+    k_beam = 192 * EI / span**3
+    k_cable = cable.material.E * cable.section.A / cable.length * 0.5         # sin^2(45 deg)
+    k_tower = STEEL_E * tower.section.A / tower.length
+    k_prop = k_cable / (1 + 2 * k_cable / k_tower)
+    p_cable = STEEL_RHO * cable.section.A * cable.length * G / 2               # half a cable hangs on v2
+    sag = (w * span**4 / (384 * EI) + p_cable / k_beam) * k_beam / (k_beam + k_prop)
+    v2, v4, v6 = (sim.node_position(scene.net.node(n)) for n in ("v2", "v4", "v6"))
+    assert -v2[2] == pytest.approx(sag, rel=0.05)
+    assert -v2[2] < 0.6 * w * span**4 / (384 * EI)       # the cable really carries load
+    assert abs(v2[2] - v4[2]) < 1e-9 * abs(v2[2])        # mirror symmetry
+    assert abs(v6[0] - 10.0) < 1e-9 and v6[2] < 5.0      # the tower top only shortens
+    for name in ("v1", "v3", "v5"):
+        np.testing.assert_array_equal(sim.node_position(scene.net.node(name)), scene.net.node(name).position)
+
+
+def test_cantilever_tip_sags_as_euler_bernoulli():
+    """Static tip deflection w L^4 / (8 E I); 10 elements leave an O(h^2) error near 1 %."""
+    scene = case("cantilever")
+    sim = scene.simulation()
+    sim.run(until=0.4)
+    rod = scene.net.line("rod")
+    w = STEEL_RHO * rod.section.A * G
+    want = w * rod.length**4 / (8 * STEEL_E * rod.section.I11)
+    assert -sim.node_position(scene.net.node("tip"))[2] == pytest.approx(want, rel=0.02)
+    assert sim.energy_parts()["kinetic"] < 1e-6 * w * want  # at rest
+
+
+def test_t_junction_sag_and_exact_right_angle():
+    """Junction sag P L^3/(192 E I) + w L^4/(384 E I); 12 elements per line converge to it
+    at second order (about 1 % away here). The three line ends at J keep their frames: the
+    stem stays exactly perpendicular to the beam at J."""
+    scene = case("t_junction")
+    sim = scene.simulation()
+    sim.run(until=0.1)
+    stem, left = scene.net.line("stem"), scene.net.line("left")
+    EI = STEEL_E * left.section.I11
+    rho_a = STEEL_RHO * left.section.A
+    p = (scene.net.node("C").mass + rho_a * stem.length) * G
+    want = p * 2.0**3 / (192 * EI) + rho_a * G * 2.0**4 / (384 * EI)
+    assert -sim.node_position(scene.net.node("J"))[2] == pytest.approx(want, rel=0.03)
+    d_stem = sim.line_fields(stem)["d3"][0]
+    d_left = sim.line_fields(left)["d3"][-1]
+    d_right = sim.line_fields(scene.net.line("right"))["d3"][0]
+    assert abs(d_stem @ d_left) < 1e-12 and abs(d_stem @ d_right) < 1e-12
+    assert d_left @ d_right == pytest.approx(1.0, abs=1e-12)
+
+
+def test_tree_root_carries_the_weight_and_its_moment():
+    """Statics of a tree: the trunk's internal force and moment at the root are the total
+    weight and its moment about the root (the whole net hangs on that one clamp)."""
+    scene = case("tree")
+    sim = scene.simulation()
+    sim.run(until=0.5)
+    m, s = sim.model, sim.state
+    free, fin = m.vertex_inv_mass > 0, np.isfinite(m.node_mass)
+    g = np.array([0.0, 0.0, -G])
+    weight = free_weight(sim) * g / G
+    moment = (np.cross(s.x[free], g) * m.vertex_mass[free, None]).sum(0) \
+        + (np.cross(s.node_x[fin], g) * m.node_mass[fin, None]).sum(0)
+    f = sim.line_fields(scene.net.line("trunk"))
+    np.testing.assert_allclose(f["force"][0], weight, rtol=0, atol=1e-4 * np.linalg.norm(weight))
+    np.testing.assert_allclose(f["torque"][0], moment, rtol=0, atol=1e-4 * np.linalg.norm(moment))
+    assert np.linalg.norm(moment) > 1.0                  # a lopsided tree: a real moment
+
+
+def test_mast_supports_carry_the_weight_and_offsets_are_exact():
+    scene = case("mast")
+    sim = scene.simulation()
+    sim.run(until=0.5)
+    box = scene.net.node("box")
+    assert offsets_error(sim, box) < 1e-12
+    r = support_force(sim)
+    w = free_weight(sim)
+    np.testing.assert_allclose(r, [0.0, 0.0, -w], rtol=0, atol=1e-4 * w)
+    assert sim.node_position(box)[2] < 6.2               # the mast shortened under the box
+
+
+def test_triangle_keeps_its_corners_and_has_no_stress_free_state():
+    """§2.3: right-angle junctions force the straight rods to bend. Free in space, the
+    pre-stressed triangle keeps zero momentum; damped to rest, each rod becomes an arc
+    turning 30 degrees (uniform curvature pi/6 per metre) and the corners between the end
+    elements open to 90 + 30/n degrees (the discrete arc), the right angle held by X."""
+    scene = case("triangle")
+    sim = scene.simulation()
+    assert sim.energy_parts()["strain"] > 1.0            # stressed from the start
+    sim.run(until=0.01)
+    scale = math.sqrt(2 * sim.energy() * scene.net.total_mass())
+    assert np.linalg.norm(sim.momentum()) < 1e-10 * scale
+    assert np.linalg.norm(sim.angular_momentum()) < 1e-10 * scale
+    scene.effects.append(cosnet.Damping(400.0))
+    sim = scene.simulation()
+    sim.run(until=0.05)
+    assert sim.energy_parts()["strain"] > 1.0            # at rest, still stressed
+    n = scene.net.line("AB").elements
+    for node in scene.net.nodes:
+        (la, oa), (lb, ob) = scene.net.lines_at(node)
+        da = sim.line_directors(la)[0 if oa < 0 else -1][:, 2]
+        db = sim.line_directors(lb)[0 if ob < 0 else -1][:, 2]
+        assert math.degrees(math.acos(da @ db)) == pytest.approx(90 + 30 / n, abs=0.01)
+    for line in scene.net.lines:
+        k = sim.line_fields(line)["curvature"][:, 0]
+        np.testing.assert_allclose(k, math.pi / 6 / line.length, rtol=1e-3)
+
+
+def test_chain_conserves_energy_and_keeps_its_links_on_their_rods():
+    scene = case("chain")
+    sim = scene.simulation()
+    e0, k0 = sim.energy(), sim.energy_parts()["kinetic"]
+    worst = 0.0
+    for k in range(10):
+        sim.run(until=0.02 * (k + 1))
+        worst = max(worst, abs(sim.energy() - e0))
+    assert worst < 1e-3 * k0                             # Verlet: bounded, O(dt^2) energy error
+    assert max(offsets_error(sim, n) for n in scene.net.nodes if n.mass > 0) < 1e-12
+    assert sim.node_position(scene.net.node("link4"))[0] > 0.005   # it swung
+
+
+def test_web_energy_error_is_second_order():
+    """The web (a net with a loop) conserves energy up to Verlet's bounded error, which falls
+    four-fold when dt halves."""
+    scene = case("web")
+    base = scene.simulation().dt
+    errors = []
+    for f in (1.0, 0.5):
+        sim = scene.simulation(dt=base * f)
+        e0 = sim.energy()
+        steps = int(round(0.05 / base / f))
+        worst = 0.0
+        for _ in range(25):
+            sim.run(steps=steps // 25)
+            worst = max(worst, abs(sim.energy() - e0))
+        errors.append(worst)
+    assert errors[0] < 2e-3 * e0
+    assert 3.5 < errors[0] / errors[1] < 4.5
+
+
+def test_tumbling_net_conserves_momenta_and_energy():
+    scene = case("tumbling")
+    sim = scene.simulation()
+    mass = scene.net.total_mass()
+    p0, l0, e0 = sim.momentum(), sim.angular_momentum(), sim.energy()
+    np.testing.assert_allclose(p0, mass * np.array([0.2, 0.0, 0.0]), rtol=1e-12, atol=1e-14)
+    assert np.linalg.norm(l0) > 0.1                       # it really spins
+    sim.run(until=scene.run.until)
+    np.testing.assert_allclose(sim.momentum(), p0, rtol=0, atol=1e-12 * np.linalg.norm(p0))
+    np.testing.assert_allclose(sim.angular_momentum(), l0, rtol=0, atol=1e-12 * np.linalg.norm(l0))
+    assert abs(sim.energy() - e0) < 1e-8 * e0
+    assert sim.energy_parts()["strain"] > 1e-3 * e0       # the spin stretched it

@@ -1,0 +1,170 @@
+"""The cosnet command, run as a user runs it (subprocess): info, run --until, errors, a run
+killed by a signal and resumed, and off-screen rendering."""
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosnet.io import read_output
+from cosnet.scene import load_scene
+
+REPO = Path(__file__).resolve().parents[1]
+
+TINY = """
+title = "tiny rod"
+[materials.soft]
+E = 2.0e9
+G = 8.0e8
+density = 1000.0
+[sections.rod]
+kind = "circle"
+radius = 0.01
+[nodes.root]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [0.5, 0.0, 0.0]
+mass = 0.05
+inertia = [1e-6, 1e-6, 1e-6]
+[lines.rod]
+start = "root"
+end = "tip"
+material = "soft"
+section = "rod"
+elements = 6
+[[effects]]
+kind = "gravity"
+[[effects]]
+kind = "damping"
+translational = 2.0
+[run]
+until = 1.0
+output_interval = 0.01
+probes = ["tip"]
+"""
+
+
+def cosnet(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "cosnet.cli", *map(str, args)], capture_output=True,
+                          text=True, cwd=kw.pop("cwd", REPO), timeout=kw.pop("timeout", 120), **kw)
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    p = tmp_path / "tiny.toml"
+    p.write_text(TINY)
+    return p
+
+
+def test_info_reports_size_mass_dt_and_effects(tiny):
+    r = cosnet("info", tiny)
+    assert r.returncode == 0, r.stderr
+    scene = load_scene(tiny)
+    sim = scene.simulation()
+    assert "3 nodes" not in r.stdout and "2 nodes, 1 lines, 6 elements, 7 vertices" in r.stdout
+    assert f"{scene.net.total_mass():.6g} kg" in r.stdout
+    # 0.05 kg tip + rho A L of the rod
+    assert scene.net.total_mass() == pytest.approx(0.05 + 1000 * math.pi * 1e-4 * 0.5, rel=1e-12)
+    assert f"{sim.stable_dt():.4g} s" in r.stdout
+    assert "Gravity" in r.stdout and "Damping" in r.stdout
+
+
+def test_run_until_writes_the_frames_up_to_that_time(tiny, tmp_path):
+    out = tmp_path / "out"
+    r = cosnet("run", tiny, "--out", out, "--until", 0.05)
+    assert r.returncode == 0, r.stderr
+    assert "steps/s" in r.stderr and "ETA" in r.stderr
+    series = read_output(out)
+    dt = load_scene(tiny).simulation().dt
+    assert len(series.times) == 6                           # t = 0, 0.01, ..., 0.05
+    assert series.times[0] == 0.0
+    assert 0.05 <= series.times[-1] < 0.05 + dt
+    assert np.all(np.abs(np.diff(series.times) - 0.01) < dt)
+    tip = series.node_series("tip")
+    assert tip[-1, 2] < 0.0                                 # it fell under gravity
+    rows = (out / "probes.csv").read_text().splitlines()
+    assert len(rows) == 7 and rows[0] == "frame,time,tip_x,tip_y,tip_z"
+    assert float(rows[-1].split(",")[4]) == tip[-1, 2]
+    assert (out / "checkpoint.npz").exists()
+
+
+def test_errors_are_one_line_with_exit_code_2(tiny, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TINY.replace("elements = 6", "elemnts = 6"))
+    r = cosnet("info", bad)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "[lines.rod]" in lines[0] and "elemnts" in lines[0]
+    r = cosnet("run", tiny, "--out", tmp_path / "o", "--resume")
+    assert r.returncode == 2 and "nothing to resume" in r.stderr
+
+
+def test_killed_run_resumes_to_the_uninterrupted_result(tiny, tmp_path):
+    """SIGKILL mid-run, then --resume: same frames and the same final state, bit for bit."""
+    full, cut = tmp_path / "full", tmp_path / "cut"
+    until = 0.5
+    proc = subprocess.Popen([sys.executable, "-m", "cosnet.cli", "run", str(tiny), "--out", str(cut),
+                             "--until", str(until)], cwd=REPO, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        if (cut / "series.pvd").exists() and (cut / "series.pvd").read_text().count("<DataSet") >= 2 * 4:
+            break
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL, "the run finished before it could be killed"
+    written = len(read_output(cut).times)
+    assert 4 <= written < 51
+    r = cosnet("run", tiny, "--out", cut, "--until", until, "--resume")
+    assert r.returncode == 0, r.stderr
+    r = cosnet("run", tiny, "--out", full, "--until", until)
+    assert r.returncode == 0, r.stderr
+    a, b = read_output(full), read_output(cut)
+    np.testing.assert_array_equal(a.times, b.times)
+    for k in (0, written - 1, written, len(a.times) - 1):
+        np.testing.assert_array_equal(a.frame(k)["lines"]["rod"]["position"], b.frame(k)["lines"]["rod"]["position"])
+        np.testing.assert_array_equal(a.frame(k)["lines"]["rod"]["force"], b.frame(k)["lines"]["rod"]["force"])
+    with np.load(full / "checkpoint.npz") as ca, np.load(cut / "checkpoint.npz") as cb:
+        for key in ca.files:
+            np.testing.assert_array_equal(ca[key], cb[key], err_msg=key)
+    assert (full / "probes.csv").read_text() == (cut / "probes.csv").read_text()
+
+
+def test_default_scene_is_the_bridge(tmp_path):
+    from cosnet.cli import default_scene
+    scene = load_scene(default_scene())
+    assert default_scene().name == "bridge.toml"
+    assert [n.name for n in scene.net.nodes] == ["v1", "v2", "v3", "v4", "v5", "v6"]
+
+
+def test_render_png_and_gif_off_screen(tiny, tmp_path):
+    out = tmp_path / "out"
+    assert cosnet("run", tiny, "--out", out, "--until", 0.02).returncode == 0
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    r = cosnet("render", out, "--png", "--field", "force", env=env)
+    assert r.returncode == 0, r.stderr
+    from PIL import Image
+    img = Image.open(out / "render.png")
+    assert img.size == (1024, 768)
+    pixels = np.asarray(img.convert("L"))
+    assert pixels.min() < 200 < pixels.max()              # something was drawn on the background
+    r = cosnet("render", out, "--gif", "--output", tmp_path / "m.gif", env=env)
+    assert r.returncode == 0, r.stderr
+    assert Image.open(tmp_path / "m.gif").n_frames == 3
+    r = cosnet("render", out, "--png", "--field", "nonsense", env=env)
+    assert r.returncode == 2 and "nonsense" in r.stderr
+
+
+@pytest.mark.skipif(__import__("shutil").which("ffmpeg") is not None, reason="ffmpeg is installed here")
+def test_mp4_without_ffmpeg_says_what_is_missing(tiny, tmp_path):
+    out = tmp_path / "out"
+    assert cosnet("run", tiny, "--out", out, "--until", 0.01).returncode == 0
+    r = cosnet("render", out, "--mp4")
+    assert r.returncode == 2 and "ffmpeg" in r.stderr and "--gif" in r.stderr
