@@ -32,7 +32,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .flatten import _element_frames, build_line_grid
-from .net import Line, Net, Node
+from .net import Line, Net, Node, node_groups
 
 
 def _shift(x: np.ndarray) -> np.ndarray:
@@ -131,23 +131,6 @@ def _rigid_body(nodes: list[Node], lines: list[Line], frame: np.ndarray, name: s
     return dict(position=c, frame=frame, mass=mass, inertia=Ib, name=name)
 
 
-def _groups(net: Net, chosen: list[Line]):
-    """Union-find of the nodes joined by the chosen lines: {root index: [node indices]}."""
-    parent = list(range(len(net.nodes)))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for l in chosen:
-        ra, rb = root(l.start.index), root(l.end.index)
-        if ra != rb:
-            parent[rb] = ra
-    return root
-
-
 def contract(net: Net, line: Line | str | None = None, *, stiffer_than: float | None = None,
              name: str | None = None) -> Net:
     """Return a NEW net in which rigid lines and their end nodes become extended rigid nodes (§7).
@@ -181,7 +164,7 @@ def contract(net: Net, line: Line | str | None = None, *, stiffer_than: float | 
     net.validate()
     for l in chosen:
         _check_rigidifiable(l)
-    root = _groups(net, chosen)
+    root = node_groups(net, chosen)
     chosen_ids = {l.index for l in chosen}
     members: dict[int, list[Node]] = {}
     for n in net.nodes:

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from .net import Line, Net, frame_from_tangent
+from .net import Line, Net, frame_from_tangent, node_groups
 
 _SAFETY = 0.4          # omega <= _SAFETY x (lower estimate of a segment's first clamped frequency)
 _GAUSS = np.polynomial.legendre.leggauss(4)
@@ -226,16 +226,7 @@ class _Assembly:
 def rigid_mode_count(net: Net) -> int:
     """Number of zero-frequency (rigid-body) modes: 6 per connected part, less those removed by
     fixed nodes and locked inertia axes."""
-    parent = list(range(len(net.nodes)))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for l in net.lines:
-        parent[root(l.start.index)] = root(l.end.index)
+    root = node_groups(net, net.lines)
     total = 0
     for r in {root(i) for i in range(len(net.nodes))}:
         members = [n for n in net.nodes if root(n.index) == r]

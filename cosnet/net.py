@@ -344,3 +344,21 @@ class Net:
                 if n.mass == 0 or (free_inertia.size and np.linalg.eigvalsh(free_inertia).min() <= 0):
                     raise ValueError(f"node {n.name!r}: no line ends at it, so it needs its own "
                                      f"positive mass and inertia (a free rigid body)")
+
+
+def node_groups(net: Net, lines) -> Callable[[int], int]:
+    """Union-find of the nodes joined by ``lines``: return root(i), the representative node
+    index of node i's group."""
+    parent = list(range(len(net.nodes)))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for l in lines:
+        ra, rb = root(l.start.index), root(l.end.index)
+        if ra != rb:
+            parent[rb] = ra
+    return root
