@@ -1,5 +1,15 @@
 """cosnet: nonlinear dynamics of Cosserat nets (Gratus & Tucker), accelerated with Numba."""
 
+import os as _os
+
+# Installed, the Numba kernels are the subpackage cosnet.kernels. In a source checkout they sit
+# beside this folder, in the top-level kernels/; let `python -m cosnet ...` run from the checkout
+# find them there too.
+if not _os.path.isdir(_os.path.join(__path__[0], "kernels")):
+    _root = _os.path.dirname(_os.path.abspath(__path__[0]))
+    if _os.path.isfile(_os.path.join(_root, "kernels", "__init__.py")):
+        __path__.append(_root)
+
 from .effects import Damping, Effect, Gravity, LineLoad, NodeLoad
 from .materials import Circle, Ellipse, Material, Rectangle, Section, Tube
 from .net import Line, Net, Node

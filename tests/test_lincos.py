@@ -197,7 +197,9 @@ def tip_body(on_arm: bool):
     if on_arm:
         tip = net.add_node(end, name="tip")
         b = net.add_node(centroid, **body)
-        arm = cosnet.Material(E=2e17, G=8e16, density=1e-6, name="rigid-light")
+        # 1e5 x stiffer than the rod: stiff enough to be rigid to 1e-6, soft enough to stay well
+        # conditioned (at 1e6 x, round-off in the transfer matrices reaches 1e-5).
+        arm = cosnet.Material(E=2e16, G=8e15, density=1e-6, name="rigid-light")
         net.add_line(root, tip, material=STEEL, section=sec, elements=4, name="rod")
         net.add_line(tip, b, material=arm, section=cosnet.Circle(0.01), elements=2, name="arm")
     else:
