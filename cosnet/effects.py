@@ -32,6 +32,12 @@ class Effect:
         """Potential energy of a conservative effect (0 for others)."""
         return 0.0
 
+    def max_omega2(self, sim) -> float:
+        """Upper bound on the squared frequency this effect's stiffness adds to any mass of
+        the net (k / m for a penalty spring); the stable step shrinks accordingly. 0 when the
+        effect adds no stiffness."""
+        return 0.0
+
     def describe(self) -> str:
         return type(self).__name__
 

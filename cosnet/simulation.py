@@ -121,15 +121,20 @@ class Simulation:
 
     def stable_dt(self) -> float:
         """Estimated largest stable step: safety * (scheme interval) / omega_max, with omega_max
-        bounded from above by Gershgorin's theorem on the linearised net."""
+        bounded from above by Gershgorin's theorem on the linearised net plus the stiffness the
+        declared effects add (penalty joints, contact)."""
         w2, _, _ = bound_max_omega2(self.model)
+        w2 += sum(e.max_omega2(self) for e in self.effects)
         if w2 <= 0:
             return math.inf
         return self.safety * stability_interval(self.stepper) / math.sqrt(w2)
 
     def stiffest(self) -> str:
         """Where the highest frequency sits (for messages)."""
-        _, kind, idx = bound_max_omega2(self.model)
+        w2, kind, idx = bound_max_omega2(self.model)
+        stiff = max(self.effects, key=lambda e: e.max_omega2(self), default=None)
+        if stiff is not None and stiff.max_omega2(self) > w2:
+            return stiff.describe()
         if kind == 2:
             return f"node {self.net.nodes[idx].name!r}"
         offsets = self.model.line_vertex_offsets if kind == 0 else self.model.line_element_offsets
