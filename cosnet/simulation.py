@@ -98,6 +98,9 @@ class Simulation:
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
         est = self.stable_dt()
         if dt is None:
+            if not math.isfinite(est):
+                raise ValueError("Simulation: this net has no elastic stiffness to set a stable step "
+                                 "(no lines, or none that can deform); give dt explicitly")
             dt = est
         else:
             dt = float(dt)
@@ -178,11 +181,17 @@ class Simulation:
                              f"(infinite-inertia) axis must be zero")
 
     def _watch_start(self):
-        """Reference for the energy watch (only when no effect feeds energy in)."""
+        """Reference for the energy watch (only when no effect feeds energy in). It is kept
+        across run() calls, so slow growth over many short runs is still seen, and reset only
+        when the state was changed from outside since the last run."""
         self._watch_energy = all(not e.adds_energy for e in self.effects)
         if self._watch_energy:
             p = self.energy_parts()
-            self._e_start = p["kinetic"] + p["strain"] + p["potential"]
+            e_now = p["kinetic"] + p["strain"] + p["potential"]
+            last = getattr(self, "_e_last", None)
+            if last is not None and abs(e_now - last) <= 1e-12 * self._scale:
+                return
+            self._e_start = e_now
             # floor: round-off of a net at rest must not count as growth (1e-6 strain energy)
             floor = 1e-12 * float(np.sum(self.model.element_stiffness[:, 2] * self.model.element_rest_length))
             self._scale = max(p["kinetic"] + p["strain"] + abs(p["potential"]), floor)
@@ -198,7 +207,11 @@ class Simulation:
                 self._fail(f"non-finite {name}", self._where(name, idx))
         worst, e = measure_worst_strain(self.model, self.state)
         if worst > STRAIN_LIMIT:
-            self._fail(f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})", self._where("element", e))
+            quantity = f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})"
+            if self.dt <= self.stable_dt():
+                quantity += (" although dt is within the stable step: the loads likely exceed what "
+                             "the line can bear (a physical overload, not a time-step problem)")
+            self._fail(quantity, self._where("element", e))
         if self._watch_energy:
             p = self.energy_parts()
             e_now = p["kinetic"] + p["strain"] + p["potential"]
@@ -207,6 +220,7 @@ class Simulation:
                 self._fail(f"energy grew from {self._e_start:.4g} J to {e_now:.4g} J with nothing "
                            f"feeding it (largest strain {worst:.3g})", self._where("element", e))
             self._scale = max(self._scale, p["kinetic"] + p["strain"] + abs(p["potential"]))
+            self._e_last = e_now
 
     def _fail(self, quantity, where):
         est = self.stable_dt()

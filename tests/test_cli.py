@@ -106,6 +106,31 @@ def test_errors_are_one_line_with_exit_code_2(tiny, tmp_path):
     assert r.returncode == 2 and "nothing to resume" in r.stderr
 
 
+def test_unstable_run_stops_within_a_frame_and_leaves_valid_files(tiny, tmp_path):
+    """A forced dt three times the stable one: the run stops with time, place and a safe dt,
+    within one output interval of blowing up; every frame on disk opens and is finite, and the
+    checkpoint holds the last good state."""
+    import meshio
+    dt = load_scene(tiny).simulation().dt
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TINY.replace("probes = [\"tip\"]", f"probes = [\"tip\"]\ndt = {3 * dt!r}\nforce_dt = true"))
+    out = tmp_path / "out"
+    r = cosnet("run", bad, "--out", out, "--until", 0.2)
+    assert r.returncode == 3, r.stderr
+    assert "unstable at t = " in r.stderr and "line 'rod'" in r.stderr and "a dt below" in r.stderr
+    t_fail = float(r.stderr.split("unstable at t = ")[1].split()[0])
+    series = read_output(out)
+    assert t_fail - series.times[-1] <= 0.01 + 3 * dt       # lost at most one output interval
+    for k in range(len(series.times)):
+        fr = series.frame(k)
+        assert all(np.all(np.isfinite(v)) for line in fr["lines"].values() for v in line.values())
+        assert all(np.all(np.isfinite(v)) for v in fr["nodes"].values())
+    for vtu in sorted(out.glob("*.vtu")):
+        assert np.all(np.isfinite(meshio.read(vtu).points))
+    ckpt = np.load(out / "checkpoint.npz")
+    assert all(np.all(np.isfinite(ckpt[k])) for k in ckpt.files if ckpt[k].dtype.kind == "f")
+
+
 def test_killed_run_resumes_to_the_uninterrupted_result(tiny, tmp_path):
     """SIGKILL mid-run, then --resume: same frames and the same final state, bit for bit."""
     full, cut = tmp_path / "full", tmp_path / "cut"

@@ -266,9 +266,6 @@ def test_refusals_name_the_culprit():
         cosnet.Simulation(net)
 
 
-@pytest.mark.xfail(strict=True, reason="Net._inertia checks symmetry entrywise with rtol=1e-12, atol=0: "
-                   "a near-zero off-diagonal entry with round-off asymmetry (1e-16 of the largest "
-                   "entry) is refused")
 def test_round_off_asymmetric_inertia_is_accepted():
     """R diag(I) R^T computed in floating point is symmetric only to round-off."""
     inertia = np.array([[1.6112025913195187e-03, -2.0303772059763066e-03, -1.3608455268566283e-07],
@@ -278,9 +275,6 @@ def test_round_off_asymmetric_inertia_is_accepted():
     cosnet.Net().add_node((0, 0, 0), mass=1.0, inertia=inertia, name="body")
 
 
-@pytest.mark.xfail(strict=False, reason="the energy watch compares against the energy at run() start; "
-                   "with zero energy (a line between two clamps at rest) round-off of 1e-30 J "
-                   "counts as growth and raises InstabilityError")
 def test_net_at_rest_between_clamps_is_not_called_unstable():
     """Two fixed nodes joined by a one-element line, at rest: nothing may happen, and
     round-off in an energy of 1e-30 J is no instability."""

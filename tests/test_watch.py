@@ -30,3 +30,29 @@ def test_watch_is_silent_on_a_healthy_run():
     smooth_motion(sim)
     sim.run(steps=3 * CHUNK_STEPS)
     assert sim.steps == 3 * CHUNK_STEPS
+
+
+def test_overload_at_a_stable_dt_is_called_physical_not_a_step_problem():
+    """A tip pull of 3 EA stretches the rod beyond 100 %: the watch stops it, and since dt is
+    within the stable step it says the load, not the step, is at fault."""
+    net, line, root, tip = cantilever(n=4, radius=0.002, material=cosnet.Material(E=1e6, G=4e5, density=1e3))
+    EA = 1e6 * np.pi * 0.002 ** 2
+    sim = cosnet.Simulation(net, effects=[cosnet.NodeLoad(tip, force=(3 * EA, 0.0, 0.0))])
+    with pytest.raises(cosnet.InstabilityError, match="physical overload") as info:
+        sim.run(until=2.0)
+    assert "line 'rod'" in info.value.where
+
+
+def test_energy_reference_survives_many_short_runs():
+    """Energy growth is measured from the first run, not from each run() call, but a state
+    changed from outside between runs starts a new reference."""
+    sim = cosnet.Simulation(free_net(3))
+    smooth_motion(sim)
+    sim.run(steps=10)
+    e0 = sim._e_start
+    for _ in range(5):
+        sim.run(steps=10)
+    assert sim._e_start == e0
+    sim.state.v[:] *= 2.0
+    sim.run(steps=10)
+    assert sim._e_start != e0

@@ -74,7 +74,8 @@ def test_intermediate_axis_flips_with_jacobis_period():
     perturbation: it flips every half period T/2 = 2 K(m) / rate of Jacobi's elliptic
     solution (m = 1 - 1e-6, a nearly separatrix orbit), within 1e-4 (measured 1.5e-6);
     |L| conserved to 1e-10, the energy error O(dt^2) (halving dt divides it by ~4).
-    The step is explicit: a net without lines has no elastic step (see the xfail below)."""
+    The step is explicit: a net without lines has no elastic step, so dt is given (an automatic
+    step is refused, see below)."""
     net, p = lone_body(inertia=(1.0, 100.0, 1e4))
     w0 = np.array([1e-3, 1.0, 1e-5])
     T = rigid_body_flip_period(p["inertia"], w0)
@@ -94,9 +95,6 @@ def test_intermediate_axis_flips_with_jacobis_period():
     assert 3.0 < errs[0] / errs[1] < 5.0, errs
 
 
-@pytest.mark.xfail(strict=True, reason="a net without lines gets dt = inf from stable_dt(); "
-                   "run(until=...) then fails with 'cannot convert float NaN to integer' and "
-                   "run(steps=...) with an InstabilityError 'at t = inf'")
 def test_automatic_step_of_a_lone_rigid_body_is_finite_or_refused():
     """With no lines there is no elastic frequency; the automatic step must still be usable
     (finite) or refused with a ValueError asking for dt, never infinite."""
