@@ -396,12 +396,24 @@ def _solve(lin: Linearisation, rigid: np.ndarray, count: int, sigma: float):
     return omega, vecs
 
 
-def modes(net_or_sim, count: int = 6, sigma: float = 0.0) -> DiscreteModes:
+def modes(net_or_sim, count: int = 6, sigma: float = 0.0, method: str = "discrete"):
     """The ``count`` normal modes of the discretised net nearest to ``sigma`` (rad/s), about its
     stress-free state. ``net_or_sim``: a Net (flattened here) or a Simulation (its model and its
     current state, which must be at rest and stress free). Rigid motions of free parts are not
-    listed; their number is ``rigid_modes``."""
+    listed; their number is ``rigid_modes``.
+
+    method="analytic" returns instead the exact modes of the continuous net (§6, the LINCOS
+    calculation of cosnet.lincos.analytic_modes: straight uniform lines), lowest first."""
     from .simulation import Simulation
+    if method == "analytic":
+        if not isinstance(net_or_sim, Net):
+            raise ValueError(f"modes: method='analytic' takes a cosnet.Net, got {net_or_sim!r}")
+        if sigma != 0.0:
+            raise ValueError("modes: sigma applies to the discrete method only")
+        from .lincos import analytic_modes
+        return analytic_modes(net_or_sim, count=count)
+    if method != "discrete":
+        raise ValueError(f"modes: method must be 'discrete' or 'analytic', got {method!r}")
     if isinstance(net_or_sim, Simulation):
         net, model, state = net_or_sim.net, net_or_sim.model, net_or_sim.state
         hint = "a Simulation must be at its rest state (not yet run); " + REST_HINT

@@ -331,6 +331,12 @@ class Net:
             m += sum(l.material.density * l.section_at(float(s)).A * d for s, d in zip(mids, seg))
         return float(m)
 
+    def contract(self, line=None, *, stiffer_than=None, name=None) -> "Net":
+        """A new net with ``line`` (or every line with E >= ``stiffer_than``) and its end nodes
+        replaced by one extended rigid node (§7); see cosnet.contract."""
+        from .contract import contract
+        return contract(self, line, stiffer_than=stiffer_than, name=name)
+
     def validate(self):
         """Whole-net checks run before flattening."""
         if not self.nodes:
