@@ -122,14 +122,14 @@ class SeriesWriter:
         return k
 
     def _write_pvd(self):
-        parts = []
+        """Rewrite the ParaView collection listing every frame written so far (atomically)."""
+        root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+        coll = ET.SubElement(root, "Collection")
         for k, t in enumerate(self.times):
             for p, name in enumerate(_frame_files(k)):
-                parts.append(f'    <DataSet timestep="{t!r}" group="" part="{p}" file="{name}"/>\n')
-        text = ('<?xml version="1.0"?>\n'
-                '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
-                '  <Collection>\n' + "".join(parts) + '  </Collection>\n</VTKFile>\n')
-        _atomic_write(self.dir / PVD, text)
+                ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(p), file=name)
+        ET.indent(root)
+        _atomic_write(self.dir / PVD, ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
 
 
 def _node_body_w(sim, node) -> np.ndarray:
