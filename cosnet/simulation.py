@@ -138,6 +138,8 @@ class Simulation:
         stiff = max(self.effects, key=lambda e: e.max_omega2(self), default=None)
         if stiff is not None and stiff.max_omega2(self) > w2:
             return stiff.describe()
+        if w2 <= 0:
+            return "nowhere (nothing elastic)"
         if kind == 2:
             return f"node {self.net.nodes[idx].name!r}"
         offsets = self.model.line_vertex_offsets if kind == 0 else self.model.line_element_offsets
