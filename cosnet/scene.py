@@ -13,7 +13,9 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
     [nodes.NAME]                    position, frame, mass ("inf" allowed), inertia, fixed
     [lines.NAME]                    start, end, material, section, elements, start_offset,
                                     end_offset, start_frame, end_frame, rest_curvature, points, d1
-    [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping
+    [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping |
+                                    spherical_joint | hinge_joint | fixed_joint |
+                                    contact
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
@@ -261,7 +263,9 @@ class Units:
 DIM = {"g": (1, 0, -2), "force": (1, 1, -2), "torque": (2, 1, -2), "force_per_length": (0, 1, -2),
        "torque_per_length": (1, 1, -2), "times": (0, 0, 1), "omega": (0, 0, -1),
        "translational": (0, 0, -1), "rotational": (0, 0, -1), "velocity": (1, 0, -1),
-       "angular_velocity": (0, 0, -1), "center": (1, 0, 0)}
+       "angular_velocity": (0, 0, -1), "center": (1, 0, 0), "k": (0, 1, -2), "nu": (0, 1, -1),
+       "kt": (2, 1, -2), "nut": (2, 1, -1), "rest_offset": (1, 0, 0),
+       "gamma": (0, 1, -1)}
 
 
 def _si(units: Units, key, value):
@@ -383,6 +387,10 @@ class EffectKind:
 
 
 _AMPLITUDE = {"times": floats, "values": floats, "omega": number, "phase": number}
+_JOINT = {"line_a": "line", "end_a": choice("start", "end"), "line_b": "line",
+          "end_b": choice("start", "end"), "k": positive, "nu": nonnegative, "rest_offset": vec3}
+_JOINT_REQUIRED = ("line_a", "end_a", "line_b", "end_b", "k")
+_TORQUE_JOINT = {"kt": positive, "nut": nonnegative}
 EFFECTS = {
     "gravity": EffectKind("Gravity", {"g": vec3}),
     "node_load": EffectKind("NodeLoad", {"node": "node", "force": vec3, "torque": vec3, **_AMPLITUDE},
@@ -391,6 +399,13 @@ EFFECTS = {
                                          "torque_per_length": vec3, **_AMPLITUDE}, ("line",)),
     "damping": EffectKind("Damping", {"translational": nonnegative, "rotational": nonnegative},
                           ("translational",)),
+    "contact": EffectKind("Contact", {"k": positive, "gamma": nonnegative, "self_contact": boolean,
+                                      "lines": string_list, "self_gap": nonnegative}, ("k",)),
+    "spherical_joint": EffectKind("SphericalJoint", _JOINT, _JOINT_REQUIRED),
+    "hinge_joint": EffectKind("HingeJoint", {**_JOINT, **_TORQUE_JOINT, "normal": vec3},
+                              _JOINT_REQUIRED + ("kt",)),
+    "fixed_joint": EffectKind("FixedJoint", {**_JOINT, **_TORQUE_JOINT, "angle": number, "axis": vec3},
+                              _JOINT_REQUIRED + ("kt",)),
 }
 
 
@@ -450,7 +465,7 @@ class Initial:
     angular_velocity: np.ndarray | None = None
     center: np.ndarray | None = None
     nodes: dict = field(default_factory=dict)   # Node -> (velocity or None, angular_velocity or None)
-    lines: dict = field(default_factory=dict)   # Line -> velocity
+    lines: dict = field(default_factory=dict)   # Line -> (velocity, profile)
     perturbation: float = 0.0
     seed: int = 0
 
@@ -480,12 +495,31 @@ class Initial:
                     raise ValueError(f"{where} nodes.{node.name} angular_velocity: it turns node "
                                      f"{node.name!r} about a locked (fixed) axis")
                 sim.node_angular_velocity(node)[:] = np.where(m.node_locked[node.index] > 0, 0.0, wb)
-        for line, v in self.lines.items():
-            sim.line_velocities(line)[1:-1] = v
+        for line, (v, profile) in self.lines.items():
+            _line_velocity(sim, line, v, profile)
         if self.perturbation > 0:
             free = m.vertex_inv_mass > 0
             rng = np.random.default_rng(self.seed)
             s.v[free] += self.perturbation * rng.standard_normal((int(free.sum()), 3))
+
+
+def _line_velocity(sim, line, v, profile):
+    """Set the interior vertex velocities of a line: ``uniform`` v, or ``half_sine``
+    v sin(pi s / L) with every element turning with its tangent (w = t x dv / |t|^2), a smooth
+    bending perturbation whose ends stay at rest."""
+    from .flatten import matrix_from_quat
+    vel = sim.line_velocities(line)
+    if profile == "uniform":
+        vel[1:-1] = v
+        return
+    x = sim.line_positions(line)
+    n = x.shape[0] - 1
+    shape = np.sin(np.pi * np.arange(n + 1) / n)[:, None] * v
+    vel[1:-1] = shape[1:-1]
+    seg = np.diff(x, axis=0)
+    w_lab = np.cross(seg, np.diff(shape, axis=0)) / np.einsum("ij,ij->i", seg, seg)[:, None]
+    es = sim._erange(line)
+    sim.state.w[es] = np.einsum("eji,ej->ei", matrix_from_quat(sim.state.q[es]), w_lab)
 
 
 def _centre_of_mass(m, s) -> np.ndarray:
@@ -508,9 +542,10 @@ def _initial(t: Table | None, net: Net, units: Units) -> Initial:
                                  for k in ("velocity", "angular_velocity"))
         nt.done()
     for name, lt in t.tables("lines"):
-        lt.expect("velocity")
+        lt.expect("velocity", "profile")
         line = _named(lt, name, "line", net)
-        init.lines[line] = _si(units, "velocity", lt.get("velocity", vec3))
+        init.lines[line] = (_si(units, "velocity", lt.get("velocity", vec3)),
+                            lt.get("profile", choice("uniform", "half_sine"), default="uniform"))
         lt.done()
     p = t.sub("perturbation", optional=True)
     if p is not None:
