@@ -11,6 +11,7 @@ if not _os.path.isdir(_os.path.join(__path__[0], "kernels")):
         __path__.append(_root)
 
 from .effects import Damping, Effect, Gravity, LineLoad, NodeLoad
+from .joints import FixedJoint, HingeJoint, SphericalJoint
 from .materials import Circle, Ellipse, Material, Rectangle, Section, Tube
 from .net import Line, Net, Node
 from .scaling import Scale
@@ -25,6 +26,7 @@ __all__ = [
     "Circle", "Ellipse", "Material", "Rectangle", "Section", "Tube",
     "Line", "Net", "Node",
     "Damping", "Effect", "Gravity", "LineLoad", "NodeLoad",
+    "SphericalJoint", "HingeJoint", "FixedJoint",
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",

@@ -1,0 +1,195 @@
+"""Penalty joints between two line ends (spherical, hinge, fixed), after the Elastica joints.
+
+A joint is an alternative to a shared node: two line ends, each on its own node, are held
+together by stiff springs (kernels: cosnet.kernels.joints). The constraint is met only to
+O(load / k), but any two line ends can be joined, and the stable step shrinks as
+1 / sqrt(k) (``max_omega2``). With zero damping the springs conserve energy; their potential
+is part of ``Simulation.energy()``.
+
+    SphericalJoint(line_a, end_a, line_b, end_b, k=..., nu=0.0, rest_offset=(0, 0, 0))
+    HingeJoint(..., normal=(0, 0, 1), kt=..., nut=0.0)
+    FixedJoint(..., kt=..., nut=0.0, angle=None, axis=(0, 0, 1))
+
+end_a / end_b are "start" or "end". rest_offset is x_b - x_a at rest (lab). Torques act on
+the line-end frames D X (1.3), i.e. on the nodes the ends are attached to, so a stiff fixed
+joint tends to the exact junction of the two ends at one node.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+
+import numpy as np
+
+from .effects import Effect, _vec3
+from .flatten import matrix_from_quat, quat_from_matrix
+from .kernels import joints as _joint_kernels
+from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
+from .net import Line
+
+ENDS = {"start": 0, "end": 1}
+
+
+def _stiffness(owner, name, value, allow_zero=False):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{owner}: {name} must be a number, got {value!r}") from None
+    if not math.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
+        need = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{owner}: {name} must be a finite number {need}, got {value!r}")
+    return x
+
+
+class SphericalJoint(Effect):
+    """Hold end ``end_a`` of ``line_a`` and end ``end_b`` of ``line_b`` together with a spring
+    k (N/m) and a damper nu (N s/m) on their relative velocity: f = k (eps - eps0) + nu dot
+    eps on end a, -f on end b, eps = x_b - x_a (lab); the lines turn freely about the joint."""
+
+    params_type = SphericalJointParams
+    energy_kernel = staticmethod(_joint_kernels.spherical_energy)
+    kt = nut = 0.0  # no torque spring or damper
+
+    def __init__(self, line_a: Line, end_a: str, line_b: Line, end_b: str, *, k: float,
+                 nu: float = 0.0, rest_offset=(0.0, 0.0, 0.0)):
+        name = type(self).__name__
+        for which, line, end in (("line_a", line_a, end_a), ("line_b", line_b, end_b)):
+            if not isinstance(line, Line):
+                raise ValueError(f"{name}: {which} must be a cosnet Line, got {line!r}")
+            if not isinstance(end, str) or end not in ENDS:
+                raise ValueError(f"{name}: end of {which} must be 'start' or 'end', got {end!r}")
+        if line_a is line_b and end_a == end_b:
+            raise ValueError(f"{name}: joins the {end_a} of {line_a!r} to itself; give two different line ends")
+        self.line_a, self.end_a, self.line_b, self.end_b = line_a, end_a, line_b, end_b
+        self.who = f"{name}({line_a.name!r} {end_a}, {line_b.name!r} {end_b})"
+        self.k = _stiffness(self.who, "k", k)
+        self.nu = _stiffness(self.who, "nu", nu, allow_zero=True)
+        self.rest_offset = _vec3(self.who, "rest_offset", rest_offset)
+        self._bound = weakref.WeakKeyDictionary()
+
+    # -------------------------------------------------------------- binding
+    def _attachments(self, sim):
+        for line in (self.line_a, self.line_b):
+            sim.check_line(line, self.who)
+        return (2 * self.line_a.index + ENDS[self.end_a], 2 * self.line_b.index + ENDS[self.end_b])
+
+    def _end_frame(self, sim, a) -> np.ndarray:
+        """(3, 3) line-end frame E = D X of attachment a (columns d1 d2 d3, lab)."""
+        m = sim.model
+        nd = m.attach_node[a]
+        return matrix_from_quat(sim.state.node_q[nd]) @ matrix_from_quat(m.attach_frame[a])
+
+    def _torque_fields(self, sim, a, b) -> tuple:
+        """The kind's own fields after the spherical ones (none for a spherical joint)."""
+        return ()
+
+    def bind(self, sim):
+        a, b = self._attachments(sim)
+        params = self.params_type(np.array([a], dtype=np.int64), np.array([b], dtype=np.int64),
+                                  np.array([self.k]), np.array([self.nu]), self.rest_offset[None].copy(),
+                                  *self._torque_fields(sim, a, b))
+        self._bound[sim] = params
+        return params
+
+    def params(self, sim):
+        """The parameter record bound to ``sim``."""
+        if sim not in self._bound:
+            raise ValueError(f"{self.who} is not an effect of this simulation")
+        return self._bound[sim]
+
+    # -------------------------------------------------------------- energy and stability
+    def potential_energy(self, sim) -> float:
+        return float(self.energy_kernel(self.params(sim), sim.model, sim.state))
+
+    def _end_inverse_inertia(self, sim, a):
+        """(inverse mass of end a seen by a force at it, largest inverse rotary inertia)."""
+        m = sim.model
+        nd = m.attach_node[a]
+        inv_j = float(np.max(m.node_inv_inertia[nd]))
+        lever = float(np.dot(m.attach_offset[a], m.attach_offset[a]))
+        return float(m.node_inv_mass[nd]) + lever * inv_j, inv_j
+
+    def max_omega2(self, sim) -> float:
+        """k (1/m_a + 1/m_b) + (nu (1/m_a + 1/m_b))^2, and the same with kt, nut and the ends'
+        rotary inertias: an upper bound of the joint's frequencies (a damper's rate enters the
+        explicit kick like a frequency)."""
+        a, b = self._attachments(sim)
+        (ma, ja), (mb, jb) = self._end_inverse_inertia(sim, a), self._end_inverse_inertia(sim, b)
+        im, ij = ma + mb, ja + jb
+        return self.k * im + (self.nu * im) ** 2 + self.kt * ij + (self.nut * ij) ** 2
+
+    def describe(self):
+        return f"{self.who}, k = {self.k:g} N/m"
+
+
+class _TorqueJoint(SphericalJoint):
+    """A spherical joint plus a torque spring kt (N m) and damper nut (N m s) between the two
+    line-end frames."""
+
+    def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, nu=0.0, nut=0.0, rest_offset=(0.0, 0.0, 0.0)):
+        super().__init__(line_a, end_a, line_b, end_b, k=k, nu=nu, rest_offset=rest_offset)
+        self.kt = _stiffness(self.who, "kt", kt)
+        self.nut = _stiffness(self.who, "nut", nut, allow_zero=True)
+
+    def describe(self):
+        return f"{self.who}, k = {self.k:g} N/m, kt = {self.kt:g} N m"
+
+
+class HingeJoint(_TorqueJoint):
+    """Spherical joint that also keeps line b's end tangent t_b in the plane through line a's
+    end with unit normal n: torque -kt s (t_b x n) on end b and its opposite on end a, with
+    s = t_b . n (energy kt s^2 / 2). ``normal`` is given in the lab for the net as built and
+    then turns with line a's end frame (choose it normal to line a's tangent for a hinge axis
+    along n through that end)."""
+
+    params_type = HingeJointParams
+    energy_kernel = staticmethod(_joint_kernels.hinge_energy)
+
+    def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, normal=(0.0, 0.0, 1.0), nu=0.0,
+                 nut=0.0, rest_offset=(0.0, 0.0, 0.0)):
+        super().__init__(line_a, end_a, line_b, end_b, k=k, kt=kt, nu=nu, nut=nut, rest_offset=rest_offset)
+        n = _vec3(self.who, "normal", normal)
+        size = float(np.linalg.norm(n))
+        if size == 0:
+            raise ValueError(f"{self.who}: normal must be a non-zero vector")
+        self.normal = n / size
+
+    def _torque_fields(self, sim, a, b):
+        n_a = self._end_frame(sim, a).T @ self.normal
+        return np.array([self.kt]), np.array([self.nut]), n_a[None].copy()
+
+
+class FixedJoint(_TorqueJoint):
+    """Spherical joint that also holds the relative rotation R = E_a^T E_b of the two line-end
+    frames at its rest value R0 (PyElastica's FixedJoint): torque -kt E_b theta on end b and
+    its opposite on end a, theta the rotation vector of R0^T R (energy kt |theta|^2 / 2).
+    angle=None takes R0 from the net as built; otherwise line b's end frame rests at line a's
+    turned by ``angle`` (rad) about ``axis`` (lab, as built)."""
+
+    params_type = FixedJointParams
+    energy_kernel = staticmethod(_joint_kernels.fixed_energy)
+
+    def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, angle=None, axis=(0.0, 0.0, 1.0),
+                 nu=0.0, nut=0.0, rest_offset=(0.0, 0.0, 0.0)):
+        super().__init__(line_a, end_a, line_b, end_b, k=k, kt=kt, nu=nu, nut=nut, rest_offset=rest_offset)
+        if angle is not None:
+            angle = float(angle)
+            if not math.isfinite(angle):
+                raise ValueError(f"{self.who}: angle must be a finite number (rad), got {angle}")
+        u = _vec3(self.who, "axis", axis)
+        size = float(np.linalg.norm(u))
+        if size == 0:
+            raise ValueError(f"{self.who}: axis must be a non-zero vector")
+        self.angle, self.axis = angle, u / size
+
+    def _torque_fields(self, sim, a, b):
+        ea = self._end_frame(sim, a)
+        if self.angle is None:
+            r0 = ea.T @ self._end_frame(sim, b)
+        else:
+            u = ea.T @ self.axis                      # axis in line a's end frame
+            c, s = math.cos(self.angle), math.sin(self.angle)
+            ux = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+            r0 = c * np.eye(3) + s * ux + (1 - c) * np.outer(u, u)
+        return np.array([self.kt]), np.array([self.nut]), quat_from_matrix(r0)[None].copy()

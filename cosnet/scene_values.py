@@ -1,0 +1,237 @@
+"""The values of a scene file: a TOML table that remembers which keys were read (so a
+misspelt key is refused with a suggestion), the converters that check each value's type and
+range, and the §5 unit conversion of a [scale] table. Every failure names file, table and key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+
+import numpy as np
+
+from .scaling import Scale
+
+_REQUIRED = object()
+
+
+def _one_line(e) -> str:
+    return " ".join(str(e).split())
+
+
+class _Bad(Exception):
+    """A value of the wrong type or range (caught and re-raised with file/table/key)."""
+
+
+# ---------------------------------------------------------------------- tables and values
+class Table:
+    """A TOML table being read: remembers which keys were used so ``done`` can refuse the rest."""
+
+    def __init__(self, file: str, name: str, data):
+        self.file, self.name = file, name
+        if not isinstance(data, dict):
+            raise ValueError(f"{file}: [{name}] must be a table, got {type(data).__name__}")
+        self.data, self.used, self.known = data, set(), None
+
+    def expect(self, *keys) -> Table:
+        """Declare the table's keys, so a missing required key can be told from a misspelt one."""
+        self.known = set(keys)
+        return self
+
+    def err(self, key, msg) -> ValueError:
+        where = f"[{self.name}] {key}" if self.name else f"{key}"
+        return ValueError(f"{self.file}: {where}: {_one_line(msg)}")
+
+    def get(self, key, conv, default=_REQUIRED):
+        self.used.add(key)
+        if key not in self.data:
+            if default is _REQUIRED:
+                spare = [k for k in self.data if k not in (self.known or self.used)]
+                near = difflib.get_close_matches(key, spare, n=1)
+                if near:
+                    raise self.err(near[0], f"unknown key; did you mean {key!r}?")
+                raise self.err(key, "is required but missing")
+            return default
+        try:
+            return conv(self.data[key])
+        except _Bad as e:
+            raise self.err(key, str(e)) from None
+
+    def sub(self, key, optional=False) -> Table | None:
+        self.used.add(key)
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.err(key, f"the [{self._join(key)}] table is required but missing")
+        return Table(self.file, self._join(key), self.data[key])
+
+    def _join(self, key) -> str:
+        k = key if key.replace("_", "").replace("-", "").isalnum() and key.isascii() else f'"{key}"'
+        return f"{self.name}.{k}" if self.name else k
+
+    def tables(self, key):
+        """(name, Table) for each sub-table of [key] (in file order)."""
+        t = self.sub(key, optional=True)
+        if t is None:
+            return []
+        t.used.update(t.data)
+        return [(n, Table(self.file, t._join(n), v)) for n, v in t.data.items()]
+
+    def done(self, allowed=None):
+        """Refuse every key that was not read (a misspelling gets a suggestion)."""
+        known = set(allowed or ()) | self.used | (self.known or set())
+        for key in self.data:
+            if key not in known:
+                near = difflib.get_close_matches(key, sorted(known), n=1)
+                hint = f"; did you mean {near[0]!r}?" if near else f"; expected one of {sorted(known)}"
+                raise self.err(key, f"unknown key{hint}")
+
+
+def number(v) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise _Bad(f"must be a number, got {v!r}")
+    if not math.isfinite(v):
+        raise _Bad(f"must be finite, got {v!r}")
+    return float(v)
+
+
+def positive(v) -> float:
+    x = number(v)
+    if x <= 0:
+        raise _Bad(f"must be positive, got {v!r}")
+    return x
+
+
+def nonnegative(v) -> float:
+    x = number(v)
+    if x < 0:
+        raise _Bad(f"must be >= 0, got {v!r}")
+    return x
+
+
+def mass_value(v) -> float:
+    if isinstance(v, str) and v.strip().lower() == "inf":
+        return math.inf
+    try:
+        return nonnegative(v)
+    except _Bad:
+        raise _Bad(f'must be a number >= 0 or "inf", got {v!r}') from None
+
+
+def integer(v) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise _Bad(f"must be a positive integer, got {v!r}")
+    return v
+
+
+def boolean(v) -> bool:
+    if not isinstance(v, bool):
+        raise _Bad(f"must be true or false, got {v!r}")
+    return v
+
+
+def seed(v) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        raise _Bad(f"must be an integer >= 0, got {v!r}")
+    return v
+
+
+def string(v) -> str:
+    if not isinstance(v, str):
+        raise _Bad(f"must be a string, got {v!r}")
+    return v
+
+
+def choice(*options):
+    def conv(v):
+        if v not in options:
+            raise _Bad(f"must be one of {list(options)}, got {v!r}")
+        return v
+    return conv
+
+
+def array(shape, allow_inf=False):
+    """Numbers of the given shape (-1: any length >= 2 along that axis)."""
+    def conv(v):
+        if not isinstance(v, list):
+            raise _Bad(f"must be a list of numbers of shape {tuple(shape)}, got {v!r}")
+
+        def walk(x):
+            if isinstance(x, list):
+                return [walk(y) for y in x]
+            if allow_inf and isinstance(x, str) and x.strip().lower() == "inf":
+                return math.inf
+            return number(x)
+        try:
+            a = np.array(walk(v), dtype=float)
+        except ValueError:
+            raise _Bad(f"must be numbers of shape {shape}, got {v!r}") from None
+        ok = a.ndim == len(shape) and all(s == -1 and n >= 2 or s == n for s, n in zip(shape, a.shape))
+        if not ok:
+            raise _Bad(f"must have shape {tuple(shape)} (a nested list), got {v!r}")
+        return a
+    return conv
+
+
+vec3 = array((3,))
+
+
+def floats(v):
+    if not isinstance(v, list) or not v:
+        raise _Bad(f"must be a non-empty list of numbers, got {v!r}")
+    return np.array([number(x) for x in v])
+
+
+def string_list(v):
+    if not isinstance(v, list):
+        raise _Bad(f"must be a list of strings, got {v!r}")
+    return [string(x) for x in v]
+
+
+def auto_or_positive(v):
+    return "auto" if v == "auto" else positive(v)
+
+
+def frame(v):
+    """A rotation: matrix rows, or a table with two or three of d1, d2, d3 (lab columns)."""
+    if isinstance(v, list):
+        return array((3, 3))(v)
+    if not isinstance(v, dict):
+        raise _Bad(f"must be a 3x3 matrix (rows) or a table of d1, d2, d3, got {v!r}")
+    bad = set(v) - {"d1", "d2", "d3"}
+    if bad:
+        raise _Bad(f"unknown key {sorted(bad)[0]!r} (a frame table takes d1, d2, d3)")
+    if len(v) < 2:
+        raise _Bad("a frame table needs at least two of d1, d2, d3")
+    d = {k: vec3(x) for k, x in v.items()}
+    if "d1" not in d:
+        d["d1"] = np.cross(d["d2"], d["d3"])
+    if "d2" not in d:
+        d["d2"] = np.cross(d["d3"], d["d1"])
+    if "d3" not in d:
+        d["d3"] = np.cross(d["d1"], d["d2"])
+    return np.column_stack([d["d1"], d["d2"], d["d3"]])
+
+
+# ---------------------------------------------------------------------- units (§5)
+class Units:
+    """Conversion of scene numbers to SI: identity without [scale]."""
+
+    def __init__(self, scale: Scale | None):
+        self.L, self.M, self.T = (1.0, 1.0, 1.0) if scale is None else scale._units()
+
+    def factor(self, length=0, mass=0, time=0) -> float:
+        return self.L**length * self.M**mass * self.T**time
+
+
+# dimensions (length, mass, time) of the keys that carry units outside the net
+DIM = {"g": (1, 0, -2), "force": (1, 1, -2), "torque": (2, 1, -2), "force_per_length": (0, 1, -2),
+       "torque_per_length": (1, 1, -2), "times": (0, 0, 1), "omega": (0, 0, -1),
+       "translational": (0, 0, -1), "rotational": (0, 0, -1), "velocity": (1, 0, -1),
+       "angular_velocity": (0, 0, -1), "center": (1, 0, 0), "k": (0, 1, -2), "nu": (0, 1, -1),
+       "kt": (2, 1, -2), "nut": (2, 1, -1), "rest_offset": (1, 0, 0),
+       "gamma": (0, 1, -1)}
+
+
+def _si(units: Units, key, value):
+    return value * units.factor(*DIM[key]) if key in DIM and value is not None else value
