@@ -130,8 +130,15 @@ def damp_velocities(p, model, state, h):
     mass-proportional viscous damping over time h (unconditionally stable)."""
     ct = math.exp(-p.translational * h)
     cr = math.exp(-p.rotational * h)
-    state.v[:] *= ct
-    state.w[:] *= cr
+    v, w = state.v, state.w
+    for i in range(v.shape[0]):
+        v[i, 0] *= ct
+        v[i, 1] *= ct
+        v[i, 2] *= ct
+    for e in range(w.shape[0]):
+        w[e, 0] *= cr
+        w[e, 1] *= cr
+        w[e, 2] *= cr
     for nd in range(state.node_v.shape[0]):
         if model.node_inv_mass[nd] > 0.0:  # an infinitely heavy node keeps its velocity
             for k in range(3):
