@@ -1,0 +1,155 @@
+"""Rod-rod contact as a declared effect: the lines' elements are capsules that push each other
+apart with a damped penalty force (kernel and method: cosnet.kernels.contact)."""
+
+from __future__ import annotations
+
+import math
+import weakref
+
+import numpy as np
+
+from .effects import Effect
+from .kernels import contact as _contact_kernels  # noqa: F401  (registers the contact kernel)
+from .kernels.contact import ContactParams, contact_energy
+from .net import Line
+
+MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
+
+
+class Contact(Effect):
+    """Contact between the capsules (centre segment, radius r = section.radius) of the lines'
+    elements: overlap eps = r_i + r_j - d_min gives the force max(0, k eps - gamma v_n) along
+    the normal, equal and opposite at the closest points (Elastica's rod collision).
+
+    k: penalty stiffness (N/m) > 0; gamma: damping (N s/m) >= 0 (0 conserves energy, with the
+    potential k eps^2 / 2 counted in sim.energy()).
+    self_contact: whether a line touches itself (a loop, a coil); segments closer along the
+    rest arc than self_gap (r_i + r_j) never touch (pi/2: any closer pair could only touch
+    if the centre line bent tighter than the radius).
+    lines: the lines taking part (Line objects or names); None: all of them. Segments of
+    lines meeting at a node are excluded near that node (see cosnet.kernels.contact).
+    """
+
+    def __init__(self, k: float, gamma: float = 0.0, self_contact: bool = True, lines=None,
+                 self_gap: float = 0.5 * math.pi):
+        k, gamma, self_gap = float(k), float(gamma), float(self_gap)
+        if not math.isfinite(k) or k <= 0:
+            raise ValueError(f"Contact: stiffness k must be a finite number > 0, got {k}")
+        if not math.isfinite(gamma) or gamma < 0:
+            raise ValueError(f"Contact: damping gamma must be a finite number >= 0, got {gamma}")
+        if not math.isfinite(self_gap) or self_gap < 0:
+            raise ValueError(f"Contact: self_gap must be a finite number >= 0, got {self_gap}")
+        if not isinstance(self_contact, (bool, np.bool_)):
+            raise ValueError(f"Contact: self_contact must be true or false, got {self_contact!r}")
+        if lines is not None:
+            lines = list(lines)
+            for x in lines:
+                if not isinstance(x, (Line, str)):
+                    raise ValueError(f"Contact: lines must be cosnet Lines or line names, got {x!r}")
+        self.k, self.gamma, self.self_gap = k, gamma, self_gap
+        self.self_contact = bool(self_contact)
+        self.lines = lines
+        self._bound = weakref.WeakKeyDictionary()
+
+    # ------------------------------------------------------------------ binding
+    def _lines(self, sim) -> list[Line]:
+        if self.lines is None:
+            return list(sim.net.lines)
+        out = []
+        for x in self.lines:
+            if isinstance(x, str):
+                try:
+                    x = sim.net.line(x)
+                except KeyError:
+                    have = [ln.name for ln in sim.net.lines]
+                    raise ValueError(f"Contact: unknown line {x!r}; lines are {have}") from None
+            sim.check_line(x, "Contact")
+            out.append(x)
+        return out
+
+    def bind(self, sim) -> ContactParams:
+        m, x = sim.model, sim.state.x
+        ne, nn = m.element_rest_length.shape[0], m.node_mass.shape[0]
+        vo, eo = m.line_vertex_offsets, m.line_element_offsets
+        index, geom = np.zeros((ne, 2), np.int64), np.zeros((ne, 4))
+        for line in sim.net.lines:
+            l = line.index
+            e0, n = eo[l], eo[l + 1] - eo[l]
+            cum = np.concatenate([[0.0], np.cumsum(m.element_rest_length[e0:e0 + n])])
+            geom[e0:e0 + n, 0] = [line.section_at((i + 0.5) / n).radius for i in range(n)]
+            geom[e0:e0 + n, 1], geom[e0:e0 + n, 2], geom[e0:e0 + n, 3] = cum[:-1], cum[1:], cum[-1] - cum[1:]
+            index[e0:e0 + n, 0] = vo[l] + np.arange(n)
+            index[e0:e0 + n, 1] = l
+        chosen = sorted({line.index for line in self._lines(sim)})
+        elements = np.concatenate([np.arange(eo[l], eo[l + 1]) for l in chosen] or [[]]).astype(np.int64)
+        count = elements.shape[0]
+        size = 16
+        while size < 2 * count:
+            size *= 2
+        p = ContactParams(
+            self.k, self.gamma, self.self_contact, self.self_gap, elements, index, geom,
+            self._node_gaps(m, x, nn), np.zeros(1, np.int64), np.zeros(1, np.int64),
+            np.zeros(size + 1, np.int64), np.zeros(size, np.int64), np.zeros(count, np.int64),
+            np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3), np.int64),
+            np.zeros(count, np.int64), np.zeros((count, 3), np.int64), np.zeros((count, 3)), np.zeros(count))
+        self._bound[sim] = p
+        return p
+
+    def _node_gaps(self, m, x, nn) -> np.ndarray:
+        """Junction exclusion factor per node: max(self_gap, 1 / sin(theta / 2)) over the
+        smallest angle theta between two lines leaving the node (in the initial shape); two
+        straight capsules leaving at theta overlap up to an arc sum of r_sum / sin(theta / 2)."""
+        gap = np.full(nn, self.self_gap)
+        vo = m.line_vertex_offsets
+        for nd in range(nn):
+            att = m.node_attach_list[m.node_attach_offsets[nd]:m.node_attach_offsets[nd + 1]]
+            dirs = []
+            for a in att:
+                l, end = divmod(int(a), 2)
+                v = vo[l] if end == 0 else vo[l + 1] - 1
+                u = x[v + 1] - x[v] if end == 0 else x[v - 1] - x[v]
+                nu = np.linalg.norm(u)
+                dirs.append(u / nu if nu > 0 else u)
+            for i in range(len(dirs)):
+                for j in range(i):
+                    half = 0.5 * math.acos(float(np.clip(np.dot(dirs[i], dirs[j]), -1.0, 1.0)))
+                    factor = MAX_NODE_GAP if math.sin(half) < 1.0 / MAX_NODE_GAP else 1.0 / math.sin(half)
+                    gap[nd] = max(gap[nd], factor)
+        return gap
+
+    def params(self, sim) -> ContactParams:
+        """The parameter record bound to sim (its counters are live)."""
+        try:
+            return self._bound[sim]
+        except KeyError:
+            raise ValueError("Contact: not declared in this simulation") from None
+
+    def narrow_tests(self, sim) -> int:
+        """Number of narrow-phase pair tests made so far in sim (candidates passing the grid)."""
+        return int(self.params(sim).narrow_tests[0])
+
+    def active_contacts(self, sim) -> int:
+        """Overlapping pairs found by the last force evaluation."""
+        return int(self.params(sim).active[0])
+
+    # ------------------------------------------------------------------ effect interface
+    def potential_energy(self, sim) -> float:
+        return float(contact_energy(self.params(sim), sim.model, sim.state))
+
+    def max_omega2(self, sim) -> float:
+        """2 k / m_min: two of the smallest free masses (interior vertices, or the composite
+        node of a line end) bouncing on one contact spring."""
+        m = sim.model
+        masses = []
+        for line in self._lines(sim):
+            v = slice(m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1)
+            masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
+            masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
+                          if 0 < m.node_mass[nd.index] < math.inf)
+        return 2.0 * self.k / min(masses) if masses else 0.0
+
+    def describe(self) -> str:
+        lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]
+        return (f"Contact(k={self.k:g} N/m, gamma={self.gamma:g} N s/m, "
+                f"self_contact={self.self_contact}, lines={lines})")
+

@@ -1,0 +1,340 @@
+"""Rod-rod contact: capsules along the line elements pushed apart by a damped penalty force.
+
+Every element (the segment from vertex i to vertex i+1 of a line) is a capsule of radius r_e.
+For two capsules whose centre segments come within d_min < r_i + r_j, the overlap
+eps = r_i + r_j - d_min drives a force along the unit normal n (from the closest point of j
+to that of i):
+
+    f_i = H(eps) max(0, k eps - gamma (v_i - v_j) . n) n,    f_j = -f_i,
+
+applied at the two closest points and shared between each segment's end vertices with the
+barycentric weights (1 - s, s) (Elastica's rod-collision penalty; the force is clamped at zero
+so that the damping never pulls). Undamped, it is the gradient of the potential k eps^2 / 2,
+which contact_energy evaluates.
+
+Broad phase: segments are binned by their midpoints into a uniform grid of cell size
+h >= max(segment length + 2 r) (recomputed at every call), counting-sorted into T ~ 2 m
+buckets (CSR-style offsets): the cells themselves, in raster order, when the bounding box holds
+at most T cells, else a spatial hash of the cell. Two segments can touch only if their cells
+are neighbours, so each segment scans its own cell and the 13 "forward" neighbours, then a
+bounding-sphere test, then the exclusions below, and only then the closest-point narrow
+phase; the cost is linear in the number of segments m. Nothing is allocated per call: all
+scratch arrays live in the parameter record.
+
+Excluded pairs (both measured along the rest arc, r_sum = r_i + r_j):
+  - same line, arc gap between the segments < self_gap r_sum (self_gap = pi/2 keeps out the
+    neighbours and every pair that would touch only if the centre line bent tighter than the
+    radius, while a loop of the line onto itself is still caught);
+  - segments of lines sharing a node whose arc distance through that node (plus the distance
+    between the two line ends on the node) < node_gap[node] r_sum: adjacency through a junction,
+    widened at acute junctions where the capsules overlap near the node by construction.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compose import load_kernel
+
+HASH_X, HASH_Y, HASH_Z = 73856093, 19349663, 83492791
+COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away or non-finite points)
+
+
+class ContactParams(NamedTuple):
+    k: float                  # penalty stiffness (N/m)
+    gamma: float              # damping coefficient (N s/m)
+    self_contact: bool        # contact between segments of the same line
+    self_gap: float           # same-line exclusion: arc gap < self_gap * r_sum
+    elements: np.ndarray      # (m,) int64 elements taking part
+    elem_index: np.ndarray    # (ne, 2) int64 first vertex and line of each element
+    elem_geom: np.ndarray     # (ne, 4) capsule radius; rest arc from the line start to the
+                              # element start, to its end; rest arc from its end to the line end
+    node_gap: np.ndarray      # (nn,) junction exclusion factor of each node
+    narrow_tests: np.ndarray  # (1,) int64 narrow-phase pair tests, accumulated over calls
+    active: np.ndarray        # (1,) int64 overlapping pairs found by the last call
+    bucket_start: np.ndarray  # (T+1,) int64 CSR offsets of the buckets (T a power of 2)
+    cursor: np.ndarray        # (T,) int64 counting-sort cursor
+    slot_bucket: np.ndarray   # (m,) int64 bucket of each slot (index into elements)
+    slot_mid: np.ndarray      # (m, 3) segment midpoints
+    slot_reach: np.ndarray    # (m,) half length + radius
+    slot_cell: np.ndarray     # (m, 3) int64 grid cell
+    sorted_elem: np.ndarray   # (m,) int64 elements grouped by bucket; the same order for:
+    sorted_cell: np.ndarray   # (m, 3) int64 their grid cells
+    sorted_mid: np.ndarray    # (m, 3) their midpoints
+    sorted_reach: np.ndarray  # (m,) their reaches
+
+
+@njit(cache=True, inline="always")
+def _clamp01(a):
+    return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
+
+
+@njit(cache=True)
+def segment_closest(px, py, pz, qx, qy, qz, ax, ay, az, bx, by, bz):
+    """Return (s, t): parameters of the closest points p + s (q - p), a + t (b - a) of two
+    segments, clamped to [0, 1] (Ericson, Real-Time Collision Detection, 5.1.9). Parallel
+    segments take the middle of their overlap (the end nearest the other when they do not
+    overlap); degenerate segments are points."""
+    d1x, d1y, d1z = qx - px, qy - py, qz - pz
+    d2x, d2y, d2z = bx - ax, by - ay, bz - az
+    rx, ry, rz = px - ax, py - ay, pz - az
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    tiny = 1e-300
+    if a <= tiny and e <= tiny:
+        return 0.0, 0.0
+    if a <= tiny:
+        return 0.0, _clamp01(f / e)
+    c = d1x * rx + d1y * ry + d1z * rz
+    if e <= tiny:
+        return _clamp01(-c / a), 0.0
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    denom = a * e - b * b
+    if denom > 1e-12 * a * e:
+        s = _clamp01((b * f - c * e) / denom)
+    else:  # parallel: the other segment's extent projected on this one, [-c, b - c] / a
+        lo, hi = -c / a, (b - c) / a
+        if lo > hi:
+            lo, hi = hi, lo
+        lo, hi = max(lo, 0.0), min(hi, 1.0)
+        s = 0.5 * (lo + hi) if lo <= hi else (0.0 if hi < 0.0 else 1.0)
+    t = (b * s + f) / e
+    if t < 0.0:
+        return _clamp01(-c / a), 0.0
+    if t > 1.0:
+        return _clamp01((b - c) / a), 1.0
+    return s, t
+
+
+@njit(cache=True)
+def closest_points(p, q, a, b):
+    """Return (s, t, distance) of the closest points of segments [p, q] and [a, b] ((3,) arrays)."""
+    s, t = segment_closest(p[0], p[1], p[2], q[0], q[1], q[2], a[0], a[1], a[2], b[0], b[1], b[2])
+    d = 0.0
+    for k in range(3):
+        u = p[k] + s * (q[k] - p[k]) - a[k] - t * (b[k] - a[k])
+        d += u * u
+    return s, t, math.sqrt(d)
+
+
+@njit(cache=True, inline="always")
+def _hash(cx, cy, cz, mask):
+    return ((cx * HASH_X) ^ (cy * HASH_Y) ^ (cz * HASH_Z)) & mask
+
+
+@njit(cache=True, inline="always")
+def _cell(x, x0, h):
+    y = (x - x0) / h
+    if not y >= -COORD_LIMIT:  # also catches NaN
+        y = -COORD_LIMIT
+    elif y > COORD_LIMIT:
+        y = COORD_LIMIT
+    return np.int64(math.floor(y))
+
+
+@njit(cache=True, inline="always")
+def _bucket(cx, cy, cz, nx, ny, nz, mask):
+    """Bucket of cell (cx, cy, cz): its raster index in a dense grid (nx > 0; -1 outside the
+    grid), else its hash."""
+    if nx > 0:
+        if cx < 0 or cy < 0 or cz < 0 or cx >= nx or cy >= ny or cz >= nz:
+            return -1
+        return cx + nx * (cy + ny * cz)
+    return _hash(cx, cy, cz, mask)
+
+
+@njit(cache=True)
+def build_grid(p, x):
+    """Update the grid scratch of p given the vertex positions x: bin the segments by their
+    midpoints into cells of size h >= max(length + 2 r) and counting-sort them by bucket into
+    the sorted_* arrays. The buckets are the cells of a dense grid over the bounding box when
+    it has at most T cells (raster order keeps neighbours close in memory), else a spatial hash
+    into T buckets. Return (nx, ny, nz): the dense grid's shape, or (0, 0, 0) when hashed."""
+    m = p.elements.shape[0]
+    mid, reach, cell, radius = p.slot_mid, p.slot_reach, p.slot_cell, p.elem_geom
+    h = 0.0
+    x0 = y0 = z0 = np.inf
+    x1 = y1 = z1 = -np.inf
+    for i in range(m):
+        e = p.elements[i]
+        v = p.elem_index[e, 0]
+        s2 = 0.0
+        for k in range(3):
+            mid[i, k] = 0.5 * (x[v, k] + x[v + 1, k])
+            d = x[v + 1, k] - x[v, k]
+            s2 += d * d
+        x0, y0, z0 = min(x0, mid[i, 0]), min(y0, mid[i, 1]), min(z0, mid[i, 2])
+        x1, y1, z1 = max(x1, mid[i, 0]), max(y1, mid[i, 1]), max(z1, mid[i, 2])
+        reach[i] = 0.5 * math.sqrt(s2) + radius[e, 0]
+        h = max(h, 2.0 * reach[i])
+    h = 1.0000001 * h + 1e-300
+    size = p.cursor.shape[0]
+    nx = ny = nz = 0
+    cells = ((x1 - x0) / h + 1.0) * ((y1 - y0) / h + 1.0) * ((z1 - z0) / h + 1.0)
+    if m > 0 and cells <= size:  # False for NaN
+        nx, ny, nz = int((x1 - x0) / h) + 1, int((y1 - y0) / h) + 1, int((z1 - z0) / h) + 1
+    else:
+        x0 = y0 = z0 = 0.0
+    start, cursor, bucket = p.bucket_start, p.cursor, p.slot_bucket
+    start[:] = 0
+    for i in range(m):
+        cx, cy, cz = _cell(mid[i, 0], x0, h), _cell(mid[i, 1], y0, h), _cell(mid[i, 2], z0, h)
+        if nx > 0:  # round-off at the upper faces of the box
+            cx, cy, cz = min(cx, nx - 1), min(cy, ny - 1), min(cz, nz - 1)
+        cell[i, 0], cell[i, 1], cell[i, 2] = cx, cy, cz
+        bucket[i] = _bucket(cx, cy, cz, nx, ny, nz, size - 1)
+        start[bucket[i] + 1] += 1
+    for b in range(size):
+        start[b + 1] += start[b]
+        cursor[b] = start[b]
+    for i in range(m):
+        n = cursor[bucket[i]]
+        cursor[bucket[i]] += 1
+        p.sorted_elem[n] = p.elements[i]
+        for k in range(3):
+            p.sorted_cell[n, k] = cell[i, k]
+            p.sorted_mid[n, k] = mid[i, k]
+        p.sorted_reach[n] = reach[i]
+    return nx, ny, nz
+
+
+@njit(cache=True)
+def excluded(eidx, egeom, attach_node, attach_offset, node_gap, self_contact, self_gap, e1, e2, r_sum):
+    """True if elements e1, e2 are neighbours along a line or through a junction node."""
+    l1, l2 = eidx[e1, 1], eidx[e2, 1]
+    if l1 == l2:
+        if not self_contact:
+            return True
+        gap = egeom[e2, 1] - egeom[e1, 2] if e1 < e2 else egeom[e1, 1] - egeom[e2, 2]
+        if gap < self_gap * r_sum:
+            return True
+    for a in range(2):
+        nd = attach_node[2 * l1 + a]
+        da = egeom[e1, 1] if a == 0 else egeom[e1, 3]
+        for b in range(2):
+            if (l1 == l2 and a == b) or attach_node[2 * l2 + b] != nd:
+                continue
+            db = egeom[e2, 1] if b == 0 else egeom[e2, 3]
+            off = 0.0
+            for k in range(3):
+                u = attach_offset[2 * l1 + a, k] - attach_offset[2 * l2 + b, k]
+                off += u * u
+            if da + db + math.sqrt(off) < node_gap[nd] * r_sum:
+                return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _spread(f, a, wa, wb, gx, gy, gz):
+    """Add the force g (lab) to vertices a, a + 1 with weights wa, wb."""
+    f[a, 0] += wa * gx
+    f[a, 1] += wa * gy
+    f[a, 2] += wa * gz
+    f[a + 1, 0] += wb * gx
+    f[a + 1, 1] += wb * gy
+    f[a + 1, 2] += wb * gz
+
+
+@njit(cache=True)
+def pair_load(x, v, f, a, b, r_sum, k, gamma, dx, dy, dz, apply):
+    """Narrow phase of the segments starting at vertices a and b (radii summing to r_sum,
+    midpoints dx, dy, dz apart): return the energy k eps^2 / 2 (0 when apart) and, if apply,
+    add the pair's forces to f."""
+    s, t = segment_closest(x[a, 0], x[a, 1], x[a, 2], x[a + 1, 0], x[a + 1, 1], x[a + 1, 2],
+                           x[b, 0], x[b, 1], x[b, 2], x[b + 1, 0], x[b + 1, 1], x[b + 1, 2])
+    nx = (1 - s) * x[a, 0] + s * x[a + 1, 0] - (1 - t) * x[b, 0] - t * x[b + 1, 0]
+    ny = (1 - s) * x[a, 1] + s * x[a + 1, 1] - (1 - t) * x[b, 1] - t * x[b + 1, 1]
+    nz = (1 - s) * x[a, 2] + s * x[a + 1, 2] - (1 - t) * x[b, 2] - t * x[b + 1, 2]
+    d = math.sqrt(nx * nx + ny * ny + nz * nz)
+    eps = r_sum - d
+    if eps <= 0.0:
+        return 0.0
+    if apply:
+        if d > 1e-9 * r_sum:
+            nx, ny, nz = nx / d, ny / d, nz / d
+        else:  # centre lines cross: push along the midpoint offset (a subgradient)
+            nx, ny, nz = dx, dy, dz
+            dn = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if dn == 0.0:
+                nx, ny, nz, dn = 0.0, 0.0, 1.0, 1.0
+            nx, ny, nz = nx / dn, ny / dn, nz / dn
+        vn = (nx * ((1 - s) * v[a, 0] + s * v[a + 1, 0] - (1 - t) * v[b, 0] - t * v[b + 1, 0])
+              + ny * ((1 - s) * v[a, 1] + s * v[a + 1, 1] - (1 - t) * v[b, 1] - t * v[b + 1, 1])
+              + nz * ((1 - s) * v[a, 2] + s * v[a + 1, 2] - (1 - t) * v[b, 2] - t * v[b + 1, 2]))
+        fn = k * eps - gamma * vn
+        if fn > 0.0:
+            _spread(f, a, 1.0 - s, s, fn * nx, fn * ny, fn * nz)
+            _spread(f, b, t - 1.0, -t, fn * nx, fn * ny, fn * nz)
+    return 0.5 * k * eps * eps
+
+
+# the 13 neighbour offsets with (dz, dy, dx) lexicographically positive: with the own cell
+# they visit every pair of neighbouring cells exactly once
+FORWARD = np.array([(dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)
+                    if (dz, dy, dx) > (0, 0, 0)], dtype=np.int64)
+
+
+@njit(cache=True)
+def sweep(p, model, state, f, apply):
+    """Visit every candidate pair once (grid broad phase, bounding spheres, exclusions, then
+    the narrow phase); return the contact energy and, if apply, add the contact forces to f
+    (nv, 3) and count the narrow-phase tests and the contacts."""
+    nx, ny, nz = build_grid(p, state.x)
+    mask = p.cursor.shape[0] - 1
+    forward = FORWARD
+    # every array the loops touch, taken out of the records once (no attribute access inside)
+    start, elem, cell, mid, reach = p.bucket_start, p.sorted_elem, p.sorted_cell, p.sorted_mid, p.sorted_reach
+    eidx, egeom, node_gap = p.elem_index, p.elem_geom, p.node_gap
+    attach_node, attach_offset, x, v = model.attach_node, model.attach_offset, state.x, state.v
+    k, gamma, self_contact, self_gap = p.k, p.gamma, p.self_contact, p.self_gap
+    energy, tests, active = 0.0, 0, 0
+    for i in range(elem.shape[0]):
+        cx, cy, cz = cell[i, 0], cell[i, 1], cell[i, 2]
+        for o in range(-1, forward.shape[0]):  # -1: own cell (the later segments of the bucket)
+            if o < 0:
+                ox, oy, oz = cx, cy, cz
+                first, last = i + 1, start[_bucket(cx, cy, cz, nx, ny, nz, mask) + 1]
+            else:
+                ox, oy, oz = cx + forward[o, 0], cy + forward[o, 1], cz + forward[o, 2]
+                b = _bucket(ox, oy, oz, nx, ny, nz, mask)
+                if b < 0:
+                    continue
+                first, last = start[b], start[b + 1]
+            for j in range(first, last):
+                if cell[j, 0] != ox or cell[j, 1] != oy or cell[j, 2] != oz:
+                    continue  # another cell sharing the hash bucket
+                dx, dy, dz = mid[i, 0] - mid[j, 0], mid[i, 1] - mid[j, 1], mid[i, 2] - mid[j, 2]
+                rr = reach[i] + reach[j]
+                if dx * dx + dy * dy + dz * dz > rr * rr:
+                    continue
+                ei, ej = elem[i], elem[j]
+                r_sum = egeom[ei, 0] + egeom[ej, 0]
+                if excluded(eidx, egeom, attach_node, attach_offset, node_gap, self_contact, self_gap,
+                            ei, ej, r_sum):
+                    continue
+                tests += 1
+                e = pair_load(x, v, f, eidx[ei, 0], eidx[ej, 0], r_sum, k, gamma, dx, dy, dz, apply)
+                energy += e
+                active += e > 0.0
+    if apply:
+        p.narrow_tests[0] += tests
+        p.active[0] = active
+    return energy
+
+
+@load_kernel(ContactParams)
+@njit(cache=True)
+def add_contact(p, model, state, loads):
+    """Update loads.f (nv, 3) given the vertex positions and velocities: the penalty contact
+    forces of every overlapping pair of capsules (see the module docstring); p.narrow_tests
+    and p.active count the narrow-phase tests and the contacts."""
+    sweep(p, model, state, loads.f, True)
+
+
+@njit(cache=True)
+def contact_energy(p, model, state):
+    """Return the contact potential: the sum of k eps^2 / 2 over overlapping pairs."""
+    return sweep(p, model, state, state.x, False)
