@@ -32,6 +32,11 @@ class Effect:
         """Potential energy of a conservative effect (0 for others)."""
         return 0.0
 
+    def energy_scale(self, sim) -> float:
+        """Energy this effect can exchange with the motion of the net as built (J); the
+        instability watch tolerates Verlet's error on it. 0 for effects that store none."""
+        return 0.0
+
     def max_omega2(self, sim) -> float:
         """Upper bound on the squared frequency this effect's stiffness adds to any mass of
         the net (k / m for a penalty spring); the stable step shrinks accordingly. 0 when the
@@ -80,6 +85,12 @@ class Gravity(Effect):
             if math.isfinite(node.mass) and node.mass > 0:
                 e -= node.mass * float(np.dot(self.g, sim.node_position(node)))
         return e
+
+    def energy_scale(self, sim) -> float:
+        """Weight of the net times the diagonal of its bounding box."""
+        x = np.concatenate([sim.state.x, sim.state.node_x])
+        size = float(np.linalg.norm(x.max(axis=0) - x.min(axis=0)))
+        return sim.net.total_mass() * float(np.linalg.norm(self.g)) * size
 
     def describe(self):
         return f"Gravity(g={self.g.tolist()})"

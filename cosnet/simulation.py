@@ -194,8 +194,11 @@ class Simulation:
             if last is not None and abs(e_now - last) <= 1e-12 * self._scale:
                 return
             self._e_start = e_now
-            # floor: round-off of a net at rest must not count as growth (1e-6 strain energy)
+            # floor: round-off of a net at rest must not count as growth (1e-6 strain energy),
+            # nor Verlet's error on the energy an effect can feed the motion (a net let go
+            # from rest under gravity: its weight times its size)
             floor = 1e-12 * float(np.sum(self.model.element_stiffness[:, 2] * self.model.element_rest_length))
+            floor = max(floor, sum(e.energy_scale(self) for e in self.effects))
             self._scale = max(p["kinetic"] + p["strain"] + abs(p["potential"]), floor)
 
     def _check_health(self):
