@@ -2,7 +2,9 @@
 
     cosnet run [SCENE] [--out DIR] [--until T] [--resume]   run a scene, writing a VTK series
     cosnet info SCENE                                        net size, mass, stable dt, effects
+    cosnet modes SCENE [--count K] [--out DIR] [--analytic]  normal modes: spectrum, VTK shapes
     cosnet render DIR [--png|--gif|--mp4] [--field NAME]     pictures of a written series
+    cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
 
 ``run`` writes a frame, a probes row and a checkpoint every output interval. Frame k sits
 exactly at step ceil(k * interval / dt), and the steps between frames are taken in chunks
@@ -24,14 +26,33 @@ PROBES = "probes.csv"
 CHUNK = 2000  # steps per compiled call; boundaries at multiples of CHUNK (see module docstring)
 
 
-def default_scene() -> Path:
-    """cases/bridge.toml of the repository checkout (or of the installed package)."""
+def cases_dir() -> Path:
+    """The ready cases: cases/ of a source checkout, or the copy installed as cosnet.cases."""
     here = Path(__file__).resolve().parent
-    for cand in (here.parent / "cases" / "bridge.toml", here / "cases" / "bridge.toml",
-                 Path.cwd() / "cases" / "bridge.toml"):
-        if cand.exists():
+    for cand in (here.parent / "cases", here / "cases"):
+        if (cand / "bridge.toml").exists():
             return cand
-    raise ValueError("no SCENE given and cases/bridge.toml was not found next to the package")
+    raise ValueError("the ready cases (cases/*.toml) were not found next to the package")
+
+
+def default_scene() -> Path:
+    """cases/bridge.toml, the suspension bridge of Figure 1.1."""
+    return cases_dir() / "bridge.toml"
+
+
+def scene_path(arg: str | None) -> Path:
+    """A scene file given on the command line, or the name of a ready case (``cantilever``,
+    ``hard/column``), or the default case when none is given."""
+    if arg is None:
+        return default_scene()
+    p = Path(arg)
+    if p.exists() or p.suffix == ".toml":
+        return p
+    case = cases_dir() / f"{arg}.toml"
+    if case.exists():
+        return case
+    names = sorted(str(c.relative_to(cases_dir()).with_suffix("")) for c in cases_dir().rglob("*.toml"))
+    raise ValueError(f"{arg}: no such scene file, nor a ready case; cases are {', '.join(names)}")
 
 
 def frame_steps(k: int, interval: float, dt: float, end_steps: int) -> int:
@@ -96,7 +117,7 @@ def _keep_probe_rows(path: Path, header: str, last_frame: int):
 def cmd_run(args) -> int:
     from .io import SeriesWriter
     from .scene import load_scene
-    scene = load_scene(args.scene or default_scene())
+    scene = load_scene(scene_path(args.scene))
     out = Path(args.out)
     until = scene.run.until if args.until is None else float(args.until)
     if not until > 0:
@@ -146,7 +167,7 @@ def cmd_run(args) -> int:
 
 def cmd_info(args) -> int:
     from .scene import load_scene
-    scene = load_scene(args.scene)
+    scene = load_scene(scene_path(args.scene))
     net = scene.net
     sim = scene.simulation()
     nv = sum(l.elements + 1 for l in net.lines)
@@ -168,6 +189,23 @@ def cmd_info(args) -> int:
     return 0
 
 
+def cmd_modes(args) -> int:
+    from .modes import main_modes
+    from .scene import load_scene
+    scene = load_scene(scene_path(args.scene))
+    if args.count < 1:
+        raise ValueError(f"--count must be a positive integer, got {args.count}")
+    out = None if args.no_output else Path(args.out)
+    res = main_modes(scene, count=args.count, out_dir=out, frames=args.frames, sigma=args.sigma)
+    if args.analytic:
+        from .lincos import analytic_modes
+        exact = analytic_modes(scene.net, count=len(res))
+        print("mode  discrete (rad/s)  analytic (rad/s)  relative difference")
+        for j, (w, we) in enumerate(zip(res.omega, exact.omega)):
+            print(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
+    return 0
+
+
 def cmd_render(args) -> int:
     from .render import render
     kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
@@ -177,16 +215,39 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_accuracy(args) -> int:
+    """Exit code 0 with a recommendation, 1 when no setting reaches --tol."""
+    from .accuracy import check_tol, report, study
+    tol = check_tol(args.tol)
+    if args.window is not None and not (math.isfinite(args.window) and args.window > 0):
+        raise ValueError(f"--window must be a positive number of seconds, got {args.window}")
+    path = scene_path(args.scene)
+    log = (lambda msg: print(msg, file=sys.stderr)) if args.verbose else None
+    st = study(path, window=args.window, probes=args.probe, log=log)
+    text, best = report(st, tol)
+    print(text)
+    return 0 if best is not None else 1
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="cosnet", description="Dynamics of Cosserat nets.")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene and write a VTK time series")
-    r.add_argument("scene", nargs="?", help="scene file (default: cases/bridge.toml)")
+    r.add_argument("scene", nargs="?", help="scene file or ready case name (default: bridge)")
     r.add_argument("--out", default="out", help="output directory (default: ./out)")
     r.add_argument("--until", type=float, help="end time in s (default: the scene's [run] until)")
     r.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     i = sub.add_parser("info", help="describe a scene")
-    i.add_argument("scene")
+    i.add_argument("scene", help="scene file or ready case name")
+    m = sub.add_parser("modes", help="normal modes of a scene's net (§6): spectrum and VTK mode shapes")
+    m.add_argument("scene", help="scene file or ready case name")
+    m.add_argument("--count", type=int, default=6, help="how many elastic modes (default 6)")
+    m.add_argument("--out", default="modes", help="directory for spectrum.csv and mode_JJ.pvd (default ./modes)")
+    m.add_argument("--no-output", action="store_true", help="print the spectrum only")
+    m.add_argument("--frames", type=int, default=16, help="frames per animated period (default 16)")
+    m.add_argument("--sigma", type=float, default=0.0, help="find the modes nearest this angular frequency")
+    m.add_argument("--analytic", action="store_true",
+                   help="also the exact modes of the continuous net (straight uniform lines)")
     v = sub.add_parser("render", help="render a written series off screen")
     v.add_argument("dir")
     g = v.add_mutually_exclusive_group()
@@ -197,13 +258,21 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--frame", type=int, default=-1, help="frame for --png (default: last)")
     v.add_argument("--every", type=int, default=1, help="use every n-th frame for --gif/--mp4")
     v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4)")
+    a = sub.add_parser("accuracy", help="estimate the error and cost of refined settings")
+    a.add_argument("scene", help="scene file or ready case name")
+    a.add_argument("--tol", default="1e-4", help="position error to reach, m (default: 1e-4)")
+    a.add_argument("--window", type=float, help="simulated window in s (default: 5%% of until)")
+    a.add_argument("--probe", action="append", metavar="NODE|LINE@s",
+                   help="probe point (repeatable; default: every node)")
+    a.add_argument("--verbose", action="store_true", help="list the runs on stderr")
     return p
 
 
 def main(argv=None) -> int:
     args = parser().parse_args(argv)
     try:
-        return {"run": cmd_run, "info": cmd_info, "render": cmd_render}[args.command](args)
+        return {"run": cmd_run, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
+                "accuracy": cmd_accuracy}[args.command](args)
     except ValueError as e:
         print(f"cosnet: error: {e}", file=sys.stderr)
         return 2

@@ -1,0 +1,122 @@
+"""cosnet as a cosseratbench solver (cosseratbench 0.3.0, ``cosseratbench.solver.Solver``).
+
+Each scenario rod becomes one cosnet line between two nodes: a clamped end is a fixed node
+(position and rotation held), a pinned end a node of infinite mass with free rotation, a free
+end a point junction (mass 0). The line is built unstretched and straight in its rest state,
+as the scenario says (``rest_curvature = 0``; rest lengths length / n, like the PyElastica
+adapter), and then moved to where the scenario starts it: its vertices to
+``Rod.nodes(n)`` (which may be stretched, as in the pendulum), its free end node with them.
+Point loads are NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario
+gets mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
+choice). The time step is cosnet's estimated stable step for position Verlet, shortened so
+a whole number of steps fits between frames.
+
+Outside cosnet's model (the run is then reported as unsupported): driven clamps
+(``Rod.start_motion`` / ``end_motion``: cosnet has no prescribed motion of a node) and
+obstacles or rod-rod contact (cosnet has no contact).
+"""
+
+from __future__ import annotations
+
+import math
+from importlib.metadata import version
+
+import numpy as np
+from cosseratbench.scenario import End, EndCondition, Scenario
+from cosseratbench.solver import Capability, Diverged
+from cosseratbench.trajectory import Trajectory
+
+import cosnet
+
+
+class CosnetSolver:
+    name = "cosnet"
+    backend_version = version("cosnet")
+    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR})
+
+    def __init__(self, time_step_scale: float = 1.0, stepper: str = "verlet") -> None:
+        if not 0 < time_step_scale <= 1:
+            raise ValueError(f"time_step_scale must be in (0, 1], got {time_step_scale}")
+        self.time_step_scale = float(time_step_scale)
+        self.stepper = stepper
+
+    # ------------------------------------------------------------------ building
+    @staticmethod
+    def _check(scenario: Scenario) -> None:
+        if scenario.obstacles:
+            raise NotImplementedError("cosnet has no contact with obstacles")
+        for rod in scenario.rods:
+            if rod.start_motion is not None or rod.end_motion is not None:
+                raise NotImplementedError("cosnet has no driven (prescribed-motion) clamps")
+
+    @staticmethod
+    def _node(net, position, condition: EndCondition, name: str):
+        if condition is EndCondition.CLAMPED:
+            return net.add_node(position, fixed=True, name=name)
+        if condition is EndCondition.PINNED:
+            return net.add_node(position, mass=math.inf, name=name)
+        return net.add_node(position, name=name)
+
+    def _build(self, scenario: Scenario, n_elements: int):
+        self._check(scenario)
+        net = cosnet.Net()
+        placed, effects = [], []
+        for i, rod in enumerate(scenario.rods):
+            nodes = rod.nodes(n_elements)
+            t = np.diff(nodes, axis=0)
+            t /= np.linalg.norm(t, axis=1, keepdims=True)
+            rest = nodes[0] + np.concatenate(([np.zeros(3)],
+                                              np.cumsum(t * rod.length / n_elements, axis=0)))
+            a = self._node(net, rest[0], rod.start, f"rod{i}_start")
+            b = self._node(net, rest[-1], rod.end, f"rod{i}_end")
+            m = rod.material
+            line = net.add_line(a, b, material=cosnet.Material(E=m.youngs_modulus, G=m.shear_modulus,
+                                                               density=m.density),
+                                section=cosnet.Circle(rod.radius), elements=n_elements,
+                                points=rest, rest_curvature=(0.0, 0.0, 0.0), d1=rod.normal,
+                                name=f"rod{i}")
+            placed.append((line, b, nodes))
+            for load in rod.loads:
+                effects.append(cosnet.NodeLoad(a if load.at is End.START else b, force=load.force))
+        if any(scenario.gravity):
+            effects.append(cosnet.Gravity(scenario.gravity))
+        if scenario.quasi_static:
+            effects.append(cosnet.Damping(2.0 * scenario.slowest_frequency()))
+        return net, placed, effects
+
+    def _steps(self, sim, scenario: Scenario, n_frames: int) -> tuple[float, int]:
+        interval = scenario.duration / (n_frames - 1)
+        per_frame = max(1, math.ceil(interval / (self.time_step_scale * sim.stable_dt())))
+        return interval / per_frame, per_frame
+
+    def settings(self, scenario: Scenario, *, n_elements: int, n_frames: int) -> dict:
+        try:
+            net, _, effects = self._build(scenario, n_elements)
+        except NotImplementedError:
+            return {}
+        sim = cosnet.Simulation(net, effects=effects, stepper=self.stepper)
+        dt, _ = self._steps(sim, scenario, n_frames)
+        return {"integrator": f"cosnet {self.stepper}", "time_step": dt,
+                "damping_rate": 2.0 * scenario.slowest_frequency() if scenario.quasi_static else 0.0}
+
+    # ------------------------------------------------------------------ running
+    def run(self, scenario: Scenario, *, n_elements: int, n_frames: int) -> Trajectory:
+        net, placed, effects = self._build(scenario, n_elements)
+        sim = cosnet.Simulation(net, effects=effects, stepper=self.stepper)
+        dt, per_frame = self._steps(sim, scenario, n_frames)
+        sim = cosnet.Simulation(net, effects=effects, stepper=self.stepper, dt=dt)
+        for line, end_node, nodes in placed:       # move the unstretched build to the start
+            sim.line_positions(line)[:] = nodes
+            sim.state.node_x[end_node.index] = nodes[-1]
+        frames = [[sim.line_positions(l).copy()] for l, _, _ in placed]
+        turned = [[sim.line_directors(l)[:, :, 0].copy()] for l, _, _ in placed]
+        try:
+            for _ in range(n_frames - 1):
+                sim.run(steps=per_frame)
+                for (l, _, _), xs, ds in zip(placed, frames, turned):
+                    xs.append(sim.line_positions(l).copy())
+                    ds.append(sim.line_directors(l)[:, :, 0].copy())
+        except RuntimeError as e:                   # cosnet's InstabilityError
+            raise Diverged(str(e), time=sim.time) from None
+        return Trajectory(np.linspace(0.0, scenario.duration, n_frames),
+                          tuple(np.stack(x) for x in frames), tuple(np.stack(d) for d in turned))
