@@ -10,6 +10,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .backend import STEP
 from .compose import flow_kernel, load_kernel
 from .rotations import cross, quat_rotate, quat_rotate_inv
 
@@ -44,18 +45,38 @@ class DampingParams(NamedTuple):
 
 
 @njit(cache=True, inline="always")
+def interp_table(t, times, values):
+    """Return the piecewise-linear interpolation of (times, values) at t, held constant
+    outside the table (as np.interp, which needs an allocation numba's step kernels avoid)."""
+    n = times.shape[0]
+    if t <= times[0]:
+        return values[0]
+    if t >= times[n - 1]:
+        return values[n - 1]
+    lo, hi = 0, n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if times[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    w = (t - times[lo]) / (times[hi] - times[lo])
+    return values[lo] + w * (values[hi] - values[lo])
+
+
+@njit(cache=True, inline="always")
 def load_amplitude(p, t):
     """Return the time factor of a load: table interpolation times sin(omega t + phase)."""
     a = 1.0
     if p.times.shape[0] > 0:
-        a = np.interp(t, p.times, p.values)
+        a = interp_table(t, p.times, p.values)
     if p.omega != 0.0:
         a *= math.sin(p.omega * t + p.phase)
     return a
 
 
 @load_kernel(GravityParams)
-@njit(cache=True)
+@njit(**STEP)
 def add_gravity(p, model, state, loads):
     """Update loads.f (nv,3), loads.node_f, loads.node_tau given vertex and node masses:
     f = mu g along the lines and F = M g on the nodes (1.4)-(1.5)."""
@@ -89,7 +110,7 @@ def add_node_force(model, state, loads, nd, fx, fy, fz):
 
 
 @load_kernel(NodeLoadParams)
-@njit(cache=True)
+@njit(**STEP)
 def add_node_loads(p, model, state, loads):
     """Update loads.node_f, loads.node_tau given the node loads F(t, nu), L(t, nu) (1.5)/(1.7)."""
     a = load_amplitude(p, state.clock[0])
@@ -101,7 +122,7 @@ def add_node_loads(p, model, state, loads):
 
 
 @load_kernel(LineLoadParams)
-@njit(cache=True)
+@njit(**STEP)
 def add_line_loads(p, model, state, loads):
     """Update loads.f (nv,3), loads.tau (ne,3) given distributed loads f, l per unit length
     on the listed lines (1.4): vertices take f times their Voronoi length, elements l times
@@ -124,7 +145,7 @@ def add_line_loads(p, model, state, loads):
 
 
 @flow_kernel(DampingParams)
-@njit(cache=True)
+@njit(**STEP)
 def damp_velocities(p, model, state, h):
     """Update state.v, state.w, state.node_v, state.node_w by the exact flow of linear,
     mass-proportional viscous damping over time h (unconditionally stable)."""

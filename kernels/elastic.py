@@ -11,7 +11,7 @@ and the time stepper is variational: energy has no secular drift.
 
 from numba import njit, prange
 
-from .backend import dispatch3
+from .backend import STEP, dispatch3
 
 from .rotations import FAST, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_rotation
 
@@ -46,7 +46,7 @@ def end_frame(model, state, a):
     return quat_mul(nq[0], nq[1], nq[2], nq[3], xq[0], xq[1], xq[2], xq[3])
 
 
-@njit(cache=True, fastmath=FAST)  # not inline="always": called inside prange (see backend.py)
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
 def compute_line_loads(l, model, state, loads):
     """Update loads.f, loads.tau, loads.end_tau of line l given state.x, state.q, state.node_q
     (3.2)-(3.3), (3.22)-(3.25)."""
@@ -103,7 +103,7 @@ def compute_line_loads(l, model, state, loads):
     et[0], et[1], et[2] = rx, ry, rz
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def compute_internal_loads(model, state, loads):
     """Update loads.f (nv,3), loads.tau (ne,3), loads.end_tau (na,3) given the state: the
     internal force and torque balances (3.2)/(3.3) of every line."""
@@ -121,7 +121,7 @@ def compute_internal_loads_parallel(model, state, loads):
 internal_loads_on = dispatch3(compute_internal_loads, compute_internal_loads_parallel)
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def line_strain_energy(l, model, state):
     """Return the strain energy (3.25) of line l given state.x, state.q, state.node_q."""
     x, q = state.x, state.q

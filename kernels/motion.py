@@ -11,7 +11,7 @@ import math
 
 from numba import literally, njit, prange
 
-from .backend import dispatch4
+from .backend import STEP, dispatch4
 
 from .rotations import FAST, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
@@ -109,7 +109,7 @@ def drift_vertex(i, x, v, h):
     x[i, 2] += h * v[i, 2]
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def drift_bodies(model, state, h, order):
     """Update vertex positions and element frames by the free flight of time h."""
     literally(order)  # one specialisation per scheme order: the untaken branch is compiled out
@@ -134,7 +134,7 @@ def drift_bodies_parallel(model, state, h, order):
 drift_bodies_on = dispatch4(drift_bodies, drift_bodies_parallel)
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def drift_state(model, state, h, order, backend):
     """Update state (positions, quaternions, clock) by the free flight of time h, then place
     every line end on its node (1.1)/(1.3)."""
@@ -154,7 +154,7 @@ def drift_state(model, state, h, order, backend):
     state.clock[0] += h
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def place_line_ends(model, state):
     """Update state.x, state.v at every line end given its node: r_lambda = r + D xi (1.1)."""
     for a in range(model.attach_node.shape[0]):
@@ -174,7 +174,7 @@ def place_line_ends(model, state):
         state.v[vt, 2] = state.node_v[nd, 2] + uz
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def gather_node_loads(model, state, loads):
     """Update loads.node_f, loads.node_tau (lab, about the centre of mass) given the loads at
     the line ends: F - sum Omega n_lambda and L - sum Omega (m_lambda + zeta x n_lambda)
@@ -208,7 +208,7 @@ def kick_row(i, u, inv_m, load, h):
     u[i, 2] += h * inv_m[i, 2] * load[i, 2]
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def kick_bodies(model, state, loads, h):
     """Update vertex velocities and element angular velocities given the loads over time h."""
     for i in range(state.v.shape[0]):
@@ -230,7 +230,7 @@ def kick_bodies_parallel(model, state, loads, h):
 kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**STEP)
 def kick_state(model, state, loads, h, backend):
     """Update velocities and body angular momenta given the loads over time h:
     mu r'' = n' + f (3.2), (I w)' = m' + r' x n + l (3.3), (4.3), (4.4)."""

@@ -92,3 +92,13 @@ def test_scaled_net_follows_the_same_trajectory():
     assert math.isclose(b.energy() * scale.force * scale.length, a.energy(), rel_tol=1e-10)
     with pytest.raises(ValueError, match="kappa"):
         cosnet.Scale(time=1.0, length=1.0, area=1.0, density=1.0, torque=2.0)
+
+
+def test_load_table_interpolates_as_numpy_and_holds_its_ends():
+    """The step's allocation-free table lookup equals np.interp, ends held."""
+    from cosnet.kernels.effects import interp_table
+    rng = np.random.default_rng(3)
+    times = np.cumsum(rng.uniform(0.01, 1.0, 12))
+    values = rng.standard_normal(12)
+    for t in np.concatenate([rng.uniform(times[0] - 1, times[-1] + 1, 200), times]):
+        assert interp_table(t, times, values) == pytest.approx(np.interp(t, times, values), abs=1e-15)
