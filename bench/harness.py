@@ -43,7 +43,13 @@ def table(title: str, header: list[str], rows: list[list]) -> str:
 
 
 def write_json(script: str, payload: dict):
+    """Write payload (with the machine) to SCRIPT.json next to the script, or into the folder
+    named by the environment variable COSNET_BENCH_OUT if set (bench/run_all.py sets it for
+    quick runs, so they leave the full-size figures in bench/ alone)."""
     path = Path(script).with_suffix(".json")
+    if os.environ.get("COSNET_BENCH_OUT"):
+        Path(os.environ["COSNET_BENCH_OUT"]).mkdir(parents=True, exist_ok=True)
+        path = Path(os.environ["COSNET_BENCH_OUT"]) / path.name
     payload = {"machine": machine(), **payload}
     path.write_text(json.dumps(payload, indent=2))
     print(f"\nwrote {path}")

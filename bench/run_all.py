@@ -1,0 +1,149 @@
+"""Run every benchmark script in bench/, each in its own subprocess, and print a summary.
+
+Scripts that are absent are reported as missing. By default the quick settings are used
+(the whole set stays under 15 minutes on a 2-core machine) and each script's JSON and any
+figure it writes in bench/ go to --out DIR (default: a temporary folder, printed), leaving the
+full-size figures in bench/ alone; --full runs each script at its own default size and writes bench/NAME.json. Each
+script's output goes to stdout as it runs (and to LOGDIR/NAME.txt with --logs LOGDIR).
+
+Usage: python bench/run_all.py [--full] [--out DIR] [--logs DIR] [--only NAME ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+# name, quick arguments (None: full runs only), full arguments, time limit (s) in quick mode
+SCRIPTS = [
+    ("throughput", ["--quick"], [], 120),
+    ("scaling", ["--quick"], [], 300),
+    ("pyelastica_compare", ["--quick"], [], 120),
+    ("effects", ["--quick"], [], 120),
+    ("contact_scaling", ["--quick"], [], 120),
+    ("accuracy", ["--quick"], [], 120),
+    ("long_run", ["200000"], [], 60),
+    ("modes_convergence", ["20", "40", "80", "160", "320"], [], 120),
+    ("cosseratbench_run", None, [], None),        # about 6 minutes: full runs only
+]
+
+
+def snapshot() -> dict:
+    """Contents of the non-source files in bench/ (figures, JSON), by path."""
+    return {p: p.read_bytes() for p in HERE.rglob("*")
+            if p.is_file() and p.suffix != ".py" and "__pycache__" not in p.parts}
+
+
+def set_aside(before: dict, out: Path):
+    """Move files a quick run wrote into bench/ to out/ (same relative path) and put back what
+    was there, so quick runs leave the full-size figures alone."""
+    for p, data in snapshot().items():
+        if before.get(p) != data:
+            dest = out / p.relative_to(HERE)
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            dest.write_bytes(data)
+            if p in before:
+                p.write_bytes(before[p])
+            else:
+                p.unlink()
+            print(f"(quick run: {p.relative_to(HERE)} moved to {dest})")
+
+
+def accepts_quick(path: Path) -> bool:
+    return "--quick" in path.read_text(errors="replace")
+
+
+def run(name, args, limit, logs, env):
+    path = HERE / f"{name}.py"
+    if not path.exists():
+        return {"script": name, "status": "missing", "seconds": 0.0}
+    if args is None:
+        return {"script": name, "status": "skipped (--full only)", "seconds": 0.0}
+    if "--quick" in args and not accepts_quick(path):
+        args = [a for a in args if a != "--quick"]
+    print(f"\n===== {name} {' '.join(args)} =====", flush=True)
+    t0 = time.perf_counter()
+    lines = []
+    proc = subprocess.Popen([sys.executable, "-u", str(path), *args], cwd=str(HERE),
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env=env, start_new_session=True)
+    killed = threading.Event()
+
+    def stop():             # the script and any subprocess it started
+        killed.set()
+        os.killpg(proc.pid, signal.SIGKILL)
+
+    timer = threading.Timer(limit, stop) if limit else None
+    if timer:
+        timer.start()
+    for line in proc.stdout:
+        sys.stdout.write(line)
+        sys.stdout.flush()
+        lines.append(line)
+    rc = proc.wait()
+    if timer:
+        timer.cancel()
+    status = f"killed after {limit} s" if killed.is_set() else ("ok" if rc == 0 else f"failed (exit {rc})")
+    wall = time.perf_counter() - t0
+    if logs:
+        Path(logs).mkdir(parents=True, exist_ok=True)
+        (Path(logs) / f"{name}.txt").write_text("".join(lines))
+    tail = [l.rstrip() for l in lines if l.strip()][-1:] if lines else []
+    return {"script": name, "args": args, "status": status, "seconds": wall,
+            "last_line": tail[0] if tail else ""}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--full", action="store_true", help="each script at its default (larger) size")
+    ap.add_argument("--logs", help="also write each script's output to DIR/NAME.txt")
+    ap.add_argument("--out", help="folder for the quick runs' JSON files (default: a temporary one)")
+    ap.add_argument("--only", nargs="*", help="run only these scripts (names without .py)")
+    opts = ap.parse_args(argv)
+    t_all = time.perf_counter()
+    results = []
+    env = dict(os.environ)
+    out = HERE
+    if not opts.full:
+        out = Path(opts.out or tempfile.mkdtemp(prefix="cosnet_bench_quick_"))
+        env["COSNET_BENCH_OUT"] = str(out)
+        print(f"quick run: JSON files go to {out}")
+    known = {s[0] for s in SCRIPTS}
+    for name, quick, full, limit in SCRIPTS:
+        if opts.only and name not in opts.only:
+            continue
+        before = None if opts.full else snapshot()
+        results.append(run(name, full if opts.full else quick, None if opts.full else limit,
+                           opts.logs, env))
+        if before is not None:
+            set_aside(before, out)
+    total = time.perf_counter() - t_all
+    others = sorted(p.stem for p in HERE.glob("*.py")
+                    if p.stem not in known | {"harness", "run_all"} and "__main__" in p.read_text(errors="replace"))
+    print("\n===== summary =====")
+    width = max(len(r["script"]) for r in results) if results else 10
+    for r in results:
+        print(f"{r['script']:<{width}}  {r['status']:<22} {r['seconds']:8.1f} s"
+              + (f"   {r['last_line'][:70]}" if r["status"] != "ok" and r.get("last_line") else ""))
+    print(f"{'total':<{width}}  {'':<22} {total:8.1f} s")
+    if others:
+        print(f"not in the benchmark list (run by hand): {', '.join(others)}")
+    print(f"JSON files in {out}")
+    (out / "run_all.json").write_text(json.dumps({"mode": "full" if opts.full else "quick",
+                                                  "total_s": total, "scripts": results}, indent=2))
+    return 0 if all(r["status"] == "ok" or r["status"] == "missing" or r["status"].startswith("skipped")
+                    for r in results) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
