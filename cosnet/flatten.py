@@ -58,9 +58,18 @@ class LineGrid:
     end_frames: tuple      # (D_start, D_end): line-end director frames in the lab (principal)
 
 
+def _sections_at(line: Line, s: np.ndarray) -> tuple[list, np.ndarray]:
+    """The cross-sections at arc fractions s and their principal (I1, I2, phi), (len(s), 3);
+    a uniform line's section is evaluated once."""
+    if not callable(line.section):
+        return [line.section] * len(s), np.tile(np.array(line.section.principal()), (len(s), 1))
+    secs = [line.section_at(float(x)) for x in s]
+    return secs, np.array([sc.principal() for sc in secs])
+
+
 def _principal_angle(line: Line) -> float:
     n = line.elements
-    phis = [line.section_at(float(s)).principal()[2] for s in np.linspace(0, 1, 2 * n + 1)]
+    phis = _sections_at(line, np.linspace(0, 1, 2 * n + 1))[1][:, 2]
     if max(phis) - min(phis) > 1e-9:
         raise ValueError(f"line {line.name!r}: the principal axes of the cross-section (I12 != 0) "
                          f"must not turn along the line")
@@ -76,19 +85,20 @@ def _element_frames(line: Line, phi: float) -> np.ndarray:
     d1 = line.d1
     if d1 is None and line.start_frame is not None:
         d1 = (line.start.frame @ line.start_frame)[:, 0]
-    prev = None
-    for k in range(line.elements):
-        if prev is None:
-            f = frame_from_tangent(t[k], d1)
-        else:
-            # parallel transport of the previous frame onto the new tangent
-            a, b = prev[:, 2], t[k] / np.linalg.norm(t[k])
-            axis = np.cross(a, b)
-            s, c = np.linalg.norm(axis), float(np.dot(a, b))
-            rot = np.eye(3) if s < 1e-15 else Rotation.from_rotvec(axis / s * math.atan2(s, c)).as_matrix()
-            f = rot @ prev
-        frames[k] = f
-        prev = f
+    frames[0] = frame_from_tangent(t[0], d1)
+    # parallel transport of each frame onto the next tangent: the rotation taking unit tangent
+    # a to b about a x b (the identity where they agree)
+    u = t / np.linalg.norm(t, axis=1)[:, None]
+    axis = np.cross(u[:-1], u[1:])
+    sn = np.linalg.norm(axis, axis=1)
+    cs = np.einsum("ij,ij->i", u[:-1], u[1:])
+    turn = sn >= 1e-15
+    rots = np.broadcast_to(np.eye(3), (len(sn), 3, 3)).copy()
+    if turn.any():
+        rv = axis[turn] / sn[turn, None] * np.arctan2(sn[turn], cs[turn])[:, None]
+        rots[turn] = Rotation.from_rotvec(rv).as_matrix()
+    for k in range(1, line.elements):
+        frames[k] = frames[k - 1] if not turn[k - 1] else rots[k - 1] @ frames[k - 1]
     return frames @ _rz(phi) if phi != 0.0 else frames
 
 
@@ -100,23 +110,23 @@ def build_line_grid(line: Line) -> LineGrid:
     seg = np.linalg.norm(np.diff(line.points, axis=0), axis=1)
     s_vert = np.concatenate([[0.0], np.cumsum(seg)]) / seg.sum()
     s_mid = 0.5 * (s_vert[1:] + s_vert[:-1])
-    secs = [line.section_at(float(s)) for s in s_mid]
-    vsecs = [line.section_at(float(s)) for s in s_vert]
-    stiffness = np.array([[sc.shear_coefficient * mat.G * sc.A] * 2 + [mat.E * sc.A] for sc in secs])
-    p_mid = np.array([sc.principal()[:2] for sc in secs])
-    inertia = mat.density * seg[:, None] * np.column_stack([p_mid[:, 0], p_mid[:, 1], p_mid.sum(axis=1)])
+    secs, p_mid = _sections_at(line, s_mid)
+    vsecs, p_v = _sections_at(line, s_vert)
+    area = np.array([sc.A for sc in secs])
+    kappa = np.array([sc.shear_coefficient for sc in secs])
+    stiffness = np.column_stack([kappa * mat.G * area, kappa * mat.G * area, mat.E * area])
+    inertia = mat.density * seg[:, None] * np.column_stack([p_mid[:, 0], p_mid[:, 1], p_mid[:, 0] + p_mid[:, 1]])
     # rotations live at the element centres and at the nodes (s = 0, L): the dual cell of a
     # node is [0, l/4], so a node takes a quarter of its end element's rotary inertia
     inertia[0] *= 1.0 - NODE_ROTARY_SHARE
     inertia[-1] *= 1.0 - NODE_ROTARY_SHARE
-    emass = mat.density * np.array([sc.A for sc in secs]) * seg
+    emass = mat.density * area * seg
     mass = np.zeros(n + 1)
     mass[:-1] += 0.5 * emass
     mass[1:] += 0.5 * emass
     vor = np.zeros(n + 1)
     vor[:-1] += 0.5 * seg
     vor[1:] += 0.5 * seg
-    p_v = np.array([sc.principal()[:2] for sc in vsecs])
     bend = np.column_stack([mat.E * p_v[:, 0], mat.E * p_v[:, 1], [mat.G * sc.J for sc in vsecs]])
     # line-end frames D(nu) X(nu, lambda); the default X makes the junction stress free (§2.3)
     ends = []
@@ -129,8 +139,9 @@ def build_line_grid(line: Line) -> LineGrid:
             curvature[k] = rz.T @ line.curvature_at(float(s))
     else:
         # rest shape = built polyline: interior Voronoi points are stress free
-        for k in range(1, n):
-            curvature[k] = _log(frames[k - 1].T @ frames[k]) / vor[k]
+        if n > 1:
+            rel = np.einsum("kji,kjl->kil", frames[:-1], frames[1:])
+            curvature[1:n] = _log(rel) / vor[1:n, None]
     return LineGrid(line.points.copy(), frames, seg, stiffness, inertia, mass, vor, bend,
                     curvature, tuple(ends))
 
@@ -220,11 +231,11 @@ def flatten(net: Net) -> tuple[Model, State, list[LineGrid]]:
     node_J = np.zeros((nn, 3))
     node_locked = np.zeros((nn, 3))
     node_com = np.zeros((nn, 3))
-    node_P = np.zeros((nn, 4))
+    node_P = np.zeros((nn, 3, 3))          # rotation matrices, turned to quaternions at once below
     node_x = np.zeros((nn, 3))
-    node_q = np.zeros((nn, 4))
+    node_q = np.zeros((nn, 3, 3))
     attach_offset = np.zeros((na, 3))
-    attach_frame = np.zeros((na, 4))
+    attach_frame = np.zeros((na, 3, 3))
     for node in net.nodes:
         i = node.index
         ends = ends_of[i]
@@ -235,12 +246,14 @@ def flatten(net: Net) -> tuple[Model, State, list[LineGrid]]:
         node_J[i] = diag
         node_locked[i] = locked.astype(float)
         node_com[i] = P.T @ com
-        node_P[i] = quat_from_matrix(P)
+        node_P[i] = P
         node_x[i] = node.position + node.frame @ com
-        node_q[i] = quat_from_matrix(node.frame @ P)
+        node_q[i] = node.frame @ P
         for a, xi, _, _, Xfull in ends:
             attach_offset[a] = P.T @ (xi - com)
-            attach_frame[a] = quat_from_matrix(P.T @ Xfull)
+            attach_frame[a] = P.T @ Xfull
+    quats = lambda m: quat_from_matrix(m) if len(m) else np.zeros((0, 4))
+    node_P, node_q, attach_frame = quats(node_P), quats(node_q), quats(attach_frame)
     order = np.argsort(attach_node, kind="stable")
     counts = np.bincount(attach_node, minlength=nn) if na else np.zeros(nn, dtype=np.int64)
     node_attach_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
