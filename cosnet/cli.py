@@ -46,7 +46,7 @@ def scene_path(arg: str | None) -> Path:
     if arg is None:
         return default_scene()
     p = Path(arg)
-    if p.exists() or p.suffix == ".toml":
+    if p.is_file() or p.suffix == ".toml":
         return p
     case = cases_dir() / f"{arg}.toml"
     if case.exists():

@@ -9,7 +9,7 @@ r(nu) + D(nu) xi(nu, lambda) with frame D(nu) X(nu, lambda).
 
 import math
 
-from numba import literally, njit, prange
+from numba import njit, prange
 
 from .backend import STEP, dispatch4
 
@@ -112,7 +112,6 @@ def drift_vertex(i, x, v, h):
 @njit(**STEP)
 def drift_bodies(model, state, h, order):
     """Update vertex positions and element frames by the free flight of time h."""
-    literally(order)  # one specialisation per scheme order: the untaken branch is compiled out
     x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
     for i in range(x.shape[0]):
         drift_vertex(i, x, v, h)
@@ -123,7 +122,6 @@ def drift_bodies(model, state, h, order):
 @njit(cache=True, fastmath=FAST, parallel=True)
 def drift_bodies_parallel(model, state, h, order):
     """Update vertex positions and element frames by the free flight of time h (threads)."""
-    literally(order)
     x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
     for i in prange(x.shape[0]):
         drift_vertex(i, x, v, h)
