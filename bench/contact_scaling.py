@@ -11,7 +11,6 @@ the growth exponent d log t / d log N of each (1 for linear cost). Writes contac
 
 from __future__ import annotations
 
-import math
 import sys
 
 import numpy as np

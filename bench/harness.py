@@ -13,6 +13,31 @@ from pathlib import Path
 
 import numba
 
+import cosnet
+
+STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0, name="steel")
+
+
+def rod(n, radius=0.01):
+    """A 1 m steel rod of n elements clamped at one end (free at the other)."""
+    net = cosnet.Net()
+    a = net.add_node((0, 0, 0), fixed=True)
+    b = net.add_node((1, 0, 0))
+    net.add_line(a, b, material=STEEL, section=cosnet.Circle(radius), elements=n)
+    return net
+
+
+def chain(lines, per_line=10):
+    """A straight chain of 0.1 m steel lines (r = 2 mm) joined at point junctions, clamped
+    at its first node."""
+    net = cosnet.Net()
+    prev = net.add_node((0, 0, 0), fixed=True)
+    for k in range(lines):
+        node = net.add_node((0.1 * (k + 1), 0, 0))
+        net.add_line(prev, node, material=STEEL, section=cosnet.Circle(0.002), elements=per_line)
+        prev = node
+    return net
+
 
 def best_of(fn, repeat=3):
     """Smallest wall time of ``repeat`` calls of fn() (after one warm-up call)."""

@@ -42,17 +42,6 @@ ALPHA_C = 27.0 / 28.0          # PyElastica's shear coefficient (straight_rod), 
 STEEL = cosnet.Material(E=E, G=G, density=RHO)
 
 
-def best_time(fn, repeat):
-    """Smallest wall time of repeat calls of fn() (after one warm-up call)."""
-    fn()
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 # --------------------------------------------------------------------------- cosnet side
 def cn_rod(n, length=1.0, r=0.01):
     net = cosnet.Net()

@@ -32,7 +32,7 @@ import numpy as np
 
 import cosnet
 from cosnet.kernels.backend import Parallel, Serial
-from harness import table, write_json
+from harness import best_of, chain, rod, table, write_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -43,35 +43,7 @@ TARGET = 5e5
 REPEAT = {True: 8, False: 15}
 
 
-def best_time(fn, repeat=3):
-    fn()
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 # --------------------------------------------------------------------------- nets
-def rod(n):
-    net = cosnet.Net()
-    a = net.add_node((0, 0, 0), fixed=True)
-    b = net.add_node((1, 0, 0))
-    net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=n)
-    return net
-
-
-def chain(lines, per=10):
-    net = cosnet.Net()
-    prev = net.add_node((0, 0, 0), fixed=True)
-    for k in range(lines):
-        node = net.add_node((0.1 * (k + 1), 0, 0))
-        net.add_line(prev, node, material=STEEL, section=cosnet.Circle(0.002), elements=per)
-        prev = node
-    return net
-
-
 def truss(lines, per=10, panel=0.5, height=0.5):
     """A Pratt truss of about ``lines`` lines (4 per panel: bottom and top chords, a post, a
     diagonal; plus the closing post), both bottom ends fixed."""
@@ -260,13 +232,13 @@ def _triad_par(a, b, c, s):
 def machine_limits(quick):
     n = 10_000_000 if quick else 20_000_000
     a, b, c = np.zeros(n), np.random.rand(n), np.random.rand(n)
-    t_copy = best_time(lambda: np.copyto(a, b), 5)
-    t_tri1 = best_time(lambda: _triad(a, b, c, 3.0), 5)
+    t_copy = best_of(lambda: np.copyto(a, b), 5)
+    t_tri1 = best_of(lambda: _triad(a, b, c, 3.0), 5)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    t_tri2 = best_time(lambda: _triad_par(a, b, c, 3.0), 5)
+    t_tri2 = best_of(lambda: _triad_par(a, b, c, 3.0), 5)
     m = 1000 if quick else 2000
     x, y = np.random.rand(m, m), np.random.rand(m, m)
-    t_mm = best_time(lambda: x @ y, 3)
+    t_mm = best_of(lambda: x @ y, 3)
     return {"copy_GBps": 2 * 8 * n / t_copy / 1e9, "triad_1thread_GBps": 3 * 8 * n / t_tri1 / 1e9,
             "triad_2threads_GBps": 3 * 8 * n / t_tri2 / 1e9, "triad_1thread_Gflops": 2 * n / t_tri1 / 1e9,
             "matmul_Gflops": 2 * m ** 3 / t_mm / 1e9, "matmul_size": m, "array_doubles": n}

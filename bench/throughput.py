@@ -6,31 +6,8 @@ lines x 10 elements (a chain joined at point junctions). Run: python bench/throu
 
 import sys
 
-import numpy as np
-
 import cosnet
-from harness import best_of, table, write_json
-
-STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0)
-
-
-def rod(n):
-    net = cosnet.Net()
-    a = net.add_node((0, 0, 0), fixed=True)
-    b = net.add_node((1, 0, 0))
-    net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=n)
-    return net
-
-
-def chain(lines, per_line=10):
-    net = cosnet.Net()
-    prev = net.add_node((0, 0, 0), fixed=True)
-    for k in range(lines):
-        node = net.add_node((0.1 * (k + 1), 0, 0))
-        net.add_line(prev, node, material=STEEL, section=cosnet.Circle(0.002), elements=per_line)
-        prev = node
-    return net
-
+from harness import best_of, chain, rod, table, write_json
 
 def measure(name, net, steps, threads=None):
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=threads)

@@ -32,13 +32,12 @@ from __future__ import annotations
 
 import math
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .scene import Probe, Scene, build_scene, load_scene
+from .scene import Probe, Scene, build_scene, load_scene, read_toml
 
 STEPPERS = ("verlet", "pefrl")
 NOMINAL_ORDER = {"verlet": 2.0, "pefrl": 4.0, "space": 2.0}
@@ -52,13 +51,7 @@ def scaled_scene(path, factor: int) -> Scene:
     path = Path(path)
     if isinstance(factor, bool) or not isinstance(factor, int) or factor < 1:
         raise ValueError(f"scaled_scene: factor must be a positive integer, got {factor!r}")
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except OSError as e:
-        raise ValueError(f"{path}: cannot read the scene file ({e.strerror})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{path}: not valid TOML: {' '.join(str(e).split())}") from None
+    data = read_toml(path)
     lines = data.get("lines")
     if factor != 1 and isinstance(lines, dict):
         for table in lines.values():

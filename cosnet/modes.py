@@ -132,7 +132,7 @@ class Linearisation:
 
 def _voronoi_sides(model):
     """Per Voronoi point k: (line, is_start, is_end, left element, right element)."""
-    vo, eo = model.line_vertex_offsets, model.line_element_offsets
+    vo = model.line_vertex_offsets
     nv = model.vertex_mass.shape[0]
     line = np.repeat(np.arange(vo.shape[0] - 1), np.diff(vo))
     k = np.arange(nv)

@@ -436,17 +436,21 @@ class Scene:
         return [e.describe() for e in self.effects]
 
 
-def load_scene(path) -> Scene:
-    """Read a TOML scene file and return a validated Scene."""
-    path = Path(path)
+def read_toml(path) -> dict:
+    """The parsed TOML of a scene file; an unreadable or malformed file is a ValueError."""
     try:
         with open(path, "rb") as f:
-            data = tomllib.load(f)
+            return tomllib.load(f)
     except OSError as e:
         raise ValueError(f"{path}: cannot read the scene file ({e.strerror})") from None
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{path}: not valid TOML: {_one_line(e)}") from None
-    return build_scene(data, path)
+
+
+def load_scene(path) -> Scene:
+    """Read a TOML scene file and return a validated Scene."""
+    path = Path(path)
+    return build_scene(read_toml(path), path)
 
 
 def build_scene(data: dict, path="<scene>") -> Scene:

@@ -131,7 +131,7 @@ def test_heavy_point_mass_on_light_stiff_line_swings_as_a_pendulum():
     net = cosnet.Net()
     pivot = net.add_node((0, 0, 0), mass=np.inf, name="pivot")       # pinned: free rotation
     bob = net.add_node((0, 0, -L), mass=M, name="bob")                 # point mass (type ii)
-    line = net.add_line(pivot, bob, material=mat, section=cosnet.Circle(r), elements=4)
+    net.add_line(pivot, bob, material=mat, section=cosnet.Circle(r), elements=4)
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity((0, 0, -g))])
     theta0 = 0.05
     omega_small = math.sqrt(g / L)

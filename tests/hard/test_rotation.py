@@ -3,7 +3,6 @@
 import math
 
 import numpy as np
-import pytest
 
 import cosnet
 from nets_hard import STEEL, lone_body, rigid_body_flip_period, rigid_motion, spinning_hub
