@@ -79,11 +79,13 @@ class Gravity(Effect):
         return GravityParams(self.g.copy())
 
     def potential_energy(self, sim) -> float:
+        from .flatten import matrix_from_quat
         m, s = sim.model, sim.state
         e = -float(np.dot(m.vertex_mass, s.x @ self.g))
-        for node in sim.net.nodes:
-            if math.isfinite(node.mass) and node.mass > 0:
-                e -= node.mass * float(np.dot(self.g, sim.node_position(node)))
+        own = np.flatnonzero(m.node_own_mass > 0)       # the nodes' own masses sit at their reference points
+        if own.size:
+            ref = s.node_x[own] - np.einsum("nij,nj->ni", matrix_from_quat(s.node_q[own]), m.node_com_offset[own])
+            e -= float(m.node_own_mass[own] @ (ref @ self.g))
         return e
 
     def energy_scale(self, sim) -> float:
