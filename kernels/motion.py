@@ -38,7 +38,7 @@ def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
     return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
 
 
-@njit(cache=True, inline="always", fastmath=FAST)
+@njit(cache=True, fastmath=FAST)
 def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
     """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
     free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
@@ -50,7 +50,7 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
     return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h)
 
 
-@njit(cache=True, inline="always", fastmath=FAST)
+@njit(cache=True, fastmath=FAST)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
     h to the given order (2: Strang; 4: Yoshida's triple jump of it)."""
@@ -62,6 +62,22 @@ def spin_free_body(q, p, inv_j, h, order):
         r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], h)
     q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
     p[0], p[1], p[2] = r[4], r[5], r[6]
+
+
+@njit(cache=True, fastmath=FAST)
+def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
+    """Return (q, p) after the exact Casimir flow exp(h i1 p) and the flow of the rest
+    d1 p2^2/2 + d2 p3^2/2: exact for d1 = 0, else split symmetrically (Yoshida for order 4)."""
+    ew, ex, ey, ez = quat_exp(h * i1 * p0, h * i1 * p1, h * i1 * p2)
+    r = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez) + (p0, p1, p2)
+    if d1 == 0.0:
+        return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, h)
+    for c in ((YOSHIDA_1, YOSHIDA_0, YOSHIDA_1) if order == 4 else (1.0, 0.0, 0.0)):
+        if c != 0.0:
+            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, c * h)
+            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+    return r
 
 
 @njit(cache=True, fastmath=FAST, inline="always")
@@ -87,16 +103,7 @@ def spin_element(q, w, J, inv_j, h, order):
         p0, p1 = cp * p0 + sp * p1, -sp * p0 + cp * p1
         r = (qw, qx, qy, qz, p0, p1, p2)
     else:
-        ew, ex, ey, ez = quat_exp(h * i1 * p0, h * i1 * p1, h * i1 * p2)
-        r = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez) + (p0, p1, p2)
-        if d1 == 0.0:
-            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, h)
-        else:
-            for c in ((YOSHIDA_1, YOSHIDA_0, YOSHIDA_1) if order == 4 else (1.0, 0.0, 0.0)):
-                if c != 0.0:
-                    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
-                    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, c * h)
-                    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+        r = spin_exact(q[0], q[1], q[2], q[3], p0, p1, p2, i1, d1, d2, h, order)
     q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
     w[0], w[1], w[2] = r[4] * inv_j[0], r[5] * inv_j[1], r[6] * inv_j[2]
 
@@ -172,7 +179,7 @@ def place_line_ends(model, state):
         state.v[vt, 2] = state.node_v[nd, 2] + uz
 
 
-@njit(**STEP)
+@njit(**STEP, inline="always")  # one caller: kick_loads
 def gather_node_loads(model, state, loads):
     """Update loads.node_f, loads.node_tau (lab, about the centre of mass) given the loads at
     the line ends: F - sum Omega n_lambda and L - sum Omega (m_lambda + zeta x n_lambda)
@@ -228,7 +235,7 @@ def kick_bodies_parallel(model, state, loads, h):
 kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
 
 
-@njit(**STEP)
+@njit(**STEP, inline="always")  # one caller: kick_loads
 def kick_state(model, state, loads, h, backend):
     """Update velocities and body angular momenta given the loads over time h:
     mu r'' = n' + f (3.2), (I w)' = m' + r' x n + l (3.3), (4.3), (4.4)."""

@@ -19,7 +19,7 @@ PEFRL_LAMBDA = -0.2123418310626054
 PEFRL_CHI = -0.06626458266981849
 
 
-@njit(**STEP)
+@njit(**STEP, inline="always")  # one caller: kick_loads
 def evaluate_loads(model, state, loads, load_effects, backend):
     """Update loads given the state: internal loads (3.2)/(3.3), the declared effects, then
     the node balances (4.3)/(4.4)."""
