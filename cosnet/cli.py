@@ -282,6 +282,9 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("\ncosnet: interrupted (resume with --resume)", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into a reader that stopped (e.g. `| head`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":
