@@ -16,10 +16,18 @@ LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
 
 
+def _inlined(kernel):
+    """The kernel's body, inlined where the step calls it (with the kernel's own options): one
+    compilation pipeline fewer per effect, and no call. The registered dispatcher itself stays
+    callable from Python and other kernels."""
+    options = {k: v for k, v in kernel.targetoptions.items() if k != "nopython"}
+    return njit(**options, inline="always")(kernel.py_func)
+
+
 def load_kernel(declaration):
     """Register the decorated njit function as the load kernel of ``declaration``."""
     def register(kernel):
-        LOAD_KERNELS[declaration] = kernel
+        LOAD_KERNELS[declaration] = _inlined(kernel)
         return kernel
     return register
 
@@ -27,7 +35,7 @@ def load_kernel(declaration):
 def flow_kernel(declaration):
     """Register the decorated njit function as the velocity-flow kernel of ``declaration``."""
     def register(kernel):
-        FLOW_KERNELS[declaration] = kernel
+        FLOW_KERNELS[declaration] = _inlined(kernel)
         return kernel
     return register
 

@@ -62,7 +62,7 @@ def bound_max_omega2(model):
     return best, kind, where
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def node_min_inertia(model, nd):
     """Return the smallest finite principal inertia of node nd (inf if all axes are locked)."""
     jn = math.inf
@@ -72,7 +72,7 @@ def node_min_inertia(model, nd):
     return jn
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def node_row_bound(model, nd):
     """Return the Gershgorin bound of omega^2 for node nd's translation and rotation rows."""
     M = model.node_mass[nd]
