@@ -81,11 +81,13 @@ class Gravity(Effect):
     def potential_energy(self, sim) -> float:
         from .flatten import matrix_from_quat
         m, s = sim.model, sim.state
-        e = -float(np.dot(m.vertex_mass, s.x @ self.g))
+        # einsum, not BLAS: a threaded BLAS call here leaves its threads spinning on the
+        # cores the step's thread pool is about to use
+        e = -float(np.einsum("i,ij,j->", m.vertex_mass, s.x, self.g))
         own = np.flatnonzero(m.node_own_mass > 0)       # the nodes' own masses sit at their reference points
         if own.size:
             ref = s.node_x[own] - np.einsum("nij,nj->ni", matrix_from_quat(s.node_q[own]), m.node_com_offset[own])
-            e -= float(m.node_own_mass[own] @ (ref @ self.g))
+            e -= float(np.einsum("i,ij,j->", m.node_own_mass[own], ref, self.g))
         return e
 
     def energy_scale(self, sim) -> float:
