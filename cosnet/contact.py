@@ -4,7 +4,6 @@ apart with a damped penalty force (kernel and method: cosnet.kernels.contact).""
 from __future__ import annotations
 
 import math
-import weakref
 
 import numpy as np
 
@@ -49,7 +48,6 @@ class Contact(Effect):
         self.k, self.gamma, self.self_gap = k, gamma, self_gap
         self.self_contact = bool(self_contact)
         self.lines = lines
-        self._bound = weakref.WeakKeyDictionary()
 
     # ------------------------------------------------------------------ binding
     def _lines(self, sim) -> list[Line]:
@@ -92,7 +90,6 @@ class Contact(Effect):
             np.zeros(size + 1, np.int64), np.zeros(size, np.int64), np.zeros(count, np.int64),
             np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3), np.int64),
             np.zeros(count, np.int64), np.zeros((count, 3), np.int64), np.zeros((count, 3)), np.zeros(count))
-        self._bound[sim] = p
         return p
 
     def _node_gaps(self, m, x, nn) -> np.ndarray:
@@ -116,13 +113,6 @@ class Contact(Effect):
                     factor = MAX_NODE_GAP if math.sin(half) < 1.0 / MAX_NODE_GAP else 1.0 / math.sin(half)
                     gap[nd] = max(gap[nd], factor)
         return gap
-
-    def params(self, sim) -> ContactParams:
-        """The parameter record bound to sim (its counters are live)."""
-        try:
-            return self._bound[sim]
-        except KeyError:
-            raise ValueError("Contact: not declared in this simulation") from None
 
     def narrow_tests(self, sim) -> int:
         """Number of narrow-phase pair tests made so far in sim (candidates passing the grid)."""

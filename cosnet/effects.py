@@ -28,6 +28,11 @@ class Effect:
         """Return the kernel's parameter record for this simulation."""
         raise NotImplementedError
 
+    def params(self, sim):
+        """The parameter record this effect is bound to in ``sim`` (live: what its kernel
+        reads and writes)."""
+        return sim.effect_params(self)
+
     def potential_energy(self, sim) -> float:
         """Potential energy of a conservative effect (0 for others)."""
         return 0.0

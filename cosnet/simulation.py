@@ -91,8 +91,10 @@ class Simulation:
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
-        self._load_params = tuple(e.bind(self) for e in self.effects if e.stage == "load")
-        self._flow_params = tuple(e.bind(self) for e in self.effects if e.stage == "flow")
+        self._params = [e.bind(self) for e in self.effects]   # each effect's kernel record
+        self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
+        self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
+        self._e_last = None   # energy at the last health check (the watch's continuity test)
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -135,9 +137,10 @@ class Simulation:
     def stiffest(self) -> str:
         """Where the highest frequency sits (for messages)."""
         w2, kind, idx = bound_max_omega2(self.model)
-        stiff = max(self.effects, key=lambda e: e.max_omega2(self), default=None)
-        if stiff is not None and stiff.max_omega2(self) > w2:
-            return stiff.describe()
+        if self.effects:
+            w2_effect, stiff = max(((e.max_omega2(self), i) for i, e in enumerate(self.effects)))
+            if w2_effect > w2:
+                return self.effects[stiff].describe()
         if w2 <= 0:
             return "nowhere (nothing elastic)"
         if kind == 2:
@@ -190,8 +193,7 @@ class Simulation:
         if self._watch_energy:
             p = self.energy_parts()
             e_now = p["kinetic"] + p["strain"] + p["potential"]
-            last = getattr(self, "_e_last", None)
-            if last is not None and abs(e_now - last) <= 1e-12 * self._scale:
+            if self._e_last is not None and abs(e_now - self._e_last) <= 1e-12 * self._scale:
                 return
             self._e_start = e_now
             # floor: round-off of a net at rest must not count as growth (1e-6 strain energy),
@@ -241,6 +243,14 @@ class Simulation:
         return f"line {self.net.lines[l].name!r} {'element' if on_elements else 'vertex'} {idx - offsets[l]}"
 
     # ------------------------------------------------------------------ access
+    def effect_params(self, effect: Effect):
+        """The parameter record ``effect`` was bound to in this simulation (the very arrays its
+        kernel reads and writes, counters included)."""
+        for e, p in zip(self.effects, self._params):
+            if e is effect:
+                return p
+        raise ValueError(f"{effect.describe()} is not an effect of this simulation")
+
     def check_node(self, node: Node, who: str = "Simulation"):
         if not isinstance(node, Node) or node.index >= len(self.net.nodes) or self.net.nodes[node.index] is not node:
             raise ValueError(f"{who}: {node!r} is not a node of this simulation's net")
