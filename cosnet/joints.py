@@ -18,9 +18,9 @@ joint tends to the exact junction of the two ends at one node.
 from __future__ import annotations
 
 import math
-import weakref
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from .effects import Effect, _vec3
 from .flatten import matrix_from_quat, quat_from_matrix
@@ -40,6 +40,14 @@ def _stiffness(owner, name, value, allow_zero=False):
         need = ">= 0" if allow_zero else "> 0"
         raise ValueError(f"{owner}: {name} must be a finite number {need}, got {value!r}")
     return x
+
+
+def _unit(owner, name, value):
+    v = _vec3(owner, name, value)
+    size = float(np.linalg.norm(v))
+    if size == 0:
+        raise ValueError(f"{owner}: {name} must be a non-zero vector")
+    return v / size
 
 
 class SphericalJoint(Effect):
@@ -66,7 +74,6 @@ class SphericalJoint(Effect):
         self.k = _stiffness(self.who, "k", k)
         self.nu = _stiffness(self.who, "nu", nu, allow_zero=True)
         self.rest_offset = _vec3(self.who, "rest_offset", rest_offset)
-        self._bound = weakref.WeakKeyDictionary()
 
     # -------------------------------------------------------------- binding
     def _attachments(self, sim):
@@ -86,17 +93,9 @@ class SphericalJoint(Effect):
 
     def bind(self, sim):
         a, b = self._attachments(sim)
-        params = self.params_type(np.array([a], dtype=np.int64), np.array([b], dtype=np.int64),
-                                  np.array([self.k]), np.array([self.nu]), self.rest_offset[None].copy(),
-                                  *self._torque_fields(sim, a, b))
-        self._bound[sim] = params
-        return params
-
-    def params(self, sim):
-        """The parameter record bound to ``sim``."""
-        if sim not in self._bound:
-            raise ValueError(f"{self.who} is not an effect of this simulation")
-        return self._bound[sim]
+        return self.params_type(np.array([a], dtype=np.int64), np.array([b], dtype=np.int64),
+                                np.array([self.k]), np.array([self.nu]), self.rest_offset[None].copy(),
+                                *self._torque_fields(sim, a, b))
 
     # -------------------------------------------------------------- energy and stability
     def potential_energy(self, sim) -> float:
@@ -149,11 +148,7 @@ class HingeJoint(_TorqueJoint):
     def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, normal=(0.0, 0.0, 1.0), nu=0.0,
                  nut=0.0, rest_offset=(0.0, 0.0, 0.0)):
         super().__init__(line_a, end_a, line_b, end_b, k=k, kt=kt, nu=nu, nut=nut, rest_offset=rest_offset)
-        n = _vec3(self.who, "normal", normal)
-        size = float(np.linalg.norm(n))
-        if size == 0:
-            raise ValueError(f"{self.who}: normal must be a non-zero vector")
-        self.normal = n / size
+        self.normal = _unit(self.who, "normal", normal)
 
     def _torque_fields(self, sim, a, b):
         n_a = self._end_frame(sim, a).T @ self.normal
@@ -177,19 +172,12 @@ class FixedJoint(_TorqueJoint):
             angle = float(angle)
             if not math.isfinite(angle):
                 raise ValueError(f"{self.who}: angle must be a finite number (rad), got {angle}")
-        u = _vec3(self.who, "axis", axis)
-        size = float(np.linalg.norm(u))
-        if size == 0:
-            raise ValueError(f"{self.who}: axis must be a non-zero vector")
-        self.angle, self.axis = angle, u / size
+        self.angle, self.axis = angle, _unit(self.who, "axis", axis)
 
     def _torque_fields(self, sim, a, b):
         ea = self._end_frame(sim, a)
         if self.angle is None:
             r0 = ea.T @ self._end_frame(sim, b)
         else:
-            u = ea.T @ self.axis                      # axis in line a's end frame
-            c, s = math.cos(self.angle), math.sin(self.angle)
-            ux = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-            r0 = c * np.eye(3) + s * ux + (1 - c) * np.outer(u, u)
+            r0 = Rotation.from_rotvec(self.angle * (ea.T @ self.axis)).as_matrix()  # axis in a's end frame
         return np.array([self.kt]), np.array([self.nut]), quat_from_matrix(r0)[None].copy()

@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from .compose import load_kernel
+from .elastic import end_frame
 from .rotations import cross, quat_mul, quat_rotate, relative_rotation
 
 OPTS = dict(cache=True, inline="always")
@@ -68,14 +69,6 @@ class FixedJointParams(NamedTuple):
     kt: np.ndarray
     nut: np.ndarray
     rest_rotation: np.ndarray  # (k, 4) quaternion R0 = E_a^T E_b at rest
-
-
-@njit(**OPTS)
-def end_frame(model, state, a):
-    """Return the quaternion of line-end frame E = D X of attachment a (1.3)."""
-    nd = model.attach_node[a]
-    q, x = state.node_q[nd], model.attach_frame[a]
-    return quat_mul(q[0], q[1], q[2], q[3], x[0], x[1], x[2], x[3])
 
 
 @njit(**OPTS)

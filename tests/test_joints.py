@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import cosnet
 from cosnet.flatten import matrix_from_quat
@@ -184,3 +185,19 @@ def test_joint_keywords_and_bad_input():
     line_elsewhere = other.add_line(m0, m1, material=STEEL, section=cosnet.Circle(0.01), elements=2)
     with pytest.raises(ValueError, match="not a line of this simulation's net"):
         cosnet.Simulation(net, [cosnet.SphericalJoint(line_elsewhere, "end", b, "start", k=1.0)])
+
+
+def test_fixed_joint_rest_angle_about_a_lab_axis_is_the_built_relative_rotation():
+    """Giving the built relative rotation of the two end frames as angle and lab axis rests the
+    joint exactly where angle=None (the built geometry) does."""
+    sim, a, b = pair("fixed", k=1e6, kt=1.0)
+    ea, _ = end_frame(sim, a, -1)
+    eb, _ = end_frame(sim, b, 0)
+    rotvec = Rotation.from_matrix(ea.T @ eb).as_rotvec()          # in line a's end frame
+    theta = float(np.linalg.norm(rotvec))
+    assert theta > 1.0                                              # the lines meet at a right angle
+    built = cosnet.FixedJoint(a, "end", b, "start", k=1e6, kt=1.0).bind(sim)
+    given = cosnet.FixedJoint(a, "end", b, "start", k=1e6, kt=1.0, angle=theta,
+                              axis=ea @ rotvec / theta).bind(sim)
+    q0, q1 = built.rest_rotation[0], given.rest_rotation[0]
+    assert min(np.abs(q0 - q1).max(), np.abs(q0 + q1).max()) < 1e-12
