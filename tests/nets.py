@@ -7,6 +7,33 @@ import cosnet
 STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0, name="steel")
 
 
+# A soft rod clamped at one end with a small mass at its tip, as a scene file; fill in the
+# title, stiffness, element count and the tables after the line (effects, initial, run).
+ROD_SCENE = """
+title = "{title}"
+[materials.soft]
+E = {E}
+G = {G}
+density = 1000.0
+[sections.rod]
+kind = "circle"
+radius = 0.01
+[nodes.root]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [0.5, 0.0, 0.0]
+mass = 0.05
+inertia = [1e-6, 1e-6, 1e-6]
+[lines.rod]
+start = "root"
+end = "tip"
+material = "soft"
+section = "rod"
+elements = {elements}
+{rest}"""
+
+
 def cantilever(n=20, length=1.0, radius=0.01, material=STEEL, axis=(1.0, 0.0, 0.0), tip_mass=0.0):
     """A rod clamped at the origin along ``axis``; returns (net, line, root, tip)."""
     net = cosnet.Net()

@@ -11,35 +11,10 @@ import pytest
 
 from cosnet.accuracy import resolve_probes, run_window, scaled_scene, time_series
 from cosnet.scene import load_scene
+from nets import ROD_SCENE
 
 REPO = Path(__file__).resolve().parents[1]
 
-ROD = """
-title = "soft rod"
-[materials.soft]
-E = 2.0e7
-G = 8.0e6
-density = 1000.0
-[sections.rod]
-kind = "circle"
-radius = 0.01
-[nodes.root]
-position = [0.0, 0.0, 0.0]
-fixed = true
-[nodes.tip]
-position = [0.5, 0.0, 0.0]
-mass = 0.05
-inertia = [1e-6, 1e-6, 1e-6]
-[lines.rod]
-start = "root"
-end = "tip"
-material = "soft"
-section = "rod"
-elements = {elements}
-{extra}
-[run]
-until = 1.0
-"""
 
 GRAVITY = '[[effects]]\nkind = "gravity"\n'          # released from rest: smooth motion
 KICK = "[initial.nodes.tip]\nvelocity = [0.0, 0.3, 0.0]\n"
@@ -49,7 +24,8 @@ KICK = "[initial.nodes.tip]\nvelocity = [0.0, 0.3, 0.0]\n"
 def scene_file(tmp_path):
     def make(elements=4, extra=GRAVITY):
         p = tmp_path / f"rod{elements}.toml"
-        p.write_text(ROD.format(elements=elements, extra=extra))
+        p.write_text(ROD_SCENE.format(title="soft rod", E="2.0e7", G="8.0e6", elements=elements,
+                                      rest=f"{extra}\n[run]\nuntil = 1.0\n"))
         return p
     return make
 

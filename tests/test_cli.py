@@ -14,31 +14,11 @@ import pytest
 
 from cosnet.io import read_output
 from cosnet.scene import load_scene
+from nets import ROD_SCENE
 
 REPO = Path(__file__).resolve().parents[1]
 
-TINY = """
-title = "tiny rod"
-[materials.soft]
-E = 2.0e9
-G = 8.0e8
-density = 1000.0
-[sections.rod]
-kind = "circle"
-radius = 0.01
-[nodes.root]
-position = [0.0, 0.0, 0.0]
-fixed = true
-[nodes.tip]
-position = [0.5, 0.0, 0.0]
-mass = 0.05
-inertia = [1e-6, 1e-6, 1e-6]
-[lines.rod]
-start = "root"
-end = "tip"
-material = "soft"
-section = "rod"
-elements = 6
+TINY = ROD_SCENE.format(title="tiny rod", E="2.0e9", G="8.0e8", elements=6, rest="""\
 [[effects]]
 kind = "gravity"
 [[effects]]
@@ -48,7 +28,7 @@ translational = 2.0
 until = 1.0
 output_interval = 0.01
 probes = ["tip"]
-"""
+""")
 
 
 def cosnet(*args, **kw):
