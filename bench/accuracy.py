@@ -143,6 +143,20 @@ def settle(sim, omega1, periods=24.0) -> float:
     return timed(sim, until=periods / omega1)
 
 
+def loaded_cantilevers(ns, L, r, P, omega1, periods=24.0):
+    """(n, stepper, sim, tip, wall) for each element count and stepper: the cantilever under a
+    dead tip load P along -z, damped to rest over ``periods`` / omega1."""
+    for n in ns:
+        net, line, tip = cantilever(n, L, r)
+        for stepper in STEPPERS:
+            make = lambda: cosnet.Simulation(net, stepper=stepper, effects=[
+                cosnet.NodeLoad(tip, force=(0, 0, -P)), cosnet.Damping(2.0 * omega1)])
+            warm(make)
+            sim = make()
+            wall = settle(sim, omega1, periods)
+            yield n, stepper, sim, tip, wall
+
+
 def static_case(ns):
     L, r = 1.0, 0.02
     sec = cosnet.Circle(r)
@@ -151,17 +165,10 @@ def static_case(ns):
     exact = P * L**3 / (3 * EI) + P * L / (sec.shear_coefficient * STEEL.G * sec.A)
     omega1 = BETA1**2 * math.sqrt(EI / (STEEL.density * sec.A)) / L**2
     out = []
-    for n in ns:
-        net, line, tip = cantilever(n, L, r)
-        for stepper in STEPPERS:
-            make = lambda: cosnet.Simulation(net, stepper=stepper, effects=[
-                cosnet.NodeLoad(tip, force=(0, 0, -P)), cosnet.Damping(2.0 * omega1)])
-            warm(make)
-            sim = make()
-            wall = settle(sim, omega1)
-            w = -sim.node_position(tip)[2]
-            out.append(point("static", stepper, n, sim.dt, abs(w / exact - 1), wall, sim.time,
-                             deflection=w, exact=exact))
+    for n, stepper, sim, tip, wall in loaded_cantilevers(ns, L, r, P, omega1):
+        w = -sim.node_position(tip)[2]
+        out.append(point("static", stepper, n, sim.dt, abs(w / exact - 1), wall, sim.time,
+                         deflection=w, exact=exact))
     return out
 
 
@@ -201,19 +208,12 @@ def elastica_case(ns, alpha=3.0):
     P = alpha * EI / L**2
     omega1 = BETA1**2 * math.sqrt(EI / (STEEL.density * sec.A)) / L**2
     out = []
-    for n in ns:
-        net, line, tip = cantilever(n, L, r)
-        for stepper in STEPPERS:
-            make = lambda: cosnet.Simulation(net, stepper=stepper, effects=[
-                cosnet.NodeLoad(tip, force=(0, 0, -P)), cosnet.Damping(2.0 * omega1)])
-            warm(make)
-            sim = make()
-            wall = settle(sim, omega1, periods=40.0)
-            p = sim.node_position(tip)
-            dh, dv = (L - p[0]) / L, -p[2] / L
-            err = math.hypot(dh - ref[0], dv - ref[1]) / math.hypot(*ref)
-            out.append(point("elastica", stepper, n, sim.dt, err, wall, sim.time,
-                             tip=[dh, dv], exact=list(ref)))
+    for n, stepper, sim, tip, wall in loaded_cantilevers(ns, L, r, P, omega1, periods=40.0):
+        p = sim.node_position(tip)
+        dh, dv = (L - p[0]) / L, -p[2] / L
+        err = math.hypot(dh - ref[0], dv - ref[1]) / math.hypot(*ref)
+        out.append(point("elastica", stepper, n, sim.dt, err, wall, sim.time,
+                         tip=[dh, dv], exact=list(ref)))
     return out, {"alpha": alpha, "reference_tip": list(ref), "bisshopp_drucker_alpha1": list(bd)}
 
 
