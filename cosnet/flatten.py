@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .kernels.layout import Model, State
+from .kernels.layout import Model, State, column_major
 from .net import Line, Net, frame_from_tangent
 
 
@@ -171,6 +171,27 @@ def _composite_body(node, ends):
     return mass, com, I, locked
 
 
+def _eigh_deterministic(I):
+    """Return eigh(I) with axes that do not depend on the LAPACK build: within a repeated
+    eigenvalue (a round body, a sphere) the user's body axes projected on the eigenspace,
+    and every axis signed so that its largest component is positive."""
+    vals, vecs = np.linalg.eigh(I)
+    scale = max(float(np.abs(vals).max(initial=0.0)), 1e-300)
+    i = 0
+    while i < len(vals):
+        j = i + 1
+        while j < len(vals) and vals[j] - vals[i] <= 1e-9 * scale:
+            j += 1
+        if j - i > 1:
+            space = vecs[:, i:j]
+            proj = space @ space.T            # projector on the eigenspace
+            cols = proj[:, np.argsort(-np.linalg.norm(proj, axis=0), kind="stable")[:j - i]]
+            vecs[:, i:j] = np.linalg.qr(cols)[0]
+        i = j
+    sign = np.sign(vecs[np.argmax(np.abs(vecs), axis=0), np.arange(vecs.shape[1])])
+    return vals, vecs * sign
+
+
 def _principal_frame(I, locked):
     """Return (P, diag): rotation P (user body -> principal, columns principal axes) and the
     principal inertia with inf on locked axes."""
@@ -178,7 +199,7 @@ def _principal_frame(I, locked):
     P = np.eye(3)
     diag = np.full(3, math.inf)
     if free.size:
-        vals, vecs = np.linalg.eigh(I[np.ix_(free, free)])
+        vals, vecs = _eigh_deterministic(I[np.ix_(free, free)])
         block = np.eye(3)
         block[np.ix_(free, free)] = vecs
         if np.linalg.det(block) < 0:
@@ -282,6 +303,7 @@ def flatten(net: Net) -> tuple[Model, State, list[LineGrid]]:
         w=np.zeros((rest_length.shape[0], 3)), node_x=node_x, node_v=np.zeros((nn, 3)),
         node_q=node_q, node_w=np.zeros((nn, 3)), node_hold=np.zeros((nn, 3)), clock=np.zeros(1),
     )
+    model, state = column_major(model), column_major(state)
     _check_finite(model, state)
     return model, state, grids
 

@@ -13,13 +13,13 @@ from typing import NamedTuple
 
 from numba.extending import overload
 
-from .rotations import FAST
+from .rotations import KERNEL
 
 # Options of the serial step kernels. They allocate nothing, so they run without numba's
 # reference counting: a call passing the Model/State/Loads records would otherwise cost an
 # atomic increment and decrement per array (~45 arrays: about a microsecond per call), and
 # any allocation slipping into a step is refused at compile time.
-STEP = dict(cache=True, fastmath=FAST, _nrt=False)
+STEP = dict(KERNEL, _nrt=False)
 
 
 class Serial(NamedTuple):

@@ -13,11 +13,19 @@ Each line end is an *attachment*: attachment 2 l is the start (Omega = -1), 2 l 
 Frames: element and node quaternions rotate principal body axes to the lab. A node's state is
 that of its composite rigid body (its own mass plus the lumped masses of its line ends), whose
 centre of mass sits at node_com_offset from the node's reference point.
+
+Memory order: every 2-D array (n, k) is stored column-major (Fortran order), so each
+component runs contiguously over the items. Kernels index [item, component] as usual; the
+hot per-element loops read the transposed view [component, item], which LLVM vectorises
+(SIMD over consecutive elements). ``column_major`` converts a record; the loads' scratch
+arrays (elem_force, bend_left, bend_right) hold intermediate results of the internal-force
+passes.
 """
 
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 
 class Model(NamedTuple):
@@ -78,6 +86,30 @@ class Loads(NamedTuple):
     end_tau: np.ndarray  # (na, 3) torques on the nodes through the boundary Voronoi points, line-end frame
     node_f: np.ndarray   # (nn, 3) node forces, lab frame
     node_tau: np.ndarray  # (nn, 3) node torques about the centre of mass, lab frame
+    elem_force: np.ndarray  # (ne, 3) scratch: contact force n of each element, lab frame
+    bend_left: np.ndarray   # (nv, 3) scratch: torque of Voronoi point k on its left frame, body frame
+    bend_right: np.ndarray  # (nv, 3) scratch: torque of Voronoi point k on its right frame, body frame
+
+
+@njit(cache=True, inline="always")
+def columns(a, start, stop):
+    """Return the three component columns of rows start .. stop of a column-major (n, 3)
+    array as contiguous 1-D views, indexed from 0. LLVM vectorises loops over such views;
+    indexing a[i, c] with an offset row i does not vectorise (numba wraps a possibly negative
+    index, which hides the stride from LLVM)."""
+    return a[start:stop, 0], a[start:stop, 1], a[start:stop, 2]
+
+
+@njit(cache=True, inline="always")
+def quat_columns(a, start, stop):
+    """Return the four component columns of rows start .. stop of a column-major (n, 4)
+    array of quaternions, as ``columns``."""
+    return a[start:stop, 0], a[start:stop, 1], a[start:stop, 2], a[start:stop, 3]
+
+
+def column_major(record):
+    """Return the record with every 2-D array in Fortran order (a copy only where needed)."""
+    return type(record)(*(np.asfortranarray(a) if np.ndim(a) == 2 else a for a in record))
 
 
 def empty_loads(model: Model) -> Loads:
@@ -85,5 +117,6 @@ def empty_loads(model: Model) -> Loads:
     ne = model.element_rest_length.shape[0]
     na = model.attach_node.shape[0]
     nn = model.node_mass.shape[0]
-    z = np.zeros
-    return Loads(z((nv, 3)), z((ne, 3)), z((na, 3)), z((nn, 3)), z((nn, 3)))
+    def z(n):
+        return np.zeros((n, 3), order="F")
+    return Loads(z(nv), z(ne), z(na), z(nn), z(nn), z(ne), z(nv), z(nv))

@@ -13,14 +13,14 @@ from numba import njit, prange
 
 from .backend import STEP, dispatch4
 
-from .rotations import FAST, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
+from .rotations import INLINE, KERNEL, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # Yoshida's triple jump lifts a symmetric second-order flow to fourth order
 YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
 
 
-@njit(cache=True, inline="always", fastmath=FAST)
+@njit(**INLINE)
 def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
     """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
     q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact)."""
@@ -38,7 +38,7 @@ def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
     return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**KERNEL)
 def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
     """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
     free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
@@ -50,7 +50,7 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
     return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h)
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**KERNEL)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
     h to the given order (2: Strang; 4: Yoshida's triple jump of it)."""
@@ -64,7 +64,7 @@ def spin_free_body(q, p, inv_j, h, order):
     p[0], p[1], p[2] = r[4], r[5], r[6]
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(**KERNEL)
 def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
     """Return (q, p) after the exact Casimir flow exp(h i1 p) and the flow of the rest
     d1 p2^2/2 + d2 p3^2/2: exact for d1 = 0, else split symmetrically (Yoshida for order 4)."""
@@ -80,7 +80,24 @@ def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
     return r
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@njit(**INLINE)
+def spin_round(qw, qx, qy, qz, p0, p1, p2, i1, d2, h):
+    """Return (q, p) after the order-2 free-rotation flow of a round section (J1 = J2): the
+    Casimir flow by the Cayley angle of h p / J1, then the flow of d2 p3^2/2 about e3 by the
+    Cayley angle 2 atan(t), t = h d2 p3 / 2 (no branch, no trig)."""
+    ew, ex, ey, ez = quat_cayley(h * i1 * p0, h * i1 * p1, h * i1 * p2)
+    t = 0.5 * h * d2 * p2
+    n = 1.0 / (1.0 + t * t)
+    cw, cz = math.sqrt(n), t * math.sqrt(n)
+    # q <- q exp_cay(h p / J1) exp_cay(h d2 p3 e3);  p <- rotation of (p0, p1) by -2 atan(t)
+    ew, ex, ey, ez = ew * cw - ez * cz, ex * cw + ey * cz, ey * cw - ex * cz, ez * cw + ew * cz
+    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez)
+    qw, qx, qy, qz = quat_normalize(qw, qx, qy, qz)
+    cp, sp = (1.0 - t * t) * n, 2.0 * t * n
+    return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
+
+
+@njit(**INLINE)
 def spin_element(q, w, J, inv_j, h, order):
     """Update element quaternion q (4,) and body angular velocity w (3,) by the free-rotation
     flow for time h. The kinetic energy |p|^2/(2 J1) + (1/J2 - 1/J1) p2^2/2 + (1/J3 - 1/J1) p3^2/2
@@ -92,23 +109,55 @@ def spin_element(q, w, J, inv_j, h, order):
     i1 = inv_j[0]
     d1, d2 = inv_j[1] - i1, inv_j[2] - i1
     if order == 2 and d1 == 0.0:
-        ew, ex, ey, ez = quat_cayley(h * i1 * p0, h * i1 * p1, h * i1 * p2)
-        t = 0.5 * h * d2 * p2
-        n = 1.0 / (1.0 + t * t)
-        cw, cz = math.sqrt(n), t * math.sqrt(n)
-        # q <- q exp_cay(h p / J1) exp_cay(h d2 p3 e3);  p <- rotation of (p0, p1) by -2 atan(t)
-        ew, ex, ey, ez = ew * cw - ez * cz, ex * cw + ey * cz, ey * cw - ex * cz, ez * cw + ew * cz
-        qw, qx, qy, qz = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez)
-        cp, sp = (1.0 - t * t) * n, 2.0 * t * n
-        p0, p1 = cp * p0 + sp * p1, -sp * p0 + cp * p1
-        r = (qw, qx, qy, qz, p0, p1, p2)
+        r = spin_round(q[0], q[1], q[2], q[3], p0, p1, p2, i1, d2, h)
     else:
         r = spin_exact(q[0], q[1], q[2], q[3], p0, p1, p2, i1, d1, d2, h, order)
-    q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
+        r = quat_normalize(r[0], r[1], r[2], r[3]) + (r[4], r[5], r[6])
+    q[0], q[1], q[2], q[3] = r[0], r[1], r[2], r[3]
     w[0], w[1], w[2] = r[4] * inv_j[0], r[5] * inv_j[1], r[6] * inv_j[2]
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@njit(**INLINE)
+def spin_round_elements(q, w, J, ij, h):
+    """Update q (4, ne), w (3, ne) of the round-section elements by spin_round (other lanes
+    keep their values); return how many elements are not round."""
+    other = 0
+    for e in range(q.shape[1]):
+        rnd = ij[1, e] == ij[0, e]
+        other += 0 if rnd else 1
+        qw, qx, qy, qz, p0, p1, p2 = spin_round(q[0, e], q[1, e], q[2, e], q[3, e], J[0, e] * w[0, e],
+                                                J[1, e] * w[1, e], J[2, e] * w[2, e], ij[0, e],
+                                                ij[2, e] - ij[0, e], h)
+        q[0, e] = qw if rnd else q[0, e]
+        q[1, e] = qx if rnd else q[1, e]
+        q[2, e] = qy if rnd else q[2, e]
+        q[3, e] = qz if rnd else q[3, e]
+        w[0, e] = p0 * ij[0, e] if rnd else w[0, e]
+        w[1, e] = p1 * ij[1, e] if rnd else w[1, e]
+        w[2, e] = p2 * ij[2, e] if rnd else w[2, e]
+    return other
+
+
+@njit(**STEP)
+def drift_bodies(model, state, h, order):
+    """Update vertex positions and element frames by the free flight of time h. At order 2
+    the round sections turn in one vectorised pass (other lanes keep their values); the few
+    other elements follow in a second pass."""
+    x, v = state.x.T, state.v.T
+    for i in range(x.shape[1]):
+        x[0, i] += h * v[0, i]
+        x[1, i] += h * v[1, i]
+        x[2, i] += h * v[2, i]
+    q, w, J, ij = state.q.T, state.w.T, model.element_inertia.T, model.element_inv_inertia.T
+    other = spin_round_elements(q, w, J, ij, h) if order == 2 else q.shape[1]
+    if other:
+        qr, wr, Jr, ijr = state.q, state.w, model.element_inertia, model.element_inv_inertia
+        for e in range(q.shape[1]):
+            if order != 2 or ij[1, e] != ij[0, e]:
+                spin_element(qr[e], wr[e], Jr[e], ijr[e], h, order)
+
+
+@njit(**INLINE)
 def drift_vertex(i, x, v, h):
     """Update x[i] (nv,3) by h v[i]."""
     x[i, 0] += h * v[i, 0]
@@ -116,17 +165,7 @@ def drift_vertex(i, x, v, h):
     x[i, 2] += h * v[i, 2]
 
 
-@njit(**STEP)
-def drift_bodies(model, state, h, order):
-    """Update vertex positions and element frames by the free flight of time h."""
-    x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
-    for i in range(x.shape[0]):
-        drift_vertex(i, x, v, h)
-    for e in range(q.shape[0]):
-        spin_element(q[e], w[e], J[e], ij[e], h, order)
-
-
-@njit(cache=True, fastmath=FAST, parallel=True)
+@njit(**KERNEL, parallel=True)
 def drift_bodies_parallel(model, state, h, order):
     """Update vertex positions and element frames by the free flight of time h (threads)."""
     x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
@@ -205,7 +244,7 @@ def gather_node_loads(model, state, loads):
             loads.node_tau[nd, 2] += cz + tz
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@njit(**INLINE)
 def kick_row(i, u, inv_m, load, h):
     """Update u[i] (n,3) by the impulse h inv_m[i] (componentwise) load[i] (3.2)/(3.3)."""
     u[i, 0] += h * inv_m[i, 0] * load[i, 0]
@@ -213,16 +252,23 @@ def kick_row(i, u, inv_m, load, h):
     u[i, 2] += h * inv_m[i, 2] * load[i, 2]
 
 
+@njit(**INLINE)
+def kick_columns(u, inv_m, load, h):
+    """Update u (3, n) by the impulse h inv_m load (componentwise, (3, n) views) (3.2)/(3.3)."""
+    for i in range(u.shape[1]):
+        u[0, i] += h * inv_m[0, i] * load[0, i]
+        u[1, i] += h * inv_m[1, i] * load[1, i]
+        u[2, i] += h * inv_m[2, i] * load[2, i]
+
+
 @njit(**STEP)
 def kick_bodies(model, state, loads, h):
     """Update vertex velocities and element angular velocities given the loads over time h."""
-    for i in range(state.v.shape[0]):
-        kick_row(i, state.v, model.vertex_inv_mass3, loads.f, h)
-    for e in range(state.w.shape[0]):
-        kick_row(e, state.w, model.element_inv_inertia, loads.tau, h)
+    kick_columns(state.v.T, model.vertex_inv_mass3.T, loads.f.T, h)
+    kick_columns(state.w.T, model.element_inv_inertia.T, loads.tau.T, h)
 
 
-@njit(cache=True, fastmath=FAST, parallel=True)
+@njit(**KERNEL, parallel=True)
 def kick_bodies_parallel(model, state, loads, h):
     """Update vertex velocities and element angular velocities given the loads (threads)."""
     v, w, im, ij, f, tau = state.v, state.w, model.vertex_inv_mass3, model.element_inv_inertia, loads.f, loads.tau

@@ -12,7 +12,11 @@ from numba import njit
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}
-OPTS = dict(cache=True, inline="always", fastmath=FAST)
+# Division by zero gives inf/NaN (numpy's error model) rather than raising: the zero test
+# python's model puts before every division is an early exit, which stops vectorisation.
+KERNEL = dict(cache=True, fastmath=FAST, error_model="numpy")
+INLINE = dict(KERNEL, inline="always")
+OPTS = INLINE
 
 
 @njit(**OPTS)
@@ -86,23 +90,45 @@ def cross(ax, ay, az, bx, by, bz):
 
 
 @njit(**OPTS)
+def relative_quat(aw, ax, ay, az, bw, bx, by, bz):
+    """Return (r, small): r = A^T B with r_w >= 0, and whether |theta| < 0.2 (the range of
+    small_rotation)."""
+    rw, rx, ry, rz = quat_mul(aw, -ax, -ay, -az, bw, bx, by, bz)
+    sg = 1.0 if rw >= 0.0 else -1.0   # a select, not a branch: the loops stay vectorisable
+    rw, rx, ry, rz = sg * rw, sg * rx, sg * ry, sg * rz
+    return rw, rx, ry, rz, rx * rx + ry * ry + rz * rz < 0.01 * rw * rw
+
+
+@njit(**OPTS)
+def small_rotation(rw, rx, ry, rz):
+    """Return (theta, c) of relative_rotation for a unit quaternion r with r_w > 0 and
+    |theta| < 0.2, by series (no branch, no trig): theta = (2/w) atan(x)/x r_vec, x = s/w."""
+    s2 = rx * rx + ry * ry + rz * rz
+    x2 = s2 / (rw * rw)
+    # atan(x)/x = sum (-x2)^j / (2j + 1), Horner to j = 8 (written out: loops over tuples
+    # become switches, which stop vectorisation)
+    p = 1.0 / 15.0 - x2 / 17.0
+    p = 1.0 / 13.0 - x2 * p
+    p = 1.0 / 11.0 - x2 * p
+    p = 1.0 / 9.0 - x2 * p
+    p = 1.0 / 7.0 - x2 * p
+    p = 1.0 / 5.0 - x2 * p
+    p = 1.0 / 3.0 - x2 * p
+    p = 1.0 - x2 * p
+    f = 2.0 * p / rw
+    t2 = f * f * s2
+    c = 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 * (1.0 / 1209600.0 + t2 / 47900160.0)))
+    return f * rx, f * ry, f * rz, c
+
+
+@njit(**OPTS)
 def relative_rotation(aw, ax, ay, az, bw, bx, by, bz):
     """Return (theta, c): the rotation vector of A^T B (its components agree in both frames)
     and c(theta) = 1/theta^2 - (1 + cos theta)/(2 theta sin theta) of the inverse Jacobians."""
-    rw, rx, ry, rz = quat_mul(aw, -ax, -ay, -az, bw, bx, by, bz)
-    if rw < 0.0:
-        rw, rx, ry, rz = -rw, -rx, -ry, -rz
+    rw, rx, ry, rz, small = relative_quat(aw, ax, ay, az, bw, bx, by, bz)
+    if small:
+        return small_rotation(rw, rx, ry, rz)
     s2 = rx * rx + ry * ry + rz * rz
-    if s2 < 0.01 * rw * rw:
-        # |theta| < 0.2: theta = (2/w) atan(x)/x r_vec with x = s/w, both as series (no trig)
-        x2 = s2 / (rw * rw)
-        p = 1.0 / 17.0
-        for k in (15.0, 13.0, 11.0, 9.0, 7.0, 5.0, 3.0, 1.0):
-            p = 1.0 / k - x2 * p
-        f = 2.0 * p / rw
-        t2 = f * f * s2
-        c = 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 * (1.0 / 1209600.0 + t2 / 47900160.0)))
-        return f * rx, f * ry, f * rz, c
     tx, ty, tz = quat_log(rw, rx, ry, rz)
     theta2 = tx * tx + ty * ty + tz * tz
     # with cos(theta/2) = w and sin(theta/2) = s: (1 + cos)/(2 theta sin) = w/(2 theta s)
