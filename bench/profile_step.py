@@ -16,7 +16,7 @@ from numba import njit
 import cosnet
 from cosnet.kernels.compose import apply_loads
 from cosnet.kernels.elastic import compute_internal_loads
-from cosnet.kernels.motion import (drift_bodies, drift_state, gather_node_loads, kick_bodies,
+from cosnet.kernels.motion import (drift_bodies, drift_state, gather_node_loads_on, kick_bodies,
                                    kick_state, place_line_ends)
 from cosnet.kernels.stepping import advance_verlet, evaluate_loads
 from harness import table
@@ -37,11 +37,11 @@ def loop_effects(model, state, loads, eff, k):
 
 
 @njit
-def loop_gather(model, state, loads, k):
+def loop_gather(model, state, loads, backend, k):
     for _ in range(k):
         loads.node_f[:] = 0.0
         loads.node_tau[:] = 0.0
-        gather_node_loads(model, state, loads)
+        gather_node_loads_on(backend, model.node_mass.shape[0], model, state, loads, 0.0)
 
 
 @njit
@@ -105,7 +105,7 @@ def profile(n):
         "evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
         "  internal loads": lambda: loop_internal(m, s, l, k),
         "  effects (gravity)": lambda: loop_effects(m, s, l, eff, k),
-        "  gather node loads": lambda: loop_gather(m, s, l, k),
+        "  gather node loads": lambda: loop_gather(m, s, l, be, k),
         "kick_state": lambda: loop_kick_state(m, s, l, h, be, k),
         "  kick bodies": lambda: loop_kick_bodies(m, s, l, h, k),
         "drift_state": lambda: loop_drift_state(m, s, h, be, k),

@@ -11,6 +11,7 @@ LLVM inlines anyway, is correct; tests/test_conservation.py checks 1 vs 2 thread
 
 from typing import NamedTuple
 
+from numba import njit, prange
 from numba.extending import overload
 
 from .rotations import KERNEL
@@ -20,6 +21,28 @@ from .rotations import KERNEL
 # atomic increment and decrement per array (~45 arrays: about a microsecond per call), and
 # any allocation slipping into a step is refused at compile time.
 STEP = dict(KERNEL, _nrt=False)
+
+# nodes per task of the threaded node loops
+NODE_BLOCK = 256
+
+
+def _noalias() -> dict:
+    """Return the option that marks a kernel's array arguments as not overlapping (numba's
+    ``noalias`` compiler flag, which its parallel gufuncs use; exposed here as a decorator
+    option), or nothing where this numba lacks the flag: the loops stay correct, LLVM then
+    tests for overlap at run time before each vectorised loop."""
+    from numba.core import compiler, cpu, options
+    if not hasattr(compiler.Flags, "noalias"):
+        return {}
+    if not hasattr(cpu.CPUTargetOptions, "noalias"):
+        cpu.CPUTargetOptions.noalias = options.TargetOptions.Mapping("noalias")
+    return {"noalias": True}
+
+
+# Options of the per-line passes: their array arguments (column views) never overlap, so
+# LLVM vectorises them without run-time overlap tests (a few hundred instructions per call,
+# which would dominate lines of ten elements). Never pass one array twice to such a kernel.
+PASS = dict(STEP, **_noalias())
 
 
 class Serial(NamedTuple):
@@ -48,6 +71,45 @@ def dispatch3(serial, parallel):
 
         def impl(backend, a, b, c):
             fn(a, b, c)
+        return impl
+    return call
+
+
+def each_node(body):
+    """Return (serial, parallel) kernels f(n, a, b, c, d) running body(i, a, b, c, d) for i
+    in range(n): the serial one with body inlined (a call per node would pass the whole
+    model and state records as arguments), the parallel one in blocks of NODE_BLOCK nodes
+    (one call per block). body must not be decorated: it is compiled here."""
+    inline = njit(**dict(KERNEL, inline="always"))(body)
+
+    @njit(**STEP)
+    def serial(n, a, b, c, d):
+        for i in range(n):
+            inline(i, a, b, c, d)
+
+    @njit(**STEP)  # not inline="always": called inside prange (see above)
+    def block(i0, i1, a, b, c, d):
+        for i in range(i0, i1):
+            inline(i, a, b, c, d)
+
+    @njit(**KERNEL, parallel=True)
+    def parallel(n, a, b, c, d):
+        for k in prange((n + NODE_BLOCK - 1) // NODE_BLOCK):
+            block(k * NODE_BLOCK, min((k + 1) * NODE_BLOCK, n), a, b, c, d)
+    return serial, parallel
+
+
+def dispatch5(serial, parallel):
+    """As dispatch3, for functions of five arguments."""
+    def call(backend, a, b, c, d, e):
+        raise TypeError("dispatch targets are callable from njit code only")
+
+    @overload(call)
+    def typer(backend, a, b, c, d, e):
+        fn = _pick(backend, serial, parallel)
+
+        def impl(backend, a, b, c, d, e):
+            fn(a, b, c, d, e)
         return impl
     return call
 

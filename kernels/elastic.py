@@ -11,8 +11,11 @@ and the time stepper is variational: energy has no secular drift.
 
 from numba import njit, prange
 
-from .backend import STEP, dispatch3
-from .layout import columns, quat_columns
+from .backend import PASS, STEP, dispatch3
+from .layout import columns, quat_columns, uint
+
+# elements per task of the threaded internal loads (a block of whole lines)
+LINE_BLOCK = 4096
 
 from .rotations import (INLINE, KERNEL, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
                         relative_rotation, small_rotation)
@@ -62,15 +65,17 @@ def end_frame(model, state, a):
     return quat_mul(nq[0], nq[1], nq[2], nq[3], xq[0], xq[1], xq[2], xq[3])
 
 
-@njit(**INLINE)
-def bend_interior(n, vor, q, left, right):
-    """Update left, right at the interior Voronoi points 1 .. n-1 of a line given its n
-    element quaternions q (column quadruple), by the series log map (vectorised); return how
-    many points turned by 0.2 rad or more (their values are then meaningless)."""
+@njit(**PASS)
+def bend_interior(v0, e0, n, vor, q, left, right):
+    """Update left, right at the interior Voronoi points v0+1 .. v0+n-1 of a line given its
+    element quaternions q[e0 .. e0+n-1], by the series log map (vectorised); return how many
+    points turned by 0.2 rad or more (their values are then meaningless). Unsigned offsets;
+    column tuples (see layout.columns)."""
     large = 0
-    for k in range(1, n):
-        rw, rx, ry, rz, small = relative_quat(q[0][k - 1], q[1][k - 1], q[2][k - 1], q[3][k - 1],
-                                              q[0][k], q[1][k], q[2][k], q[3][k])
+    for j in range(1, n):
+        a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
+        rw, rx, ry, rz, small = relative_quat(q[0][a], q[1][a], q[2][a], q[3][a],
+                                              q[0][b], q[1][b], q[2][b], q[3][b])
         large += 0 if small else 1
         tx, ty, tz, c = small_rotation(rw, rx, ry, rz)
         store_bend(vor, k, tx, ty, tz, c, left, right)
@@ -78,93 +83,137 @@ def bend_interior(n, vor, q, left, right):
 
 
 @njit(**INLINE)
-def bend_interior_large(n, vor, q, left, right):
+def bend_interior_large(v0, e0, n, vor, q, left, right):
     """Update left, right at the interior Voronoi points of a line turned by 0.2 rad or
     more, by the exact log map."""
-    for k in range(1, n):
-        aw, ax, ay, az = q[0][k - 1], q[1][k - 1], q[2][k - 1], q[3][k - 1]
-        bw, bx, by, bz = q[0][k], q[1][k], q[2][k], q[3][k]
+    for j in range(1, n):
+        a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
+        aw, ax, ay, az = q[0][a], q[1][a], q[2][a], q[3][a]
+        bw, bx, by, bz = q[0][b], q[1][b], q[2][b], q[3][b]
         if not relative_quat(aw, ax, ay, az, bw, bx, by, bz)[4]:
             tx, ty, tz, c = relative_rotation(aw, ax, ay, az, bw, bx, by, bz)
             store_bend(vor, k, tx, ty, tz, c, left, right)
 
 
-@njit(**INLINE)
-def stretch_elements(n, x, q, stiff, inv_len, left, right, force, tau):
+@njit(**PASS)
+def stretch_elements(v0, e0, n, x, q, stiff, inv_len, left, right, force, tau):
     """Update force, the lab contact force n = D K (D^T r'/l - e3), and tau, the body torque
     r' x n plus the bending torques of the Voronoi points on either side, of the n elements
-    of a line (3.2)/(3.3), (3.22) (vectorised; column tuples of the line's items)."""
-    for e in range(n):
+    e0 .. e0+n-1 of a line (3.2)/(3.3), (3.22) (vectorised; unsigned offsets, columns)."""
+    for j in range(n):
+        e, v, w = e0 + uint(j), v0 + uint(j), v0 + uint(j + 1)
         qw, qx, qy, qz = q[0][e], q[1][e], q[2][e], q[3][e]
         il = inv_len[e]
-        sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][e + 1] - x[0][e], x[1][e + 1] - x[1][e],
-                                     x[2][e + 1] - x[2][e])
+        sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][w] - x[0][v], x[1][w] - x[1][v], x[2][w] - x[2][v])
         nx, ny, nz = stiff[0][e] * sx * il, stiff[1][e] * sy * il, stiff[2][e] * (sz * il - 1.0)
         fx, fy, fz = quat_rotate(qw, qx, qy, qz, nx, ny, nz)
         force[0][e], force[1][e], force[2][e] = fx, fy, fz
         cx, cy, cz = cross(sx, sy, sz, nx, ny, nz)
-        tau[0][e] = cx + right[0][e] + left[0][e + 1]
-        tau[1][e] = cy + right[1][e] + left[1][e + 1]
-        tau[2][e] = cz + right[2][e] + left[2][e + 1]
+        tau[0][e] = cx + right[0][v] + left[0][w]
+        tau[1][e] = cy + right[1][v] + left[1][w]
+        tau[2][e] = cz + right[2][v] + left[2][w]
+
+
+@njit(**PASS)
+def vertex_forces(v0, e0, n, force, f):
+    """Update f at the vertices v0 .. v0+n of a line with the difference of the contact
+    forces of the elements on either side (3.2) (vectorised; unsigned offsets, columns)."""
+    for j in range(1, n):
+        v, e, d = v0 + uint(j), e0 + uint(j), e0 + uint(j - 1)
+        f[0][v] = force[0][e] - force[0][d]
+        f[1][v] = force[1][e] - force[1][d]
+        f[2][v] = force[2][e] - force[2][d]
+    first, last, end = v0, v0 + uint(n), e0 + uint(n - 1)
+    for k in range(3):
+        f[k][first] = force[k][e0]
+        f[k][last] = -force[k][end]
 
 
 @njit(**INLINE)
-def vertex_forces(n, force, f):
-    """Update f at the n + 1 vertices of a line with the difference of the contact forces of
-    the elements on either side (3.2) (vectorised; column tuples of the line's items)."""
-    for v in range(1, n):
-        f[0][v] = force[0][v] - force[0][v - 1]
-        f[1][v] = force[1][v] - force[1][v - 1]
-        f[2][v] = force[2][v] - force[2][v - 1]
+def line_bend(l, model, state, cols):
+    """Update the scratch bend_left, bend_right at the Voronoi points of line l given its
+    element frames and its nodes' frames (3.22)."""
+    x, q, stiff, vor, left, right, force, f, tau = cols
+    v0 = uint(model.line_vertex_offsets[l])
+    e0 = uint(model.line_element_offsets[l])
+    n = model.line_element_offsets[l + 1] - model.line_element_offsets[l]
+    if bend_interior(v0, e0, n, vor, q, left, right):
+        bend_interior_large(v0, e0, n, vor, q, left, right)
+    # the boundary points join the end elements to their nodes' frames D(nu) X(nu, lambda)
+    aw, ax, ay, az = end_frame(model, state, 2 * l)
+    tx, ty, tz, c = relative_rotation(aw, ax, ay, az, q[0][e0], q[1][e0], q[2][e0], q[3][e0])
+    store_bend(vor, v0, tx, ty, tz, c, left, right)
+    last, vn = e0 + uint(n - 1), v0 + uint(n)
+    bw, bx, by, bz = end_frame(model, state, 2 * l + 1)
+    tx, ty, tz, c = relative_rotation(q[0][last], q[1][last], q[2][last], q[3][last], bw, bx, by, bz)
+    store_bend(vor, vn, tx, ty, tz, c, left, right)
+
+
+@njit(**INLINE)
+def line_stretch(l, model, loads, cols):
+    """Update loads.f, loads.tau, loads.end_tau of line l given the positions, frames and the
+    bending torques of its Voronoi points (3.2)/(3.3), (3.22)-(3.25)."""
+    x, q, stiff, vor, left, right, force, f, tau = cols
+    v0 = uint(model.line_vertex_offsets[l])
+    e0 = uint(model.line_element_offsets[l])
+    n = model.line_element_offsets[l + 1] - model.line_element_offsets[l]
+    stretch_elements(v0, e0, n, x, q, stiff, model.element_inv_rest_length, left, right, force, tau)
+    vertex_forces(v0, e0, n, force, f)
+    vn = v0 + uint(n)
+    ends = loads.end_tau
     for k in range(3):
-        f[k][0] = force[k][0]
-        f[k][n] = -force[k][n - 1]
+        ends[2 * l, k] = left[k][v0]
+        ends[2 * l + 1, k] = right[k][vn]
+
+
+@njit(**INLINE)
+def internal_columns(model, state, loads):
+    """Return the column views read and written by line_loads."""
+    vor = (columns(model.voronoi_stiffness), columns(model.voronoi_rest_curvature), model.voronoi_inv_rest_length)
+    return (columns(state.x), quat_columns(state.q), columns(model.element_stiffness), vor,
+            columns(loads.bend_left), columns(loads.bend_right), columns(loads.elem_force),
+            columns(loads.f), columns(loads.tau))
 
 
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
-def compute_line_loads(l, model, state, loads):
-    """Update loads.f, loads.tau, loads.end_tau of line l given state.x, state.q, state.node_q
-    (3.2)-(3.3), (3.22)-(3.25), in vectorised passes over the line's Voronoi points, elements
-    and vertices (through the scratch loads.bend_left, bend_right, elem_force)."""
-    v0, v1 = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-    e0, e1 = model.line_element_offsets[l], model.line_element_offsets[l + 1]
-    n = e1 - e0
-    q = quat_columns(state.q, e0, e1)
-    left, right = columns(loads.bend_left, v0, v1), columns(loads.bend_right, v0, v1)
-    vor = (columns(model.voronoi_stiffness, v0, v1), columns(model.voronoi_rest_curvature, v0, v1),
-           model.voronoi_inv_rest_length[v0:v1])
-    if bend_interior(n, vor, q, left, right):
-        bend_interior_large(n, vor, q, left, right)
-    # the boundary points join the end elements to their nodes' frames D(nu) X(nu, lambda)
-    aw, ax, ay, az = end_frame(model, state, 2 * l)
-    tx, ty, tz, c = relative_rotation(aw, ax, ay, az, q[0][0], q[1][0], q[2][0], q[3][0])
-    store_bend(vor, 0, tx, ty, tz, c, left, right)
-    bw, bx, by, bz = end_frame(model, state, 2 * l + 1)
-    tx, ty, tz, c = relative_rotation(q[0][n - 1], q[1][n - 1], q[2][n - 1], q[3][n - 1], bw, bx, by, bz)
-    store_bend(vor, n, tx, ty, tz, c, left, right)
-    force = columns(loads.elem_force, e0, e1)
-    stretch_elements(n, columns(state.x, v0, v1), q, columns(model.element_stiffness, e0, e1),
-                     model.element_inv_rest_length[e0:e1], left, right, force, columns(loads.tau, e0, e1))
-    vertex_forces(n, force, columns(loads.f, v0, v1))
-    ends = loads.end_tau
-    for k in range(3):
-        ends[2 * l, k] = left[k][0]
-        ends[2 * l + 1, k] = right[k][n]
+def compute_line_block(l0, l1, model, state, loads):
+    """Update the internal loads of lines l0 .. l1-1 in vectorised passes over their Voronoi
+    points, elements and vertices, through the scratch loads.bend_left, bend_right,
+    elem_force: first the bending of every line of the block, then the rest (each pass reads
+    fewer arrays at once, and a block's scratch stays in cache)."""
+    cols = internal_columns(model, state, loads)
+    for l in range(l0, l1):
+        line_bend(l, model, state, cols)
+    for l in range(l0, l1):
+        line_stretch(l, model, loads, cols)
+
+
+@njit(**INLINE)
+def lines_per_block(model):
+    """Return how many lines make a block of about LINE_BLOCK elements (at least one)."""
+    offsets = model.line_element_offsets
+    nl = offsets.shape[0] - 1
+    return max(1, (LINE_BLOCK * nl) // max(offsets[nl], 1))
 
 
 @njit(**STEP)
 def compute_internal_loads(model, state, loads):
     """Update loads.f (nv,3), loads.tau (ne,3), loads.end_tau (na,3) given the state: the
     internal force and torque balances (3.2)/(3.3) of every line."""
-    for l in range(model.line_vertex_offsets.shape[0] - 1):
-        compute_line_loads(l, model, state, loads)
+    nl = model.line_vertex_offsets.shape[0] - 1
+    per = lines_per_block(model)
+    for b in range((nl + per - 1) // per):
+        compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
 
 
 @njit(**KERNEL, parallel=True)
 def compute_internal_loads_parallel(model, state, loads):
-    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads, a line per task."""
-    for l in prange(model.line_vertex_offsets.shape[0] - 1):
-        compute_line_loads(l, model, state, loads)
+    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads, a block of lines
+    per task."""
+    nl = model.line_vertex_offsets.shape[0] - 1
+    per = lines_per_block(model)
+    for b in prange((nl + per - 1) // per):
+        compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
 
 
 internal_loads_on = dispatch3(compute_internal_loads, compute_internal_loads_parallel)

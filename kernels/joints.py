@@ -21,7 +21,7 @@ axis is the tangent at the end.
 Each torque is minus the exact derivative of V_t with respect to a rotation of that end, so a
 joint with nu = nut = 0 conserves energy, and the pair is equal and opposite, so it keeps both
 momenta. Torques act on the line-end frames, i.e. on the nodes the ends are attached to
-(loads.node_tau, lab); forces act on the end vertices (loads.f), which gather_node_loads moves
+(loads.node_tau, lab); forces act on the end vertices (loads.f), which gather_node moves
 to the nodes with their lever arms (4.3)/(4.4). The optional dampers nu, nut act on the relative
 velocity and angular velocity of the two ends (equal and opposite: they only dissipate).
 

@@ -14,8 +14,10 @@ Frames: element and node quaternions rotate principal body axes to the lab. A no
 that of its composite rigid body (its own mass plus the lumped masses of its line ends), whose
 centre of mass sits at node_com_offset from the node's reference point.
 
-Memory order: every 2-D array (n, k) is stored column-major (Fortran order), so each
-component runs contiguously over the items. Kernels index [item, component] as usual; the
+Memory order: every 2-D array (n, k) over vertices, elements or Voronoi points is stored
+column-major (Fortran order), so each component runs contiguously over the items; arrays
+over nodes and line ends stay row-major (their loops are not vectorised, and a node's
+values then share a cache line). Kernels index [item, component] as usual; the
 hot per-element loops read the transposed view [component, item], which LLVM vectorises
 (SIMD over consecutive elements). ``column_major`` converts a record; the loads' scratch
 arrays (elem_force, bend_left, bend_right) hold intermediate results of the internal-force
@@ -92,24 +94,39 @@ class Loads(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def columns(a, start, stop):
-    """Return the three component columns of rows start .. stop of a column-major (n, 3)
-    array as contiguous 1-D views, indexed from 0. LLVM vectorises loops over such views;
-    indexing a[i, c] with an offset row i does not vectorise (numba wraps a possibly negative
-    index, which hides the stride from LLVM)."""
+def columns(a, start=0, stop=-1):
+    """Return the three component columns of rows start .. stop (default: all) of a
+    column-major (n, 3) array as contiguous 1-D views, indexed from 0. LLVM vectorises loops over such views when they are indexed by a loop counter
+    or an unsigned offset plus one (``uint``); a signed offset index does not vectorise (numba
+    wraps a possibly negative index, which hides the stride from LLVM)."""
+    stop = a.shape[0] if stop < 0 else stop
     return a[start:stop, 0], a[start:stop, 1], a[start:stop, 2]
 
 
 @njit(cache=True, inline="always")
-def quat_columns(a, start, stop):
+def quat_columns(a, start=0, stop=-1):
     """Return the four component columns of rows start .. stop of a column-major (n, 4)
     array of quaternions, as ``columns``."""
+    stop = a.shape[0] if stop < 0 else stop
     return a[start:stop, 0], a[start:stop, 1], a[start:stop, 2], a[start:stop, 3]
 
 
+@njit(cache=True, inline="always")
+def uint(i):
+    """Return i as an unsigned index (see ``columns``)."""
+    return np.uint64(i)
+
+
 def column_major(record):
-    """Return the record with every 2-D array in Fortran order (a copy only where needed)."""
-    return type(record)(*(np.asfortranarray(a) if np.ndim(a) == 2 else a for a in record))
+    """Return the record with every 2-D array over vertices, elements or Voronoi points in
+    Fortran order (a copy only where needed); node and line-end arrays stay row-major."""
+    def order(name, a):
+        if np.ndim(a) != 2:
+            return a
+        if name.startswith(("node_", "attach_", "end_")):
+            return np.ascontiguousarray(a)
+        return np.asfortranarray(a)
+    return type(record)(*(order(n, a) for n, a in zip(record._fields, record)))
 
 
 def empty_loads(model: Model) -> Loads:
@@ -118,5 +135,5 @@ def empty_loads(model: Model) -> Loads:
     na = model.attach_node.shape[0]
     nn = model.node_mass.shape[0]
     def z(n):
-        return np.zeros((n, 3), order="F")
-    return Loads(z(nv), z(ne), z(na), z(nn), z(nn), z(ne), z(nv), z(nv))
+        return np.zeros((n, 3))
+    return column_major(Loads(z(nv), z(ne), z(na), z(nn), z(nn), z(ne), z(nv), z(nv)))

@@ -11,7 +11,11 @@ import math
 
 from numba import njit, prange
 
-from .backend import STEP, dispatch4
+from .backend import PASS, STEP, dispatch4, dispatch5, each_node
+from .layout import columns, quat_columns
+
+# rows per task of the threaded element loops (each block runs the vectorised serial loop)
+BLOCK = 4096
 
 from .rotations import INLINE, KERNEL, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
@@ -21,12 +25,20 @@ YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
 
 
 @njit(**INLINE)
-def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
+def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h, cayley=False):
     """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
-    q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact)."""
+    q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact). With cayley,
+    the angle is 2 atan(phi/2): the exact flow of another function of p_i alone, so still
+    symplectic with |p| and the lab angular momentum exact, O(phi^3) apart, free of trig."""
     p = (p0, p1, p2)
     phi = h * inv_j * p[axis]
-    c, s = math.cos(0.5 * phi), math.sin(0.5 * phi)
+    if cayley:
+        t = 0.5 * phi
+        n = 1.0 / (1.0 + t * t)
+        c = math.sqrt(n)
+        s = t * c
+    else:
+        c, s = math.cos(0.5 * phi), math.sin(0.5 * phi)
     cp, sp = c * c - s * s, 2.0 * s * c
     if axis == 0:
         qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, c, s, 0.0, 0.0)
@@ -39,27 +51,28 @@ def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h):
 
 
 @njit(**KERNEL)
-def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h):
+def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
     """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
     free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
-    momentum exact."""
-    r = spin_about_axis(qw, qx, qy, qz, p0, p1, p2, i0, 0, 0.5 * h)
-    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h)
-    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i2, 2, h)
-    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h)
-    return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h)
+    momentum exact (with Cayley angles: see spin_about_axis)."""
+    r = spin_about_axis(qw, qx, qy, qz, p0, p1, p2, i0, 0, 0.5 * h, cayley)
+    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h, cayley)
+    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i2, 2, h, cayley)
+    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h, cayley)
+    return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h, cayley)
 
 
 @njit(**KERNEL)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
-    h to the given order (2: Strang; 4: Yoshida's triple jump of it)."""
+    h to the given order (2: Strang with Cayley angles, as the elements turn; 4: Yoshida's
+    triple jump of the exact Strang splitting)."""
     r = (q[0], q[1], q[2], q[3], p[0], p[1], p[2])
     if order == 4:
         for c in (YOSHIDA_1, YOSHIDA_0, YOSHIDA_1):
-            r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], c * h)
+            r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], c * h, False)
     else:
-        r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], h)
+        r = spin_strang(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[0], inv_j[1], inv_j[2], h, True)
     q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
     p[0], p[1], p[2] = r[4], r[5], r[6]
 
@@ -117,65 +130,91 @@ def spin_element(q, w, J, inv_j, h, order):
     w[0], w[1], w[2] = r[4] * inv_j[0], r[5] * inv_j[1], r[6] * inv_j[2]
 
 
-@njit(**INLINE)
+@njit(**PASS)
 def spin_round_elements(q, w, J, ij, h):
-    """Update q (4, ne), w (3, ne) of the round-section elements by spin_round (other lanes
-    keep their values); return how many elements are not round."""
+    """Update the element columns q (4-tuple), w (3-tuple) of the round-section elements by
+    spin_round (other lanes keep their values) given J, 1/J (3-tuples); return how many
+    elements are not round."""
     other = 0
-    for e in range(q.shape[1]):
-        rnd = ij[1, e] == ij[0, e]
+    for e in range(q[0].shape[0]):
+        rnd = ij[1][e] == ij[0][e]
         other += 0 if rnd else 1
-        qw, qx, qy, qz, p0, p1, p2 = spin_round(q[0, e], q[1, e], q[2, e], q[3, e], J[0, e] * w[0, e],
-                                                J[1, e] * w[1, e], J[2, e] * w[2, e], ij[0, e],
-                                                ij[2, e] - ij[0, e], h)
-        q[0, e] = qw if rnd else q[0, e]
-        q[1, e] = qx if rnd else q[1, e]
-        q[2, e] = qy if rnd else q[2, e]
-        q[3, e] = qz if rnd else q[3, e]
-        w[0, e] = p0 * ij[0, e] if rnd else w[0, e]
-        w[1, e] = p1 * ij[1, e] if rnd else w[1, e]
-        w[2, e] = p2 * ij[2, e] if rnd else w[2, e]
+        qw, qx, qy, qz, p0, p1, p2 = spin_round(q[0][e], q[1][e], q[2][e], q[3][e], J[0][e] * w[0][e],
+                                                J[1][e] * w[1][e], J[2][e] * w[2][e], ij[0][e],
+                                                ij[2][e] - ij[0][e], h)
+        q[0][e] = qw if rnd else q[0][e]
+        q[1][e] = qx if rnd else q[1][e]
+        q[2][e] = qy if rnd else q[2][e]
+        q[3][e] = qz if rnd else q[3][e]
+        w[0][e] = p0 * ij[0][e] if rnd else w[0][e]
+        w[1][e] = p1 * ij[1][e] if rnd else w[1][e]
+        w[2][e] = p2 * ij[2][e] if rnd else w[2][e]
     return other
+
+
+@njit(**PASS)
+def drift_columns(x, v, h):
+    """Update positions x by h v (3-tuples of columns)."""
+    for i in range(x[0].shape[0]):
+        x[0][i] += h * v[0][i]
+        x[1][i] += h * v[1][i]
+        x[2][i] += h * v[2][i]
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def drift_block(model, state, h, order, vs, ve, es, ee):
+    """Update vertices vs .. ve-1 and elements es .. ee-1 by the free flight of time h. At
+    order 2 the round sections turn in one vectorised pass; the others follow one by one."""
+    drift_columns(columns(state.x, vs, ve), columns(state.v, vs, ve), h)
+    other = ee - es
+    if order == 2:
+        other = spin_round_elements(quat_columns(state.q, es, ee), columns(state.w, es, ee),
+                                    columns(model.element_inertia, es, ee),
+                                    columns(model.element_inv_inertia, es, ee), h)
+    if other:
+        q, w, J, ij = state.q, state.w, model.element_inertia, model.element_inv_inertia
+        for e in range(es, ee):
+            if order != 2 or ij[e, 1] != ij[e, 0]:
+                spin_element(q[e], w[e], J[e], ij[e], h, order)
 
 
 @njit(**STEP)
 def drift_bodies(model, state, h, order):
-    """Update vertex positions and element frames by the free flight of time h. At order 2
-    the round sections turn in one vectorised pass (other lanes keep their values); the few
-    other elements follow in a second pass."""
-    x, v = state.x.T, state.v.T
-    for i in range(x.shape[1]):
-        x[0, i] += h * v[0, i]
-        x[1, i] += h * v[1, i]
-        x[2, i] += h * v[2, i]
-    q, w, J, ij = state.q.T, state.w.T, model.element_inertia.T, model.element_inv_inertia.T
-    other = spin_round_elements(q, w, J, ij, h) if order == 2 else q.shape[1]
-    if other:
-        qr, wr, Jr, ijr = state.q, state.w, model.element_inertia, model.element_inv_inertia
-        for e in range(q.shape[1]):
-            if order != 2 or ij[1, e] != ij[0, e]:
-                spin_element(qr[e], wr[e], Jr[e], ijr[e], h, order)
-
-
-@njit(**INLINE)
-def drift_vertex(i, x, v, h):
-    """Update x[i] (nv,3) by h v[i]."""
-    x[i, 0] += h * v[i, 0]
-    x[i, 1] += h * v[i, 1]
-    x[i, 2] += h * v[i, 2]
+    """Update vertex positions and element frames by the free flight of time h."""
+    drift_block(model, state, h, order, 0, state.x.shape[0], 0, state.q.shape[0])
 
 
 @njit(**KERNEL, parallel=True)
 def drift_bodies_parallel(model, state, h, order):
-    """Update vertex positions and element frames by the free flight of time h (threads)."""
-    x, v, q, w, J, ij = state.x, state.v, state.q, state.w, model.element_inertia, model.element_inv_inertia
-    for i in prange(x.shape[0]):
-        drift_vertex(i, x, v, h)
-    for e in prange(q.shape[0]):
-        spin_element(q[e], w[e], J[e], ij[e], h, order)
+    """Update vertex positions and element frames by the free flight of time h (threads,
+    a block of BLOCK vertices and elements per task)."""
+    nv, ne = state.x.shape[0], state.q.shape[0]
+    for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
+        drift_block(model, state, h, order, min(b * BLOCK, nv), min((b + 1) * BLOCK, nv),
+                    min(b * BLOCK, ne), min((b + 1) * BLOCK, ne))
 
 
 drift_bodies_on = dispatch4(drift_bodies, drift_bodies_parallel)
+
+
+def drift_node(nd, model, state, h, order):
+    """Update node nd's centre of mass and frame by the free flight of time h (the free
+    rigid body (4.3)/(4.4) without loads), then place its line ends (1.1)/(1.3)."""
+    p = state.node_hold  # locked axes keep their momentum here; free axes are converted below
+    for k in range(3):
+        state.node_x[nd, k] += h * state.node_v[nd, k]
+        if model.node_locked[nd, k] == 0.0:
+            p[nd, k] = model.node_inertia[nd, k] * state.node_w[nd, k]
+    spin_free_body(state.node_q[nd], p[nd], model.node_inv_inertia[nd], h, order)
+    for k in range(3):
+        if model.node_locked[nd, k] == 0.0:
+            state.node_w[nd, k] = p[nd, k] * model.node_inv_inertia[nd, k]
+            p[nd, k] = 0.0
+    for j in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        place_line_end(model.node_attach_list[j], model, state)
+
+
+drift_nodes_on = dispatch5(*each_node(drift_node))
 
 
 @njit(**STEP)
@@ -183,102 +222,119 @@ def drift_state(model, state, h, order, backend):
     """Update state (positions, quaternions, clock) by the free flight of time h, then place
     every line end on its node (1.1)/(1.3)."""
     drift_bodies_on(backend, model, state, h, order)
-    p = state.node_hold  # locked axes keep their momentum here; free axes are converted below
-    for nd in range(state.node_x.shape[0]):
-        for k in range(3):
-            state.node_x[nd, k] += h * state.node_v[nd, k]
-            if model.node_locked[nd, k] == 0.0:
-                p[nd, k] = model.node_inertia[nd, k] * state.node_w[nd, k]
-        spin_free_body(state.node_q[nd], p[nd], model.node_inv_inertia[nd], h, order)
-        for k in range(3):
-            if model.node_locked[nd, k] == 0.0:
-                state.node_w[nd, k] = p[nd, k] * model.node_inv_inertia[nd, k]
-                p[nd, k] = 0.0
-    place_line_ends(model, state)
+    drift_nodes_on(backend, state.node_x.shape[0], model, state, h, order)
     state.clock[0] += h
+
+
+@njit(**INLINE)
+def place_line_end(a, model, state):
+    """Update state.x, state.v at line end a given its node: r_lambda = r + D xi (1.1)."""
+    nd = model.attach_node[a]
+    vt = model.attach_vertex[a]
+    qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
+    o = model.attach_offset[a]
+    w = state.node_w[nd]
+    rx, ry, rz = quat_rotate(qw, qx, qy, qz, o[0], o[1], o[2])
+    cx, cy, cz = cross(w[0], w[1], w[2], o[0], o[1], o[2])
+    ux, uy, uz = quat_rotate(qw, qx, qy, qz, cx, cy, cz)
+    state.x[vt, 0] = state.node_x[nd, 0] + rx
+    state.x[vt, 1] = state.node_x[nd, 1] + ry
+    state.x[vt, 2] = state.node_x[nd, 2] + rz
+    state.v[vt, 0] = state.node_v[nd, 0] + ux
+    state.v[vt, 1] = state.node_v[nd, 1] + uy
+    state.v[vt, 2] = state.node_v[nd, 2] + uz
 
 
 @njit(**STEP)
 def place_line_ends(model, state):
     """Update state.x, state.v at every line end given its node: r_lambda = r + D xi (1.1)."""
     for a in range(model.attach_node.shape[0]):
-        nd = model.attach_node[a]
+        place_line_end(a, model, state)
+
+
+def gather_node(nd, model, state, loads, unused):
+    """Update loads.node_f[nd], loads.node_tau[nd] (lab, about the centre of mass) given the
+    loads at node nd's line ends: F - sum Omega n_lambda and L - sum Omega (m_lambda + zeta x
+    n_lambda) (4.3)/(4.4); the sign Omega is already in the end-vertex forces and end torques.
+    (unused: the node loops take four arguments.)"""
+    qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
+    for j in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        a = model.node_attach_list[j]
         vt = model.attach_vertex[a]
-        qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
+        f = loads.f[vt]
         o = model.attach_offset[a]
-        w = state.node_w[nd]
         rx, ry, rz = quat_rotate(qw, qx, qy, qz, o[0], o[1], o[2])
-        cx, cy, cz = cross(w[0], w[1], w[2], o[0], o[1], o[2])
-        ux, uy, uz = quat_rotate(qw, qx, qy, qz, cx, cy, cz)
-        state.x[vt, 0] = state.node_x[nd, 0] + rx
-        state.x[vt, 1] = state.node_x[nd, 1] + ry
-        state.x[vt, 2] = state.node_x[nd, 2] + rz
-        state.v[vt, 0] = state.node_v[nd, 0] + ux
-        state.v[vt, 1] = state.node_v[nd, 1] + uy
-        state.v[vt, 2] = state.node_v[nd, 2] + uz
+        cx, cy, cz = cross(rx, ry, rz, f[0], f[1], f[2])
+        xq = model.attach_frame[a]
+        t = loads.end_tau[a]
+        ew, ex, ey, ez = quat_mul(qw, qx, qy, qz, xq[0], xq[1], xq[2], xq[3])
+        tx, ty, tz = quat_rotate(ew, ex, ey, ez, t[0], t[1], t[2])
+        loads.node_f[nd, 0] += f[0]
+        loads.node_f[nd, 1] += f[1]
+        loads.node_f[nd, 2] += f[2]
+        loads.node_tau[nd, 0] += cx + tx
+        loads.node_tau[nd, 1] += cy + ty
+        loads.node_tau[nd, 2] += cz + tz
 
 
-@njit(**STEP, inline="always")  # one caller: kick_loads
-def gather_node_loads(model, state, loads):
-    """Update loads.node_f, loads.node_tau (lab, about the centre of mass) given the loads at
-    the line ends: F - sum Omega n_lambda and L - sum Omega (m_lambda + zeta x n_lambda)
-    (4.3)/(4.4); the sign Omega is already in the end-vertex forces and end torques."""
-    for nd in range(model.node_mass.shape[0]):
-        qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
-        for j in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            a = model.node_attach_list[j]
-            vt = model.attach_vertex[a]
-            f = loads.f[vt]
-            o = model.attach_offset[a]
-            rx, ry, rz = quat_rotate(qw, qx, qy, qz, o[0], o[1], o[2])
-            cx, cy, cz = cross(rx, ry, rz, f[0], f[1], f[2])
-            xq = model.attach_frame[a]
-            t = loads.end_tau[a]
-            ew, ex, ey, ez = quat_mul(qw, qx, qy, qz, xq[0], xq[1], xq[2], xq[3])
-            tx, ty, tz = quat_rotate(ew, ex, ey, ez, t[0], t[1], t[2])
-            loads.node_f[nd, 0] += f[0]
-            loads.node_f[nd, 1] += f[1]
-            loads.node_f[nd, 2] += f[2]
-            loads.node_tau[nd, 0] += cx + tx
-            loads.node_tau[nd, 1] += cy + ty
-            loads.node_tau[nd, 2] += cz + tz
+gather_node_loads_on = dispatch5(*each_node(gather_node))
 
 
-@njit(**INLINE)
-def kick_row(i, u, inv_m, load, h):
-    """Update u[i] (n,3) by the impulse h inv_m[i] (componentwise) load[i] (3.2)/(3.3)."""
-    u[i, 0] += h * inv_m[i, 0] * load[i, 0]
-    u[i, 1] += h * inv_m[i, 1] * load[i, 1]
-    u[i, 2] += h * inv_m[i, 2] * load[i, 2]
-
-
-@njit(**INLINE)
+@njit(**PASS)
 def kick_columns(u, inv_m, load, h):
-    """Update u (3, n) by the impulse h inv_m load (componentwise, (3, n) views) (3.2)/(3.3)."""
-    for i in range(u.shape[1]):
-        u[0, i] += h * inv_m[0, i] * load[0, i]
-        u[1, i] += h * inv_m[1, i] * load[1, i]
-        u[2, i] += h * inv_m[2, i] * load[2, i]
+    """Update u by the impulse h inv_m load (componentwise; 3-tuples of columns) (3.2)/(3.3)."""
+    for i in range(u[0].shape[0]):
+        u[0][i] += h * inv_m[0][i] * load[0][i]
+        u[1][i] += h * inv_m[1][i] * load[1][i]
+        u[2][i] += h * inv_m[2][i] * load[2][i]
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def kick_block(model, state, loads, h, vs, ve, es, ee):
+    """Update the velocities of vertices vs .. ve-1 and angular velocities of elements
+    es .. ee-1 given the loads over time h."""
+    kick_columns(columns(state.v, vs, ve), columns(model.vertex_inv_mass3, vs, ve), columns(loads.f, vs, ve), h)
+    kick_columns(columns(state.w, es, ee), columns(model.element_inv_inertia, es, ee),
+                 columns(loads.tau, es, ee), h)
 
 
 @njit(**STEP)
 def kick_bodies(model, state, loads, h):
     """Update vertex velocities and element angular velocities given the loads over time h."""
-    kick_columns(state.v.T, model.vertex_inv_mass3.T, loads.f.T, h)
-    kick_columns(state.w.T, model.element_inv_inertia.T, loads.tau.T, h)
+    kick_block(model, state, loads, h, 0, state.v.shape[0], 0, state.w.shape[0])
 
 
 @njit(**KERNEL, parallel=True)
 def kick_bodies_parallel(model, state, loads, h):
-    """Update vertex velocities and element angular velocities given the loads (threads)."""
-    v, w, im, ij, f, tau = state.v, state.w, model.vertex_inv_mass3, model.element_inv_inertia, loads.f, loads.tau
-    for i in prange(v.shape[0]):
-        kick_row(i, v, im, f, h)
-    for e in prange(w.shape[0]):
-        kick_row(e, w, ij, tau, h)
+    """Update vertex velocities and element angular velocities given the loads (threads,
+    a block of BLOCK vertices and elements per task)."""
+    nv, ne = state.v.shape[0], state.w.shape[0]
+    for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
+        kick_block(model, state, loads, h, min(b * BLOCK, nv), min((b + 1) * BLOCK, nv),
+                   min(b * BLOCK, ne), min((b + 1) * BLOCK, ne))
 
 
 kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
+
+
+def kick_node(nd, model, state, loads, h):
+    """Update node nd's velocity and body angular velocity (or the held momentum of its
+    locked axes) given its loads over time h (4.3)/(4.4)."""
+    s = h * model.node_inv_mass[nd]
+    for k in range(3):
+        state.node_v[nd, k] += s * loads.node_f[nd, k]
+    q = state.node_q[nd]
+    t = loads.node_tau[nd]
+    bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], t[0], t[1], t[2])
+    tb = (bx, by, bz)
+    for k in range(3):
+        if model.node_locked[nd, k] == 0.0:
+            state.node_w[nd, k] += h * model.node_inv_inertia[nd, k] * tb[k]
+        else:
+            state.node_hold[nd, k] += h * tb[k]
+
+
+kick_nodes_on = dispatch5(*each_node(kick_node))
 
 
 @njit(**STEP, inline="always")  # one caller: kick_loads
@@ -286,16 +342,4 @@ def kick_state(model, state, loads, h, backend):
     """Update velocities and body angular momenta given the loads over time h:
     mu r'' = n' + f (3.2), (I w)' = m' + r' x n + l (3.3), (4.3), (4.4)."""
     kick_bodies_on(backend, model, state, loads, h)
-    for nd in range(state.node_x.shape[0]):
-        s = h * model.node_inv_mass[nd]
-        for k in range(3):
-            state.node_v[nd, k] += s * loads.node_f[nd, k]
-        q = state.node_q[nd]
-        t = loads.node_tau[nd]
-        bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], t[0], t[1], t[2])
-        tb = (bx, by, bz)
-        for k in range(3):
-            if model.node_locked[nd, k] == 0.0:
-                state.node_w[nd, k] += h * model.node_inv_inertia[nd, k] * tb[k]
-            else:
-                state.node_hold[nd, k] += h * tb[k]
+    kick_nodes_on(backend, state.node_x.shape[0], model, state, loads, h)

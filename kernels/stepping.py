@@ -11,7 +11,7 @@ from numba import njit
 from .backend import STEP
 from .compose import apply_flows, apply_loads
 from .elastic import internal_loads_on
-from .motion import drift_state, gather_node_loads, kick_state
+from .motion import drift_state, gather_node_loads_on, kick_state
 
 # Omelyan, Mryglod & Folk (2002), position-extended Forest-Ruth-like coefficients
 PEFRL_XI = 0.1786178958448091
@@ -27,7 +27,7 @@ def evaluate_loads(model, state, loads, load_effects, backend):
     loads.node_tau[:] = 0.0
     internal_loads_on(backend, model, state, loads)
     apply_loads(load_effects, model, state, loads)
-    gather_node_loads(model, state, loads)
+    gather_node_loads_on(backend, model.node_mass.shape[0], model, state, loads, 0.0)
 
 
 @njit(**STEP)
