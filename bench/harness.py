@@ -50,6 +50,23 @@ def best_of(fn, repeat=3):
     return best
 
 
+def cpu_times():
+    """Return (steal, total) CPU jiffies of all cores from /proc/stat, or (0, 0) where it is
+    unavailable. On a virtual machine, steal is time the hypervisor gave to other guests."""
+    try:
+        with open("/proc/stat") as f:
+            fields = [int(v) for v in f.readline().split()[1:]]
+    except OSError:
+        return 0, 0
+    return (fields[7] if len(fields) > 7 else 0), sum(fields[:8])
+
+
+def stolen_since(start) -> float:
+    """Fraction of CPU time stolen by the hypervisor since cpu_times() returned start."""
+    steal, total = cpu_times()
+    return (steal - start[0]) / max(total - start[1], 1)
+
+
 def machine() -> dict:
     return {"python": platform.python_version(), "numba": numba.__version__,
             "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),

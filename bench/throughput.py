@@ -7,7 +7,7 @@ lines x 10 elements (a chain joined at point junctions). Run: python bench/throu
 import sys
 
 import cosnet
-from harness import best_of, chain, rod, table, write_json
+from harness import best_of, chain, cpu_times, rod, stolen_since, table, write_json
 
 def measure(name, net, steps, threads=None):
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=threads)
@@ -25,15 +25,18 @@ def main():
     div = 10 if quick else 1
     results = [measure(n, net, s // div) for n, net, s in cases]
     big = chain(10_000)
+    start = cpu_times()
     threads = [measure("chain 10000 x 10", big, 200 // div, threads=k) for k in (1, 2)]
+    stolen = stolen_since(start)
     results += threads
     table("cosnet throughput (Verlet, gravity)",
           ["case", "elements", "threads", "steps/s", "element-steps/s", "us/step"],
           [[r["case"], r["elements"], r["threads"], r["steps_per_s"], r["element_steps_per_s"], r["us_per_step"]]
            for r in results])
     speedup = threads[1]["element_steps_per_s"] / threads[0]["element_steps_per_s"]
-    print(f"\n2 threads vs 1 on {big.element_count:,} elements: {speedup:.2f}x")
-    write_json(__file__, {"throughput": results, "thread_speedup": speedup})
+    print(f"\n2 threads vs 1 on {big.element_count:,} elements: {speedup:.2f}x "
+          f"({100 * stolen:.0f}% of the CPU time stolen by the hypervisor meanwhile)")
+    write_json(__file__, {"throughput": results, "thread_speedup": speedup, "cpu_stolen": stolen})
 
 
 if __name__ == "__main__":
