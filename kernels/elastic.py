@@ -13,12 +13,12 @@ from numba import njit, prange
 
 from .backend import PASS, STEP, dispatch3
 from .layout import columns, quat_columns, uint
-
-# elements per task of the threaded internal loads (a block of whole lines)
-LINE_BLOCK = 4096
-
 from .rotations import (INLINE, KERNEL, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
                         relative_rotation, small_rotation)
+
+# elements per block of whole lines (the unit of the threaded internal loads; a block's
+# scratch stays in cache)
+LINE_BLOCK = 4096
 
 
 @njit(**INLINE)

@@ -13,11 +13,10 @@ from numba import njit, prange
 
 from .backend import PASS, STEP, dispatch4, dispatch5, each_node
 from .layout import columns, quat_columns
+from .rotations import INLINE, KERNEL, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # rows per task of the threaded element loops (each block runs the vectorised serial loop)
 BLOCK = 4096
-
-from .rotations import INLINE, KERNEL, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # Yoshida's triple jump lifts a symmetric second-order flow to fourth order
 YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
