@@ -29,8 +29,8 @@ NODE_BLOCK = 256
 def _noalias() -> dict:
     """Return the option that marks a kernel's array arguments as not overlapping (numba's
     ``noalias`` compiler flag, which its parallel gufuncs use; exposed here as a decorator
-    option), or nothing where this numba lacks the flag: the loops stay correct, LLVM then
-    tests for overlap at run time before each vectorised loop."""
+    option), or nothing where this numba lacks the flag: the loops stay correct, but LLVM
+    then vectorises them only where a few run-time overlap tests suffice."""
     from numba.core import compiler, cpu, options
     if not hasattr(compiler.Flags, "noalias"):
         return {}
