@@ -22,13 +22,27 @@ LINE_BLOCK = 4096
 
 
 @njit(**INLINE)
+def voronoi_columns(model):
+    """Return (B, u0, 1/L) of every Voronoi point as columns (see layout.columns)."""
+    return (columns(model.voronoi_stiffness), columns(model.voronoi_rest_curvature),
+            model.voronoi_inv_rest_length)
+
+
+@njit(**INLINE)
+def moment_at(vor, k, theta_x, theta_y, theta_z):
+    """Return m = B (theta/L - u0) at Voronoi point k (principal frame) given vor, the
+    voronoi_columns (3.22)."""
+    b, u0, inv_l = vor
+    il = inv_l[k]
+    return (b[0][k] * (theta_x * il - u0[0][k]),
+            b[1][k] * (theta_y * il - u0[1][k]),
+            b[2][k] * (theta_z * il - u0[2][k]))
+
+
+@njit(**INLINE)
 def bend_moment(model, k, theta_x, theta_y, theta_z):
     """Return m = B (theta/L - u0) at Voronoi point k (principal frame) (3.22)."""
-    inv_l = model.voronoi_inv_rest_length[k]
-    b, u0 = model.voronoi_stiffness.T, model.voronoi_rest_curvature.T
-    return (b[0, k] * (theta_x * inv_l - u0[0, k]),
-            b[1, k] * (theta_y * inv_l - u0[1, k]),
-            b[2, k] * (theta_z * inv_l - u0[2, k]))
+    return moment_at(voronoi_columns(model), k, theta_x, theta_y, theta_z)
 
 
 @njit(**INLINE)
@@ -47,11 +61,7 @@ def store_bend(vor, k, tx, ty, tz, c, left, right):
     """Update left, right (column triples) at Voronoi point k of a line with the torques on
     its two frames given its rotation vector theta and c(theta); vor = (B, u0, 1/L) columns
     of the line's Voronoi points (3.22), (3.24)."""
-    b, u0, inv_l = vor
-    il = inv_l[k]
-    mx = b[0][k] * (tx * il - u0[0][k])
-    my = b[1][k] * (ty * il - u0[1][k])
-    mz = b[2][k] * (tz * il - u0[2][k])
+    mx, my, mz = moment_at(vor, k, tx, ty, tz)
     lx, ly, lz, rx, ry, rz = bend_torques(tx, ty, tz, c, mx, my, mz)
     left[0][k], left[1][k], left[2][k] = lx, ly, lz
     right[0][k], right[1][k], right[2][k] = rx, ry, rz
@@ -169,8 +179,7 @@ def line_stretch(l, model, loads, cols):
 @njit(**INLINE)
 def internal_columns(model, state, loads):
     """Return the column views read and written by line_loads."""
-    vor = (columns(model.voronoi_stiffness), columns(model.voronoi_rest_curvature), model.voronoi_inv_rest_length)
-    return (columns(state.x), quat_columns(state.q), columns(model.element_stiffness), vor,
+    return (columns(state.x), quat_columns(state.q), columns(model.element_stiffness), voronoi_columns(model),
             columns(loads.bend_left), columns(loads.bend_right), columns(loads.elem_force),
             columns(loads.f), columns(loads.tau))
 

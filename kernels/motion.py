@@ -18,6 +18,12 @@ from .rotations import INLINE, KERNEL, cross, quat_cayley, quat_exp, quat_mul, q
 # rows per task of the threaded element loops (each block runs the vectorised serial loop)
 BLOCK = 4096
 
+
+@njit(**INLINE)
+def block_rows(b, n):
+    """Return (start, stop) of block b of BLOCK rows out of n (empty past the end)."""
+    return min(b * BLOCK, n), min((b + 1) * BLOCK, n)
+
 # Yoshida's triple jump lifts a symmetric second-order flow to fourth order
 YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
@@ -95,18 +101,13 @@ def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
 @njit(**INLINE)
 def spin_round(qw, qx, qy, qz, p0, p1, p2, i1, d2, h):
     """Return (q, p) after the order-2 free-rotation flow of a round section (J1 = J2): the
-    Casimir flow by the Cayley angle of h p / J1, then the flow of d2 p3^2/2 about e3 by the
-    Cayley angle 2 atan(t), t = h d2 p3 / 2 (no branch, no trig)."""
+    Casimir flow by the Cayley angle of h p / J1 (p unchanged), then the flow of d2 p3^2/2
+    about e3 by its Cayley angle (spin_about_axis; no branch, no trig)."""
     ew, ex, ey, ez = quat_cayley(h * i1 * p0, h * i1 * p1, h * i1 * p2)
-    t = 0.5 * h * d2 * p2
-    n = 1.0 / (1.0 + t * t)
-    cw, cz = math.sqrt(n), t * math.sqrt(n)
-    # q <- q exp_cay(h p / J1) exp_cay(h d2 p3 e3);  p <- rotation of (p0, p1) by -2 atan(t)
-    ew, ex, ey, ez = ew * cw - ez * cz, ex * cw + ey * cz, ey * cw - ex * cz, ez * cw + ew * cz
     qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez)
-    qw, qx, qy, qz = quat_normalize(qw, qx, qy, qz)
-    cp, sp = (1.0 - t * t) * n, 2.0 * t * n
-    return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
+    r = spin_about_axis(qw, qx, qy, qz, p0, p1, p2, d2, 2, h, True)
+    qw, qx, qy, qz = quat_normalize(r[0], r[1], r[2], r[3])
+    return qw, qx, qy, qz, r[4], r[5], r[6]
 
 
 @njit(**INLINE)
@@ -189,8 +190,9 @@ def drift_bodies_parallel(model, state, h, order):
     a block of BLOCK vertices and elements per task)."""
     nv, ne = state.x.shape[0], state.q.shape[0]
     for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
-        drift_block(model, state, h, order, min(b * BLOCK, nv), min((b + 1) * BLOCK, nv),
-                    min(b * BLOCK, ne), min((b + 1) * BLOCK, ne))
+        vs, ve = block_rows(b, nv)
+        es, ee = block_rows(b, ne)
+        drift_block(model, state, h, order, vs, ve, es, ee)
 
 
 drift_bodies_on = dispatch4(drift_bodies, drift_bodies_parallel)
@@ -309,8 +311,9 @@ def kick_bodies_parallel(model, state, loads, h):
     a block of BLOCK vertices and elements per task)."""
     nv, ne = state.v.shape[0], state.w.shape[0]
     for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
-        kick_block(model, state, loads, h, min(b * BLOCK, nv), min((b + 1) * BLOCK, nv),
-                   min(b * BLOCK, ne), min((b + 1) * BLOCK, ne))
+        vs, ve = block_rows(b, nv)
+        es, ee = block_rows(b, ne)
+        kick_block(model, state, loads, h, vs, ve, es, ee)
 
 
 kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
