@@ -173,3 +173,32 @@ def test_runs_are_deterministic_and_thread_count_changes_only_round_off():
     c = run(2)
     assert np.abs(c[0] - a[0]).max() < 1e-12 * np.abs(a[0]).max()
     assert np.abs(c[1] - a[1]).max() < 1e-12
+
+
+def test_principal_axes_of_a_round_body_do_not_depend_on_the_lapack(monkeypatch):
+    """Within a repeated inertia eigenvalue any basis is principal, and eigh may return any of
+    them (it differs between LAPACK builds). Flattening takes the user's body axes projected
+    on the eigenspace, signed so each axis's largest component is positive: an eigh that
+    returns another basis of the repeated pair, with flipped signs, gives the same frame."""
+    from cosnet import flatten
+    c, s = np.cos(0.7), np.sin(0.7)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    I = R @ np.diag([3.0, 2.0, 2.0]) @ R.T         # the repeated pair spans (R e2, e3)
+    free = np.zeros(3, dtype=bool)
+    P, diag = flatten._principal_frame(I, free)
+    assert np.allclose(diag, [2.0, 2.0, 3.0])
+    assert np.allclose(P @ np.diag(diag) @ P.T, I) and np.isclose(np.linalg.det(P), 1.0)
+    assert np.isclose(abs(P[2, 0]), 1.0)           # the user's z axis lies in the pair: kept
+
+    eigh = np.linalg.eigh
+
+    def other_lapack(a):
+        vals, vecs = eigh(a)
+        t = 0.3                                    # another basis of the repeated pair
+        turn = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+        vecs = vecs.copy()
+        vecs[:, :2] = vecs[:, :2] @ turn
+        return vals, -vecs
+    monkeypatch.setattr(flatten.np.linalg, "eigh", other_lapack)
+    P2, diag2 = flatten._principal_frame(I, free)
+    assert np.allclose(diag2, diag) and np.allclose(P2, P, atol=1e-12)
