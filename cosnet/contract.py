@@ -29,9 +29,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .flatten import _element_frames, build_line_grid
+from .rotmath import rotvec_from_matrix
 from .net import Line, Net, Node, node_groups
 
 
@@ -51,7 +51,7 @@ def _check_rigidifiable(line: Line):
     if line.rest_curvature is not None:
         geo = np.zeros_like(g.curvature)
         for k in range(1, line.elements):
-            geo[k] = Rotation.from_matrix(g.frames[k - 1].T @ g.frames[k]).as_rotvec() / g.vor_length[k]
+            geo[k] = rotvec_from_matrix(g.frames[k - 1].T @ g.frames[k]) / g.vor_length[k]
         scale = 1.0 / line.length + np.abs(geo).max()
         if np.abs(geo[1:-1] - g.curvature[1:-1]).max() > 1e-6 * scale:
             raise ValueError(f"line {line.name!r}: its rest curvature differs from its built shape "

@@ -12,22 +12,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
-
 from .kernels.layout import Model, State, column_major
 from .net import Line, Net, frame_from_tangent
-
-
-def quat_from_matrix(m: np.ndarray) -> np.ndarray:
-    """Quaternion(s) (w, x, y, z) of rotation matrix/matrices m (..., 3, 3)."""
-    xyzw = Rotation.from_matrix(m).as_quat()
-    return np.concatenate([xyzw[..., 3:], xyzw[..., :3]], axis=-1)
-
-
-def matrix_from_quat(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix/matrices of quaternion(s) q (..., 4) in (w, x, y, z) order."""
-    q = np.asarray(q, dtype=float)
-    return Rotation.from_quat(np.concatenate([q[..., 1:], q[..., :1]], axis=-1)).as_matrix()
+from .rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix
 
 
 NODE_ROTARY_SHARE = 0.25
@@ -36,10 +23,6 @@ NODE_ROTARY_SHARE = 0.25
 def _rz(phi: float) -> np.ndarray:
     c, s = math.cos(phi), math.sin(phi)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _log(r: np.ndarray) -> np.ndarray:
-    return Rotation.from_matrix(r).as_rotvec()
 
 
 @dataclass
@@ -96,7 +79,7 @@ def _element_frames(line: Line, phi: float) -> np.ndarray:
     rots = np.broadcast_to(np.eye(3), (len(sn), 3, 3)).copy()
     if turn.any():
         rv = axis[turn] / sn[turn, None] * np.arctan2(sn[turn], cs[turn])[:, None]
-        rots[turn] = Rotation.from_rotvec(rv).as_matrix()
+        rots[turn] = matrix_from_rotvec(rv)
     for k in range(1, line.elements):
         frames[k] = frames[k - 1] if not turn[k - 1] else rots[k - 1] @ frames[k - 1]
     return frames @ _rz(phi) if phi != 0.0 else frames
@@ -141,7 +124,7 @@ def build_line_grid(line: Line) -> LineGrid:
         # rest shape = built polyline: interior Voronoi points are stress free
         if n > 1:
             rel = np.einsum("kji,kjl->kil", frames[:-1], frames[1:])
-            curvature[1:n] = _log(rel) / vor[1:n, None]
+            curvature[1:n] = rotvec_from_matrix(rel) / vor[1:n, None]
     return LineGrid(line.points.copy(), frames, seg, stiffness, inertia, mass, vor, bend,
                     curvature, tuple(ends))
 

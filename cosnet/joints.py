@@ -20,10 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .effects import Effect, _vec3
-from .flatten import matrix_from_quat, quat_from_matrix
+from .rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
 from .kernels import joints as _joint_kernels
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .net import Line
@@ -179,5 +178,5 @@ class FixedJoint(_TorqueJoint):
         if self.angle is None:
             r0 = ea.T @ self._end_frame(sim, b)
         else:
-            r0 = Rotation.from_rotvec(self.angle * (ea.T @ self.axis)).as_matrix()  # axis in a's end frame
+            r0 = matrix_from_rotvec(self.angle * (ea.T @ self.axis))  # axis in a's end frame
         return np.array([self.kt]), np.array([self.nut]), quat_from_matrix(r0)[None].copy()

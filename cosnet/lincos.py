@@ -35,7 +35,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 
 from .net import Line, Net, frame_from_tangent, node_groups
 
@@ -139,11 +138,15 @@ class _LineData:
         """Transfer matrix exp(A h) over a length h, computed in scaled variables."""
         if h <= 0.0:
             return np.eye(12)
+        from scipy.linalg import expm
+
         s = self.scales(h)
         return s[:, None] * expm(self.A(omega) * h * (1.0 / s)[:, None] * s[None, :]) / s[None, :]
 
     def stiffness(self, omega: float, h: float) -> np.ndarray:
         """12 x 12 dynamic stiffness of a segment: end loads on it from end (u, theta) at s = 0, h."""
+        from scipy.linalg import expm
+
         s = self.scales(h)
         ph = expm(self.A(omega) * h * (1.0 / s)[:, None] * s[None, :])
         p11, p12, p21, p22 = ph[:6, :6], ph[:6, 6:], ph[6:, :6], ph[6:, 6:]

@@ -30,13 +30,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.linalg
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import eigsh
-from scipy.spatial.transform import Rotation
 
-from .flatten import flatten, matrix_from_quat
+from .flatten import flatten, matrix_from_quat, rotvec_from_matrix
 from .kernels.layout import State
 from .kernels.motion import place_line_ends
 from .net import Line, Net, Node
@@ -123,8 +118,7 @@ class Linearisation:
         """Raw coordinates of ``state`` relative to the rest state (finite rotations as
         rotation vectors, body frame)."""
         dx = state.x - self.x0
-        rot = lambda q0, q: Rotation.from_matrix(
-            np.einsum("nji,njk->nik", _matrices(q0), _matrices(q))).as_rotvec() if q0.shape[0] else np.zeros((0, 3))
+        rot = lambda q0, q: rotvec_from_matrix(np.einsum("nji,njk->nik", _matrices(q0), _matrices(q)))
         alpha = rot(self.q0, state.q)
         phi = rot(self.node_q0, state.node_q)
         return np.concatenate([dx.ravel(), alpha.ravel(), (state.node_x - self.node_x0).ravel(), phi.ravel()])
@@ -168,7 +162,7 @@ def _geometry(model, state: State) -> _Geometry:
     E = R[model.attach_node] @ Xp
     FA = np.where(start[:, None, None], E[2 * line_v], D[np.maximum(e_left, 0)])
     FB = np.where(end[:, None, None], E[2 * line_v + 1], D[np.minimum(e_right, D.shape[0] - 1)])
-    theta = Rotation.from_matrix(np.einsum("kji,kjl->kil", FA, FB)).as_rotvec() if FA.size else np.zeros((0, 3))
+    theta = rotvec_from_matrix(np.einsum("kji,kjl->kil", FA, FB))
     return _Geometry(st, D, R, Xp, eline, sides, eps, theta)
 
 
@@ -189,6 +183,8 @@ def check_stress_free(model, geo: _Geometry, net: Net, hint: str):
 def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisation:
     """Exact stiffness K and mass M of the net linearised about ``state`` (stress free, else
     ValueError ending with ``hint``)."""
+    import scipy.sparse as sp
+
     geo = _geometry(model, state)
     check_stress_free(model, geo, net, hint)
     st, D, R, Xp, eline = geo.st, geo.D, geo.R, geo.Xp, geo.eline
@@ -245,6 +241,9 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisa
 
 def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
     """(N, r) basis of the rigid motions the clamps allow (6 per free connected component)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
     model = lin.model
     nv, ne, nn = lin.sizes
     nl = len(net.lines)
@@ -367,6 +366,9 @@ def _solve(lin: Linearisation, rigid: np.ndarray, count: int, sigma: float):
     vectors with the factored energy (J u)^T W (J u): assembled K carries the round-off of its
     large shear and stretch entries, the factored form does not, so slender rods keep full
     accuracy in their soft bending modes."""
+    import scipy.linalg
+    from scipy.sparse.linalg import eigsh
+
     K, M = lin.K, lin.M
     n, r = K.shape[0], rigid.shape[1]
     m = M.diagonal()

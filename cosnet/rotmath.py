@@ -1,0 +1,90 @@
+"""Rotation matrices, unit quaternions (w, x, y, z) and rotation vectors, vectorised in numpy.
+
+Stacks of any leading shape: matrices (..., 3, 3), quaternions (..., 4), rotation vectors
+(..., 3). Used when nets are built and read back; the kernels have their own scalar algebra
+(kernels/rotations.py). Kept here rather than taken from scipy.spatial.transform, whose import
+alone costs about half a second at every start of the command line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def quat_from_matrix(m: np.ndarray) -> np.ndarray:
+    """Unit quaternion(s) (w, x, y, z) of rotation matrix/matrices m (..., 3, 3).
+
+    Shepperd's method: the largest of 4w^2, 4x^2, 4y^2, 4z^2 (read off the diagonal) is
+    computed first and the others from off-diagonal sums, so no component is found by
+    dividing by a small one; a slightly non-orthogonal m gives its nearest rotation to first
+    order (Markley 2008)."""
+    m = np.asarray(m, dtype=float)
+    d = np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]], axis=-1)
+    tr = d.sum(axis=-1)
+    choice = np.argmax(np.concatenate([d, tr[..., None]], axis=-1), axis=-1)
+    # (x, y, z, w) of the four candidates, each scaled by 4 * (its chosen component)
+    cand = [
+        (1 + 2 * m[..., 0, 0] - tr, m[..., 1, 0] + m[..., 0, 1], m[..., 2, 0] + m[..., 0, 2], m[..., 2, 1] - m[..., 1, 2]),
+        (m[..., 1, 0] + m[..., 0, 1], 1 + 2 * m[..., 1, 1] - tr, m[..., 2, 1] + m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0]),
+        (m[..., 2, 0] + m[..., 0, 2], m[..., 2, 1] + m[..., 1, 2], 1 + 2 * m[..., 2, 2] - tr, m[..., 1, 0] - m[..., 0, 1]),
+        (m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1], 1 + tr),
+    ]
+    cand = np.stack([np.stack([w, x, y, z], axis=-1) for x, y, z, w in cand])   # (4, ..., 4)
+    q = np.take_along_axis(cand, choice[None, ..., None], axis=0)[0]
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def matrix_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix/matrices R(q) (..., 3, 3) of quaternion(s) q (..., 4) in (w, x, y, z)
+    order; q is normalised first."""
+    q = np.asarray(q, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    r = np.empty(q.shape[:-1] + (3, 3))
+    r[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    r[..., 0, 1] = 2 * (x * y - z * w)
+    r[..., 0, 2] = 2 * (x * z + y * w)
+    r[..., 1, 0] = 2 * (x * y + z * w)
+    r[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    r[..., 1, 2] = 2 * (y * z - x * w)
+    r[..., 2, 0] = 2 * (x * z - y * w)
+    r[..., 2, 1] = 2 * (y * z + x * w)
+    r[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return r
+
+
+def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation vector(s) (..., 3), angle in [0, pi], of unit quaternion(s) q (..., 4)."""
+    q = np.asarray(q, dtype=float)
+    q = np.where(q[..., :1] < 0.0, -q, q)
+    s = np.linalg.norm(q[..., 1:], axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 0])
+    small = angle < 1e-3
+    a2 = angle * angle
+    # angle / sin(angle/2), with its series below 1e-3 rad (no 0/0)
+    scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
+                     angle / np.sin(0.5 * np.where(small, 1.0, angle)))
+    return scale[..., None] * q[..., 1:]
+
+
+def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
+    """Unit quaternion(s) (w, x, y, z) of rotation vector(s) v (..., 3)."""
+    v = np.asarray(v, dtype=float)
+    angle = np.linalg.norm(v, axis=-1)
+    small = angle < 1e-3
+    a2 = angle * angle
+    # sin(angle/2) / angle, with its series below 1e-3 rad
+    scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0,
+                     np.sin(0.5 * angle) / np.where(small, 1.0, angle))
+    return np.concatenate([np.cos(0.5 * angle)[..., None], scale[..., None] * v], axis=-1)
+
+
+def rotvec_from_matrix(m: np.ndarray) -> np.ndarray:
+    """Rotation vector(s) (..., 3) of rotation matrix/matrices m (..., 3, 3): the matrix
+    logarithm, angle in [0, pi]."""
+    return rotvec_from_quat(quat_from_matrix(m))
+
+
+def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
+    """Rotation matrix/matrices (..., 3, 3) of rotation vector(s) v (..., 3): exp of [v]x."""
+    return matrix_from_quat(quat_from_rotvec(v))
