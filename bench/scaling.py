@@ -10,8 +10,9 @@
      100,000-element single rod on 1 and 2 threads (full run only);
   4. start-up: `cosnet run cases/bridge.toml --until 1e-4` in a subprocess with an empty
      NUMBA_CACHE_DIR (compiles everything) and again with the cache it left (loads it);
-  5. the machine: memory bandwidth (numpy copy, compiled triad on 1 and 2 threads) and
-     floating-point rate (numpy matmul), against which the stepper's rate is set.
+  5. the machine: memory bandwidth (numpy copy, compiled triad on 1 and 2 threads),
+     floating-point rate (numpy matmul) and what a second thread gains on arithmetic in cache,
+     against which the stepper's rate and thread speed-up are set.
 
 Usage: python bench/scaling.py [--quick]        writes bench/scaling.json
 """
@@ -231,6 +232,23 @@ def _triad_par(a, b, c, s):
         a[i] = b[i] + s * c[i]
 
 
+@numba.njit(cache=True, fastmath=True)
+def _arith(a, rounds):
+    """Update a in place by rounds of a polynomial per entry: arithmetic only, in L1."""
+    for _ in range(rounds):
+        for i in range(a.shape[0]):
+            x = a[i]
+            a[i] = ((0.25 * x - 0.5) * x + 0.75) * x + 0.125
+
+
+@numba.njit(cache=True, parallel=True)
+def _arith_par(a, rounds):
+    """As _arith, on two halves of a, one per thread."""
+    half = a.shape[0] // 2
+    for k in numba.prange(2):
+        _arith(a[k * half:(k + 1) * half], rounds)
+
+
 def machine_limits(quick):
     n = 10_000_000 if quick else 20_000_000
     a, b, c = np.zeros(n), np.random.rand(n), np.random.rand(n)
@@ -238,12 +256,31 @@ def machine_limits(quick):
     t_tri1 = best_of(lambda: _triad(a, b, c, 3.0), 5)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     t_tri2 = best_of(lambda: _triad_par(a, b, c, 3.0), 5)
+    # in-cache arithmetic on 1 and 2 threads (2 x 2,048 doubles: 16 KiB per core): the most
+    # any loop can gain from a second thread here, memory not involved. Sampled in alternating
+    # pairs, since what the second core delivers on this machine varies from moment to moment.
+    w, rounds = np.random.rand(4096), 20_000
+    pairs = []
+    for _ in range(5 if quick else 9):
+        t1 = best_of(lambda: (_arith(w[:2048], rounds), _arith(w[2048:], rounds)), 3)
+        pairs.append((t1, best_of(lambda: _arith_par(w, rounds), 3)))
+    arith_speedup = sorted(t1 / t2 for t1, t2 in pairs)
     m = 1000 if quick else 2000
     x, y = np.random.rand(m, m), np.random.rand(m, m)
     t_mm = best_of(lambda: x @ y, 3)
     return {"copy_GBps": 2 * 8 * n / t_copy / 1e9, "triad_1thread_GBps": 3 * 8 * n / t_tri1 / 1e9,
             "triad_2threads_GBps": 3 * 8 * n / t_tri2 / 1e9, "triad_1thread_Gflops": 2 * n / t_tri1 / 1e9,
-            "matmul_Gflops": 2 * m ** 3 / t_mm / 1e9, "matmul_size": m, "array_doubles": n}
+            "matmul_Gflops": 2 * m ** 3 / t_mm / 1e9,
+            "arith_in_cache_Gflops_1thread": [6 * 4096 * rounds / t1 / 1e9 for t1, _ in pairs],
+            "arith_in_cache_2thread_speedup": arith_speedup, "matmul_size": m, "array_doubles": n}
+
+
+def _span(xs):
+    return f"{min(xs):.3g}-{max(xs):.3g}"
+
+
+def _spread(xs):
+    return f"{min(xs):.2f}, {float(np.median(xs)):.2f}, {max(xs):.2f}"
 
 
 # --------------------------------------------------------------------------- main
@@ -295,6 +332,8 @@ def main():
            ["compiled triad, 1 thread (GB/s)", lim["triad_1thread_GBps"]],
            ["compiled triad, 2 threads (GB/s)", lim["triad_2threads_GBps"]],
            [f"numpy matmul {lim['matmul_size']}^2 (Gflop/s)", lim["matmul_Gflops"]],
+           ["in-cache arithmetic, 1 thread (Gflop/s, range)", _span(lim["arith_in_cache_Gflops_1thread"])],
+           ["in-cache arithmetic, 2 threads vs 1 (min, median, max)", _spread(lim["arith_in_cache_2thread_speedup"])],
            ["stepper best element-steps/s, 1 thread", best1],
            ["model+state+loads bytes per element", bpe],
            ["implied traffic if every byte is touched once per step (GB/s)", implied]])
