@@ -50,6 +50,22 @@ def best_of(fn, repeat=3):
     return best
 
 
+def best_interleaved(fns, rounds=9):
+    """Smallest wall time of each of fns over ``rounds`` rounds that call every fn once in
+    turn (after one warm-up call each). On a shared machine whose speed drifts from minute to
+    minute, alternating keeps a slow spell from landing on one contender only: ratios of the
+    results compare the contenders at the machine's best."""
+    for fn in fns:
+        fn()
+    best = [float("inf")] * len(fns)
+    for _ in range(rounds):
+        for k, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            fn()
+            best[k] = min(best[k], time.perf_counter() - t0)
+    return best
+
+
 def cpu_times():
     """Return (steal, total) CPU jiffies of all cores from /proc/stat, or (0, 0) where it is
     unavailable. On a virtual machine, steal is time the hypervisor gave to other guests."""

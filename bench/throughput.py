@@ -1,21 +1,33 @@
 """Throughput: element-steps per second of cosnet's compiled stepper.
 
 Cases: a clamped rod of 100 and 1,000 elements under gravity, and nets of 100 and 1,000
-lines x 10 elements (a chain joined at point junctions). Run: python bench/throughput.py
+lines x 10 elements (a chain joined at point junctions); a chain of 10^5 elements on 1 and
+2 threads, timed in alternation. Run: python bench/throughput.py
 """
 
 import sys
 
 import cosnet
-from harness import best_of, chain, cpu_times, rod, stolen_since, table, write_json
+from harness import best_interleaved, best_of, chain, cpu_times, rod, stolen_since, table, write_json
+
+
+def figures(name, sim, steps, t):
+    ne = sim.net.element_count
+    return {"case": name, "elements": ne, "threads": sim.threads, "steps_per_s": steps / t,
+            "element_steps_per_s": steps * ne / t, "us_per_step": 1e6 * t / steps}
+
 
 def measure(name, net, steps, threads=None):
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=threads)
     sim.run(steps=10)                       # compile (or load the cache)
-    t = best_of(lambda: sim.run(steps=steps))
-    ne = net.element_count
-    return {"case": name, "elements": ne, "threads": sim.threads, "steps_per_s": steps / t,
-            "element_steps_per_s": steps * ne / t, "us_per_step": 1e6 * t / steps}
+    return figures(name, sim, steps, best_of(lambda: sim.run(steps=steps)))
+
+
+def measure_threads(name, net, steps, rounds):
+    """The net on 1 and on 2 threads, timed in alternation (see harness.best_interleaved)."""
+    sims = [cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=k) for k in (1, 2)]
+    times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims], rounds)
+    return [figures(name, s, steps, t) for s, t in zip(sims, times)]
 
 
 def main():
@@ -26,7 +38,7 @@ def main():
     results = [measure(n, net, s // div) for n, net, s in cases]
     big = chain(10_000)
     start = cpu_times()
-    threads = [measure("chain 10000 x 10", big, 200 // div, threads=k) for k in (1, 2)]
+    threads = measure_threads("chain 10000 x 10", big, 100 // div, 5 if quick else 9)
     stolen = stolen_since(start)
     results += threads
     table("cosnet throughput (Verlet, gravity)",
