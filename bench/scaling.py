@@ -206,6 +206,8 @@ def startup():
     times = {}
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, NUMBA_CACHE_DIR=str(Path(tmp) / "cache"))
+        # as a user's Python: bytecode of the modules written on the first run, read after
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
         runs = [("cold (empty cache)", ["-m", "cosnet.cli", "run", str(scene), "--out",
                                         str(Path(tmp) / "out"), "--until", "1e-4"])]
         runs += [(label, runs[0][1]) for label in ("warm (cache)", "warm again")]
