@@ -14,13 +14,15 @@ from typing import NamedTuple
 from numba import njit, prange
 from numba.extending import overload
 
-from .rotations import KERNEL
+from .rotations import INNER, KERNEL
 
 # Options of the serial step kernels. They allocate nothing, so they run without numba's
 # reference counting: a call passing the Model/State/Loads records would otherwise cost an
 # atomic increment and decrement per array (~45 arrays: about a microsecond per call), and
-# any allocation slipping into a step is refused at compile time.
-STEP = dict(KERNEL, _nrt=False)
+# any allocation slipping into a step is refused at compile time. STEP kernels are called
+# from other kernels only (see rotations.INNER); ENTRY kernels also from Python.
+STEP = dict(INNER, _nrt=False)
+ENTRY = dict(KERNEL, _nrt=False)
 
 # nodes per task of the threaded node loops
 NODE_BLOCK = 256
@@ -92,7 +94,7 @@ def each_node(body):
         for i in range(i0, i1):
             inline(i, a, b, c, d)
 
-    @njit(**KERNEL, parallel=True)
+    @njit(**INNER, parallel=True)
     def parallel(n, a, b, c, d):
         for k in prange((n + NODE_BLOCK - 1) // NODE_BLOCK):
             block(k * NODE_BLOCK, min((k + 1) * NODE_BLOCK, n), a, b, c, d)

@@ -2,12 +2,12 @@
 
 from numba import njit
 
-from .backend import STEP
+from .backend import ENTRY
 from .elastic import bend_moment, end_frame, line_strain_energy
 from .rotations import cross, quat_exp, quat_mul, quat_rotate, quat_rotate_inv, relative_rotation
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def measure_energy(model, state):
     """Return (translational kinetic, rotational kinetic, strain) energy of lines and nodes
     (the kinetic terms of (3.7)/(4.6) and the potential (3.25))."""
@@ -31,7 +31,7 @@ def measure_energy(model, state):
     return kt, kr, u
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def measure_momenta(model, state, out):
     """Update out (2, 3) with the linear momentum and the angular momentum about the origin of
     all moving masses (vertices, elements, nodes of finite mass/inertia)."""
@@ -69,7 +69,7 @@ def add_momentum(out, m, x, v):
     out[1, 2] += cz
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def line_fields(l, model, state, frames, force, torque, strain, curvature):
     """Update per-vertex fields of line l (each (n+1, ...)): frames (n+1, 4) director
     quaternions (the mid-rotation between neighbouring frames), force n and torque m in the lab
@@ -126,7 +126,7 @@ def line_fields(l, model, state, frames, force, torque, strain, curvature):
             strain[j, k] *= 2.0
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def measure_worst_strain(model, state):
     """Return (max |v - d3| over elements, its element index): stretch and shear (3.22)."""
     x, q = state.x, state.q

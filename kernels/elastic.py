@@ -13,7 +13,7 @@ from numba import njit, prange
 
 from .backend import PASS, STEP, dispatch3
 from .layout import columns, quat_columns, uint
-from .rotations import (INLINE, KERNEL, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
+from .rotations import (INLINE, INNER, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
                         relative_rotation, small_rotation)
 
 # elements per block of whole lines (the unit of the threaded internal loads; a block's
@@ -215,7 +215,7 @@ def compute_internal_loads(model, state, loads):
         compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
 
 
-@njit(**KERNEL, parallel=True)
+@njit(**INNER, parallel=True)
 def compute_internal_loads_parallel(model, state, loads):
     """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads, a block of lines
     per task."""

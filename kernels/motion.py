@@ -11,9 +11,9 @@ import math
 
 from numba import njit, prange
 
-from .backend import PASS, STEP, dispatch4, dispatch5, each_node
+from .backend import ENTRY, PASS, STEP, dispatch4, dispatch5, each_node
 from .layout import columns, quat_columns
-from .rotations import INLINE, KERNEL, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
+from .rotations import INLINE, INNER, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # rows per task of the threaded element loops (each block runs the vectorised serial loop)
 BLOCK = 4096
@@ -29,7 +29,7 @@ YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h, cayley=False):
     """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
     q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact). With cayley,
@@ -55,7 +55,7 @@ def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h, cayley=False):
     return qw, qx, qy, qz, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
 
 
-@njit(**KERNEL)
+@njit(**INNER)
 def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
     """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
     free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
@@ -67,7 +67,7 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
     return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h, cayley)
 
 
-@njit(**KERNEL)
+@njit(**INNER)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
     h to the given order (2: Strang with Cayley angles, as the elements turn; 4: Yoshida's
@@ -82,7 +82,7 @@ def spin_free_body(q, p, inv_j, h, order):
     p[0], p[1], p[2] = r[4], r[5], r[6]
 
 
-@njit(**KERNEL)
+@njit(**INNER)
 def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
     """Return (q, p) after the exact Casimir flow exp(h i1 p) and the flow of the rest
     d1 p2^2/2 + d2 p3^2/2: exact for d1 = 0, else split symmetrically (Yoshida for order 4)."""
@@ -184,7 +184,7 @@ def drift_bodies(model, state, h, order):
     drift_block(model, state, h, order, 0, state.x.shape[0], 0, state.q.shape[0])
 
 
-@njit(**KERNEL, parallel=True)
+@njit(**INNER, parallel=True)
 def drift_bodies_parallel(model, state, h, order):
     """Update vertex positions and element frames by the free flight of time h (threads,
     a block of BLOCK vertices and elements per task)."""
@@ -246,7 +246,7 @@ def place_line_end(a, model, state):
     state.v[vt, 2] = state.node_v[nd, 2] + uz
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def place_line_ends(model, state):
     """Update state.x, state.v at every line end given its node: r_lambda = r + D xi (1.1)."""
     for a in range(model.attach_node.shape[0]):
@@ -305,7 +305,7 @@ def kick_bodies(model, state, loads, h):
     kick_block(model, state, loads, h, 0, state.v.shape[0], 0, state.w.shape[0])
 
 
-@njit(**KERNEL, parallel=True)
+@njit(**INNER, parallel=True)
 def kick_bodies_parallel(model, state, loads, h):
     """Update vertex velocities and element angular velocities given the loads (threads,
     a block of BLOCK vertices and elements per task)."""

@@ -15,8 +15,17 @@ FAST = {"contract", "arcp", "reassoc", "nsz"}
 # Division by zero gives inf/NaN (numpy's error model) rather than raising: the zero test
 # python's model puts before every division is an early exit, which stops vectorisation.
 KERNEL = dict(cache=True, fastmath=FAST, error_model="numpy")
-INLINE = dict(KERNEL, inline="always")
-OPTS = INLINE
+# Kernels called only from other kernels: no Python entry wrapper. Numba otherwise builds and
+# compiles, for every function, a wrapper unboxing its arguments from Python objects; for a
+# function taking the model, state and loads records (47 arrays) that alone is most of a
+# second of compilation, even for a body of one line.
+INNER = dict(KERNEL, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# Inlined by numba where called: for the bodies of vectorised loops whose arguments are
+# tuples of arrays (left to LLVM, such calls, passing dozens of array fields, slowed the
+# vectorised passes by half). Numba types an inlined body afresh at every call site, so the
+# scalar helpers below are plain functions instead: compiled once, inlined by LLVM.
+INLINE = dict(INNER, inline="always")
+OPTS = INNER
 
 
 @njit(**OPTS)

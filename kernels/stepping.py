@@ -8,7 +8,7 @@ Consecutive steps share their outer drift (first-same-as-last), so n steps cost 
 
 from numba import njit
 
-from .backend import STEP
+from .backend import ENTRY, STEP
 from .compose import apply_flows, apply_loads
 from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads_on, kick_state
@@ -19,7 +19,7 @@ PEFRL_LAMBDA = -0.2123418310626054
 PEFRL_CHI = -0.06626458266981849
 
 
-@njit(**STEP, inline="always")  # one caller: kick_loads
+@njit(**ENTRY, inline="always")  # one caller: kick_loads (tests call it from Python)
 def evaluate_loads(model, state, loads, load_effects, backend):
     """Update loads given the state: internal loads (3.2)/(3.3), the declared effects, then
     the node balances (4.3)/(4.4)."""
@@ -39,7 +39,7 @@ def kick_loads(model, state, loads, load_effects, flow_effects, h, backend):
     apply_flows(flow_effects, model, state, 0.5 * h)
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps, backend):
     """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h."""
     drift_state(model, state, 0.5 * h, 2, backend)
@@ -48,7 +48,7 @@ def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps, ba
         drift_state(model, state, h if s < steps - 1 else 0.5 * h, 2, backend)
 
 
-@njit(**STEP)
+@njit(**ENTRY)
 def advance_pefrl(model, state, loads, load_effects, flow_effects, h, steps, backend):
     """Update state by ``steps`` PEFRL steps (fourth order):
     D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi)."""

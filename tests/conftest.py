@@ -5,7 +5,8 @@ its own step), so it runs on every core (pytest-xdist, ``-n auto``). Numba's cac
 safe for two processes saving overloads of one function at once (each rewrites the
 function's index from its own copy), so each extra worker keeps its own cache directory:
 the first worker, and a run without workers, use the usual cache (NUMBA_CACHE_DIR or the
-__pycache__ folders), the others a sibling per worker. This runs before numba is imported.
+__pycache__ folders), the others a directory of their own (in NUMBA_CACHE_DIR, else in the
+temporary folder). This runs before numba is imported.
 """
 
 import os
