@@ -28,9 +28,16 @@ def block_rows(b, n):
 YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
 
+# Sequences of flows about body axes, (axis, fraction of the step). Numba compiles a function
+# called with a literal int once per value; an axis read in a loop over such a tuple is a
+# plain int64, so one compiled spin_about_axis serves every axis.
+STRANG_123 = ((0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5))
+STRANG_23 = ((1, 0.5), (2, 1.0), (1, 0.5))
+AXIS_3 = ((2, 1.0),)
+
 
 @njit(**INNER)
-def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h, cayley=False):
+def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h, cayley):
     """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
     q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact). With cayley,
     the angle is 2 atan(phi/2): the exact flow of another function of p_i alone, so still
@@ -60,11 +67,11 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
     """Return (q, p) after the symmetric splitting 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) of the
     free rigid body (Dullweber, Leimkuhler & McLachlan): symplectic, |p| and the lab angular
     momentum exact (with Cayley angles: see spin_about_axis)."""
-    r = spin_about_axis(qw, qx, qy, qz, p0, p1, p2, i0, 0, 0.5 * h, cayley)
-    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h, cayley)
-    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i2, 2, h, cayley)
-    r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i1, 1, 0.5 * h, cayley)
-    return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], i0, 0, 0.5 * h, cayley)
+    r = (qw, qx, qy, qz, p0, p1, p2)
+    inv_j = (i0, i1, i2)
+    for axis, frac in STRANG_123:
+        r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_j[axis], axis, frac * h, cayley)
+    return r
 
 
 @njit(**INNER)
@@ -88,13 +95,16 @@ def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
     d1 p2^2/2 + d2 p3^2/2: exact for d1 = 0, else split symmetrically (Yoshida for order 4)."""
     ew, ex, ey, ez = quat_exp(h * i1 * p0, h * i1 * p1, h * i1 * p2)
     r = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez) + (p0, p1, p2)
+    inv_d = (0.0, d1, d2)
     if d1 == 0.0:
-        return spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, h)
+        for axis, frac in AXIS_3:
+            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_d[axis], axis, frac * h, False)
+        return r
     for c in ((YOSHIDA_1, YOSHIDA_0, YOSHIDA_1) if order == 4 else (1.0, 0.0, 0.0)):
         if c != 0.0:
-            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
-            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, 2, c * h)
-            r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d1, 1, 0.5 * c * h)
+            for axis, frac in STRANG_23:
+                r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], inv_d[axis], axis,
+                                    frac * c * h, False)
     return r
 
 
@@ -105,7 +115,9 @@ def spin_round(qw, qx, qy, qz, p0, p1, p2, i1, d2, h):
     about e3 by its Cayley angle (spin_about_axis; no branch, no trig)."""
     ew, ex, ey, ez = quat_cayley(h * i1 * p0, h * i1 * p1, h * i1 * p2)
     qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez)
-    r = spin_about_axis(qw, qx, qy, qz, p0, p1, p2, d2, 2, h, True)
+    r = (qw, qx, qy, qz, p0, p1, p2)
+    for axis, frac in AXIS_3:
+        r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, axis, frac * h, True)
     qw, qx, qy, qz = quat_normalize(r[0], r[1], r[2], r[3])
     return qw, qx, qy, qz, r[4], r[5], r[6]
 

@@ -17,7 +17,7 @@ def bound_max_omega2(model):
     """Return (omega2, kind, index): the largest Gershgorin row bound of omega^2 and where it
     sits (kind 0 vertex, 1 element, 2 node; index global)."""
     best, kind, where = 0.0, 0, 0
-    m, J, K = model.vertex_mass, model.element_inertia, model.element_stiffness
+    m, J, K, B = model.vertex_mass, model.element_inertia, model.element_stiffness, model.voronoi_stiffness
     nl = model.line_vertex_offsets.shape[0] - 1
     for l in range(nl):
         v0 = model.line_vertex_offsets[l]
@@ -26,7 +26,8 @@ def bound_max_omega2(model):
         for i in range(1, n):  # interior vertices: elements i-1 and i
             vt = v0 + i
             r = 0.0
-            for e, other in ((e0 + i - 1, vt - 1), (e0 + i, vt + 1)):
+            for side in range(2):  # the element before, then after
+                e, other = e0 + i - 1 + side, vt - 1 + 2 * side
                 kl = max(K[e, 0], K[e, 2]) / model.element_rest_length[e]
                 r += kl / m[vt] + kl / math.sqrt(m[vt] * m[other])
                 r += max(K[e, 0], K[e, 1]) / math.sqrt(m[vt] * min(J[e, 0], J[e, 1]))
@@ -39,8 +40,9 @@ def bound_max_omega2(model):
             r = ks * model.element_rest_length[e] / jb
             r += ks / math.sqrt(jb * m[v0 + i]) + ks / math.sqrt(jb * m[v0 + i + 1])
             rt = 0.0
-            for k, side in ((v0 + i, 0), (v0 + i + 1, 1)):
-                bl = model.voronoi_stiffness[k] / model.voronoi_rest_length[k]
+            for side in range(2):  # the Voronoi point before, then after
+                k = v0 + i + side
+                lk = model.voronoi_rest_length[k]
                 if (side == 0 and i == 0) or (side == 1 and i == n - 1):
                     nd = model.attach_node[2 * l + side]  # the neighbour is a node frame
                     jn = node_min_inertia(model, nd)
@@ -50,8 +52,8 @@ def bound_max_omega2(model):
                     other = e - 1 if side == 0 else e + 1
                     cb = 1.0 / math.sqrt(jb * min(J[other, 0], J[other, 1]))
                     ct = 1.0 / math.sqrt(J[e, 2] * J[other, 2])
-                r += max(bl[0], bl[1]) * (1.0 / jb + cb)
-                rt += bl[2] * (1.0 / J[e, 2] + ct)
+                r += max(B[k, 0] / lk, B[k, 1] / lk) * (1.0 / jb + cb)
+                rt += B[k, 2] / lk * (1.0 / J[e, 2] + ct)
             r = max(r, rt)
             if r > best:
                 best, kind, where = r, 1, e
@@ -95,8 +97,8 @@ def node_row_bound(model, nd):
         if jn != math.inf:
             o = model.attach_offset[a]
             rho = math.sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2])
-            b = model.voronoi_stiffness[vt] / model.voronoi_rest_length[vt]
-            bmax = max(b[0], b[1], b[2])
+            B = model.voronoi_stiffness
+            bmax = max(B[vt, 0], B[vt, 1], B[vt, 2]) / model.voronoi_rest_length[vt]
             rr += bmax * (1.0 / jn + 1.0 / math.sqrt(jn * min(jb, J[e, 2])))
             rr += kl * rho * (rho / jn + 1.0 / math.sqrt(jn * other_mass))
             rr += ks * rho / math.sqrt(jn * jb)
