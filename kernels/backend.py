@@ -41,8 +41,8 @@ def _noalias() -> dict:
     return {"noalias": True}
 
 
-# Options of the per-line passes: their array arguments (column views) never overlap, so
-# LLVM vectorises them without run-time overlap tests (a few hundred instructions per call,
+# Options of the vectorised passes: their array arguments (column views) never overlap, so
+# LLVM vectorises them without run-time overlap tests (a few hundred instructions per loop,
 # which would dominate lines of ten elements). Never pass one array twice to such a kernel.
 PASS = dict(STEP, **_noalias())
 

@@ -76,19 +76,23 @@ def end_frame(model, state, a):
 
 
 @njit(**PASS)
-def bend_interior(v0, e0, n, vor, q, left, right):
-    """Update left, right at the interior Voronoi points v0+1 .. v0+n-1 of a line given its
-    element quaternions q[e0 .. e0+n-1], by the series log map (vectorised); return how many
-    points turned by 0.2 rad or more (their values are then meaningless). Unsigned offsets;
-    column tuples (see layout.columns)."""
+def bend_lines(l0, l1, voff, eoff, vor, q, left, right):
+    """Update left, right at the interior Voronoi points of lines l0 .. l1-1 given their
+    element quaternions q, by the series log map (vectorised along each line); return how many
+    points turned by 0.2 rad or more (their values are then meaningless). voff, eoff: the
+    lines' vertex and element offsets; column tuples (see layout.columns). One call serves a
+    block of lines: a call passes dozens of array fields, which cost more than the arithmetic
+    of a ten-element line."""
     large = 0
-    for j in range(1, n):
-        a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
-        rw, rx, ry, rz, small = relative_quat(q[0][a], q[1][a], q[2][a], q[3][a],
-                                              q[0][b], q[1][b], q[2][b], q[3][b])
-        large += 0 if small else 1
-        tx, ty, tz, c = small_rotation(rw, rx, ry, rz)
-        store_bend(vor, k, tx, ty, tz, c, left, right)
+    for l in range(l0, l1):
+        v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
+        for j in range(1, n):
+            a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
+            rw, rx, ry, rz, small = relative_quat(q[0][a], q[1][a], q[2][a], q[3][a],
+                                                  q[0][b], q[1][b], q[2][b], q[3][b])
+            large += 0 if small else 1
+            tx, ty, tz, c = small_rotation(rw, rx, ry, rz)
+            store_bend(vor, k, tx, ty, tz, c, left, right)
     return large
 
 
@@ -106,50 +110,50 @@ def bend_interior_large(v0, e0, n, vor, q, left, right):
 
 
 @njit(**PASS)
-def stretch_elements(v0, e0, n, x, q, stiff, inv_len, left, right, force, tau):
+def stretch_lines(l0, l1, voff, eoff, x, q, stiff, inv_len, left, right, force, tau):
     """Update force, the lab contact force n = D K (D^T r'/l - e3), and tau, the body torque
-    r' x n plus the bending torques of the Voronoi points on either side, of the n elements
-    e0 .. e0+n-1 of a line (3.2)/(3.3), (3.22) (vectorised; unsigned offsets, columns)."""
-    for j in range(n):
-        e, v, w = e0 + uint(j), v0 + uint(j), v0 + uint(j + 1)
-        qw, qx, qy, qz = q[0][e], q[1][e], q[2][e], q[3][e]
-        il = inv_len[e]
-        sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][w] - x[0][v], x[1][w] - x[1][v], x[2][w] - x[2][v])
-        nx, ny, nz = stiff[0][e] * sx * il, stiff[1][e] * sy * il, stiff[2][e] * (sz * il - 1.0)
-        fx, fy, fz = quat_rotate(qw, qx, qy, qz, nx, ny, nz)
-        force[0][e], force[1][e], force[2][e] = fx, fy, fz
-        cx, cy, cz = cross(sx, sy, sz, nx, ny, nz)
-        tau[0][e] = cx + right[0][v] + left[0][w]
-        tau[1][e] = cy + right[1][v] + left[1][w]
-        tau[2][e] = cz + right[2][v] + left[2][w]
+    r' x n plus the bending torques of the Voronoi points on either side, of the elements of
+    lines l0 .. l1-1 (3.2)/(3.3), (3.22) (vectorised along each line; as bend_lines)."""
+    for l in range(l0, l1):
+        v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
+        for j in range(n):
+            e, v, w = e0 + uint(j), v0 + uint(j), v0 + uint(j + 1)
+            qw, qx, qy, qz = q[0][e], q[1][e], q[2][e], q[3][e]
+            il = inv_len[e]
+            sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][w] - x[0][v], x[1][w] - x[1][v], x[2][w] - x[2][v])
+            nx, ny, nz = stiff[0][e] * sx * il, stiff[1][e] * sy * il, stiff[2][e] * (sz * il - 1.0)
+            fx, fy, fz = quat_rotate(qw, qx, qy, qz, nx, ny, nz)
+            force[0][e], force[1][e], force[2][e] = fx, fy, fz
+            cx, cy, cz = cross(sx, sy, sz, nx, ny, nz)
+            tau[0][e] = cx + right[0][v] + left[0][w]
+            tau[1][e] = cy + right[1][v] + left[1][w]
+            tau[2][e] = cz + right[2][v] + left[2][w]
 
 
 @njit(**PASS)
-def vertex_forces(v0, e0, n, force, f):
-    """Update f at the vertices v0 .. v0+n of a line with the difference of the contact
-    forces of the elements on either side (3.2) (vectorised; unsigned offsets, columns)."""
-    for j in range(1, n):
-        v, e, d = v0 + uint(j), e0 + uint(j), e0 + uint(j - 1)
-        f[0][v] = force[0][e] - force[0][d]
-        f[1][v] = force[1][e] - force[1][d]
-        f[2][v] = force[2][e] - force[2][d]
-    first, last, end = v0, v0 + uint(n), e0 + uint(n - 1)
-    for k in range(3):
-        f[k][first] = force[k][e0]
-        f[k][last] = -force[k][end]
+def vertex_lines(l0, l1, voff, eoff, force, f):
+    """Update f at the vertices of lines l0 .. l1-1 with the difference of the contact forces
+    of the elements on either side (3.2) (vectorised along each line; as bend_lines)."""
+    for l in range(l0, l1):
+        v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
+        for j in range(1, n):
+            v, e, d = v0 + uint(j), e0 + uint(j), e0 + uint(j - 1)
+            f[0][v] = force[0][e] - force[0][d]
+            f[1][v] = force[1][e] - force[1][d]
+            f[2][v] = force[2][e] - force[2][d]
+        first, last, end = v0, v0 + uint(n), e0 + uint(n - 1)
+        for k in range(3):
+            f[k][first] = force[k][e0]
+            f[k][last] = -force[k][end]
 
 
 @njit(**INLINE)
-def line_bend(l, model, state, cols):
-    """Update the scratch bend_left, bend_right at the Voronoi points of line l given its
-    element frames and its nodes' frames (3.22)."""
-    x, q, stiff, vor, left, right, force, f, tau = cols
+def bend_ends(l, model, state, vor, q, left, right):
+    """Update left, right at the two boundary Voronoi points of line l, which join its end
+    elements to its nodes' frames D(nu) X(nu, lambda) (1.3), (3.22)."""
     v0 = uint(model.line_vertex_offsets[l])
     e0 = uint(model.line_element_offsets[l])
     n = model.line_element_offsets[l + 1] - model.line_element_offsets[l]
-    if bend_interior(v0, e0, n, vor, q, left, right):
-        bend_interior_large(v0, e0, n, vor, q, left, right)
-    # the boundary points join the end elements to their nodes' frames D(nu) X(nu, lambda)
     aw, ax, ay, az = end_frame(model, state, 2 * l)
     tx, ty, tz, c = relative_rotation(aw, ax, ay, az, q[0][e0], q[1][e0], q[2][e0], q[3][e0])
     store_bend(vor, v0, tx, ty, tz, c, left, right)
@@ -159,42 +163,30 @@ def line_bend(l, model, state, cols):
     store_bend(vor, vn, tx, ty, tz, c, left, right)
 
 
-@njit(**INLINE)
-def line_stretch(l, model, loads, cols):
-    """Update loads.f, loads.tau, loads.end_tau of line l given the positions, frames and the
-    bending torques of its Voronoi points (3.2)/(3.3), (3.22)-(3.25)."""
-    x, q, stiff, vor, left, right, force, f, tau = cols
-    v0 = uint(model.line_vertex_offsets[l])
-    e0 = uint(model.line_element_offsets[l])
-    n = model.line_element_offsets[l + 1] - model.line_element_offsets[l]
-    stretch_elements(v0, e0, n, x, q, stiff, model.element_inv_rest_length, left, right, force, tau)
-    vertex_forces(v0, e0, n, force, f)
-    vn = v0 + uint(n)
-    ends = loads.end_tau
-    for k in range(3):
-        ends[2 * l, k] = left[k][v0]
-        ends[2 * l + 1, k] = right[k][vn]
-
-
-@njit(**INLINE)
-def internal_columns(model, state, loads):
-    """Return the column views read and written by line_loads."""
-    return (columns(state.x), quat_columns(state.q), columns(model.element_stiffness), voronoi_columns(model),
-            columns(loads.bend_left), columns(loads.bend_right), columns(loads.elem_force),
-            columns(loads.f), columns(loads.tau))
-
-
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
 def compute_line_block(l0, l1, model, state, loads):
-    """Update the internal loads of lines l0 .. l1-1 in vectorised passes over their Voronoi
-    points, elements and vertices, through the scratch loads.bend_left, bend_right,
-    elem_force: first the bending of every line of the block, then the rest (each pass reads
-    fewer arrays at once, and a block's scratch stays in cache)."""
-    cols = internal_columns(model, state, loads)
+    """Update loads.f, loads.tau, loads.end_tau of lines l0 .. l1-1 in vectorised passes over
+    their Voronoi points, elements and vertices, through the scratch loads.bend_left,
+    bend_right, elem_force: the bending of every line of the block, then stretch and shear,
+    then the vertex forces (each pass reads fewer arrays at once, and a block's scratch stays
+    in cache) (3.2)/(3.3), (3.22)-(3.25)."""
+    x, q, stiff = columns(state.x), quat_columns(state.q), columns(model.element_stiffness)
+    vor, left, right = voronoi_columns(model), columns(loads.bend_left), columns(loads.bend_right)
+    force, f, tau = columns(loads.elem_force), columns(loads.f), columns(loads.tau)
+    voff, eoff = model.line_vertex_offsets, model.line_element_offsets
+    if bend_lines(l0, l1, voff, eoff, vor, q, left, right):
+        for l in range(l0, l1):
+            bend_interior_large(uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l], vor, q, left, right)
     for l in range(l0, l1):
-        line_bend(l, model, state, cols)
+        bend_ends(l, model, state, vor, q, left, right)
+    stretch_lines(l0, l1, voff, eoff, x, q, stiff, model.element_inv_rest_length, left, right, force, tau)
+    vertex_lines(l0, l1, voff, eoff, force, f)
+    ends = loads.end_tau
     for l in range(l0, l1):
-        line_stretch(l, model, loads, cols)
+        v0, vn = voff[l], voff[l + 1] - 1
+        for k in range(3):
+            ends[2 * l, k] = left[k][v0]
+            ends[2 * l + 1, k] = right[k][vn]
 
 
 @njit(**INLINE)
