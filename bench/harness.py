@@ -41,13 +41,7 @@ def chain(lines, per_line=10):
 
 def best_of(fn, repeat=3):
     """Smallest wall time of ``repeat`` calls of fn() (after one warm-up call)."""
-    fn()
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_interleaved([fn], repeat)[0]
 
 
 def best_interleaved(fns, rounds=9):

@@ -33,7 +33,7 @@ import numpy as np
 
 import cosnet
 from cosnet.kernels.backend import Parallel, Serial
-from harness import best_of, chain, rod, table, write_json
+from harness import best_interleaved, best_of, chain, rod, table, write_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -179,14 +179,7 @@ def big_rod_threads(quick):
     sim1 = cosnet.Simulation(rod(n), effects=[cosnet.Gravity()], threads=1)
     sims = [sim1, with_threads(sim1, 2)]
     steps = max(20, int(TARGET / n))
-    best = [np.inf, np.inf]
-    for s in sims:
-        s.run(steps=2)
-    for _ in range(REPEAT[quick]):
-        for k, s in enumerate(sims):
-            t0 = time.perf_counter()
-            s.run(steps=steps)
-            best[k] = min(best[k], time.perf_counter() - t0)
+    best = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims], REPEAT[quick])
     return [{"case": f"rod {n:,}", "elements": n, "threads": s.threads, "steps": steps,
              "load_average_1min": os.getloadavg()[0],
              "us_per_step": 1e6 * t / steps, "ns_per_element_step": 1e9 * t / (steps * n),
@@ -264,8 +257,8 @@ def machine_limits(quick):
     w, rounds = np.random.rand(4096), 20_000
     pairs = []
     for _ in range(5 if quick else 9):
-        t1 = best_of(lambda: (_arith(w[:2048], rounds), _arith(w[2048:], rounds)), 3)
-        pairs.append((t1, best_of(lambda: _arith_par(w, rounds), 3)))
+        pairs.append(best_interleaved([lambda: (_arith(w[:2048], rounds), _arith(w[2048:], rounds)),
+                                       lambda: _arith_par(w, rounds)], 3))
     arith_speedup = sorted(t1 / t2 for t1, t2 in pairs)
     m = 1000 if quick else 2000
     x, y = np.random.rand(m, m), np.random.rand(m, m)

@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .flatten import flatten, matrix_from_quat, rotvec_from_matrix
+from .flatten import flatten
+from .rotmath import matrix_from_quat, rotvec_from_matrix
 from .kernels.layout import State
 from .kernels.motion import place_line_ends
 from .net import Line, Net, Node

@@ -24,6 +24,24 @@ def block_rows(b, n):
     """Return (start, stop) of block b of BLOCK rows out of n (empty past the end)."""
     return min(b * BLOCK, n), min((b + 1) * BLOCK, n)
 
+
+def each_row_block(block):
+    """Return (serial, parallel) kernels f(model, state, c, d) running
+    block(model, state, c, d, vs, ve, es, ee) over every vertex and element: the serial one
+    in one call, the parallel one a block of BLOCK vertices and elements per task."""
+    @njit(**STEP)
+    def serial(model, state, c, d):
+        block(model, state, c, d, 0, state.x.shape[0], 0, state.q.shape[0])
+
+    @njit(**INNER, parallel=True)
+    def parallel(model, state, c, d):
+        nv, ne = state.x.shape[0], state.q.shape[0]
+        for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
+            vs, ve = block_rows(b, nv)
+            es, ee = block_rows(b, ne)
+            block(model, state, c, d, vs, ve, es, ee)
+    return serial, parallel
+
 # Yoshida's triple jump lifts a symmetric second-order flow to fourth order
 YOSHIDA_1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 YOSHIDA_0 = 1.0 - 2.0 * YOSHIDA_1
@@ -190,23 +208,9 @@ def drift_block(model, state, h, order, vs, ve, es, ee):
                 spin_element(q[e], w[e], J[e], ij[e], h, order)
 
 
-@njit(**STEP)
-def drift_bodies(model, state, h, order):
-    """Update vertex positions and element frames by the free flight of time h."""
-    drift_block(model, state, h, order, 0, state.x.shape[0], 0, state.q.shape[0])
-
-
-@njit(**INNER, parallel=True)
-def drift_bodies_parallel(model, state, h, order):
-    """Update vertex positions and element frames by the free flight of time h (threads,
-    a block of BLOCK vertices and elements per task)."""
-    nv, ne = state.x.shape[0], state.q.shape[0]
-    for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
-        vs, ve = block_rows(b, nv)
-        es, ee = block_rows(b, ne)
-        drift_block(model, state, h, order, vs, ve, es, ee)
-
-
+# drift_bodies(model, state, h, order): vertex positions and element frames by the free
+# flight of time h (and its threaded twin)
+drift_bodies, drift_bodies_parallel = each_row_block(drift_block)
 drift_bodies_on = dispatch4(drift_bodies, drift_bodies_parallel)
 
 
@@ -311,23 +315,9 @@ def kick_block(model, state, loads, h, vs, ve, es, ee):
                  columns(loads.tau, es, ee), h)
 
 
-@njit(**STEP)
-def kick_bodies(model, state, loads, h):
-    """Update vertex velocities and element angular velocities given the loads over time h."""
-    kick_block(model, state, loads, h, 0, state.v.shape[0], 0, state.w.shape[0])
-
-
-@njit(**INNER, parallel=True)
-def kick_bodies_parallel(model, state, loads, h):
-    """Update vertex velocities and element angular velocities given the loads (threads,
-    a block of BLOCK vertices and elements per task)."""
-    nv, ne = state.v.shape[0], state.w.shape[0]
-    for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
-        vs, ve = block_rows(b, nv)
-        es, ee = block_rows(b, ne)
-        kick_block(model, state, loads, h, vs, ve, es, ee)
-
-
+# kick_bodies(model, state, loads, h): vertex velocities and element angular velocities
+# given the loads over time h (and its threaded twin)
+kick_bodies, kick_bodies_parallel = each_row_block(kick_block)
 kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
 
 
