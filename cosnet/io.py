@@ -93,11 +93,9 @@ class SeriesWriter:
         k = len(self.times)
         lines_file, nodes_file = _frame_files(k)
         b = self._buf
-        for line in self.net.lines:
-            sl = slice(self._offsets[line.index], self._offsets[line.index + 1])
-            f = sim.line_fields(line)
-            for key in b:
-                b[key][sl] = f[key]
+        f = sim.net_fields()   # vertices in line order, as self._offsets
+        for key in b:
+            b[key][:] = f[key]
         mesh = meshio.Mesh(b["position"], [("line", self._segments)],
                            point_data={"line_id": self._vert_line, "radius": self._radius,
                                        **{k: b[k] for k in LINE_FIELDS}},

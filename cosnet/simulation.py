@@ -10,14 +10,13 @@ import numba
 import numpy as np
 
 from . import kernels  # noqa: F401  (package import; registers nothing)
+from . import measure
 from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
-from .kernels.diagnostics import line_fields, measure_energy, measure_momenta, measure_worst_strain
 from .kernels.layout import empty_loads
 from .kernels.motion import place_line_ends
-from .kernels.stability import bound_max_omega2
 from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, advance_verlet
 from .net import Line, Net, Node
 
@@ -86,7 +85,6 @@ class Simulation:
         self.safety = float(safety)
         self.model, self.state, self.grids = flatten(net)
         self.loads = empty_loads(self.model)
-        self._momenta = np.zeros((2, 3))
         self.effects = list(effects)
         for e in self.effects:
             if not isinstance(e, Effect):
@@ -128,7 +126,7 @@ class Simulation:
         """Estimated largest stable step: safety * (scheme interval) / omega_max, with omega_max
         bounded from above by Gershgorin's theorem on the linearised net plus the stiffness the
         declared effects add (penalty joints, contact)."""
-        w2, _, _ = bound_max_omega2(self.model)
+        w2, _, _ = measure.bound_max_omega2(self.model)
         w2 += sum(e.max_omega2(self) for e in self.effects)
         if w2 <= 0:
             return math.inf
@@ -136,7 +134,7 @@ class Simulation:
 
     def stiffest(self) -> str:
         """Where the highest frequency sits (for messages)."""
-        w2, kind, idx = bound_max_omega2(self.model)
+        w2, kind, idx = measure.bound_max_omega2(self.model)
         if self.effects:
             w2_effect, stiff = max(((e.max_omega2(self), i) for i, e in enumerate(self.effects)))
             if w2_effect > w2:
@@ -212,7 +210,7 @@ class Simulation:
             if not np.all(np.isfinite(arr)):
                 idx = int(np.argwhere(~np.isfinite(arr))[0, 0])
                 self._fail(f"non-finite {name}", self._where(name, idx))
-        worst, e = measure_worst_strain(self.model, self.state)
+        worst, e = measure.worst_strain(self.model, self.state)
         if worst > STRAIN_LIMIT:
             quantity = f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})"
             if self.dt <= self.stable_dt():
@@ -223,7 +221,7 @@ class Simulation:
             p = self.energy_parts()
             e_now = p["kinetic"] + p["strain"] + p["potential"]
             if self._scale > 0 and e_now - self._e_start > ENERGY_GROWTH * self._scale:
-                worst, e = measure_worst_strain(self.model, self.state)
+                worst, e = measure.worst_strain(self.model, self.state)
                 self._fail(f"energy grew from {self._e_start:.4g} J to {e_now:.4g} J with nothing "
                            f"feeding it (largest strain {worst:.3g})", self._where("element", e))
             self._scale = max(self._scale, p["kinetic"] + p["strain"] + abs(p["potential"]))
@@ -314,7 +312,7 @@ class Simulation:
     # ------------------------------------------------------------------ diagnostics
     def energy_parts(self) -> dict:
         place_line_ends(self.model, self.state)
-        kt, kr, u = measure_energy(self.model, self.state)
+        kt, kr, u = measure.energies(self.model, self.state)
         pot = sum(e.potential_energy(self) for e in self.effects)
         return {"kinetic": kt + kr, "translational": kt, "rotational": kr, "strain": u, "potential": pot}
 
@@ -327,28 +325,31 @@ class Simulation:
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""
         place_line_ends(self.model, self.state)
-        measure_momenta(self.model, self.state, self._momenta)
-        return self._momenta[0].copy()
+        return measure.momenta(self.model, self.state)[0]
 
     def angular_momentum(self) -> np.ndarray:
         """(3,) total angular momentum about the origin."""
         place_line_ends(self.model, self.state)
-        measure_momenta(self.model, self.state, self._momenta)
-        return self._momenta[1].copy()
+        return measure.momenta(self.model, self.state)[1]
 
     def line_fields(self, line: Line) -> dict:
         """Per-vertex fields of a line, each (n+1, ...): position, velocity, d1, d2, d3, force
         n and torque m (lab), strain v - d3 and curvature u - u0 (director frame) (3.22)."""
+        self.check_line(line)
+        return self._fields(line.index, line.index + 1)
+
+    def net_fields(self) -> dict:
+        """The fields of line_fields for every vertex of the net, lines in order, each (nv, ...)."""
+        return self._fields(0, len(self.net.lines))
+
+    def _fields(self, l0: int, l1: int) -> dict:
         place_line_ends(self.model, self.state)
-        n = line.elements
-        frames = np.empty((n + 1, 4))
-        force, torque, strain, curv = (np.empty((n + 1, 3)) for _ in range(4))
-        line_fields(line.index, self.model, self.state, frames, force, torque, strain, curv)
-        d = matrix_from_quat(frames)
-        sl = self._vrange(line)
+        f = measure.vertex_fields(self.model, self.state, l0, l1)
+        d = matrix_from_quat(f.pop("frames"))
+        o = self.model.line_vertex_offsets
+        sl = slice(o[l0], o[l1])
         return {"position": self.state.x[sl].copy(), "velocity": self.state.v[sl].copy(),
-                "d1": d[:, :, 0], "d2": d[:, :, 1], "d3": d[:, :, 2], "force": force,
-                "torque": torque, "strain": strain, "curvature": curv}
+                "d1": d[:, :, 0], "d2": d[:, :, 1], "d3": d[:, :, 2], **f}
 
     # ------------------------------------------------------------------ checkpoints
     def save_checkpoint(self, path):

@@ -40,12 +40,6 @@ def moment_at(vor, k, theta_x, theta_y, theta_z):
 
 
 @njit(**INLINE)
-def bend_moment(model, k, theta_x, theta_y, theta_z):
-    """Return m = B (theta/L - u0) at Voronoi point k (principal frame) (3.22)."""
-    return moment_at(voronoi_columns(model), k, theta_x, theta_y, theta_z)
-
-
-@njit(**INLINE)
 def bend_torques(tx, ty, tz, c, mx, my, mz):
     """Return the body torques on the left frame (+J_r^-1 m) and right frame (-J_l^-1 m) of a
     Voronoi point with relative rotation theta and bending moment m."""
@@ -218,33 +212,3 @@ def compute_internal_loads_parallel(model, state, loads):
 
 
 internal_loads_on = dispatch3(compute_internal_loads, compute_internal_loads_parallel)
-
-
-@njit(**STEP)
-def line_strain_energy(l, model, state):
-    """Return the strain energy (3.25) of line l given state.x, state.q, state.node_q."""
-    x, q = state.x, state.q
-    v0 = model.line_vertex_offsets[l]
-    e0 = model.line_element_offsets[l]
-    n = model.line_element_offsets[l + 1] - e0
-    u = 0.0
-    pw, px, py, pz = end_frame(model, state, 2 * l)
-    for i in range(n + 1):
-        if i < n:
-            e = e0 + i
-            qw, qx, qy, qz = q[e, 0], q[e, 1], q[e, 2], q[e, 3]
-            l0 = model.element_rest_length[e]
-            sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[v0 + i + 1, 0] - x[v0 + i, 0],
-                                         x[v0 + i + 1, 1] - x[v0 + i, 1], x[v0 + i + 1, 2] - x[v0 + i, 2])
-            k = model.element_stiffness
-            ex, ey, ez = sx / l0, sy / l0, sz / l0 - 1.0
-            u += 0.5 * l0 * (k[e, 0] * ex * ex + k[e, 1] * ey * ey + k[e, 2] * ez * ez)
-        else:
-            qw, qx, qy, qz = end_frame(model, state, 2 * l + 1)
-        tx, ty, tz, c = relative_rotation(pw, px, py, pz, qw, qx, qy, qz)
-        mx, my, mz = bend_moment(model, v0 + i, tx, ty, tz)
-        b = model.voronoi_stiffness.T
-        k = v0 + i
-        u += 0.5 * model.voronoi_rest_length[k] * (mx * mx / b[0, k] + my * my / b[1, k] + mz * mz / b[2, k])
-        pw, px, py, pz = qw, qx, qy, qz
-    return u

@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.kernels.diagnostics import measure_energy
+from cosnet.measure import energies
 from cosnet.kernels.motion import place_line_ends
 from cosnet.modes import linearise, modes, rigid_basis
 from cosnet.flatten import flatten
@@ -81,7 +81,7 @@ def energy_of(model, state, lin):
         work.node_x[:] = lin.node_x0 + dc
         work.node_q[:] = quat_mul(lin.node_q0, quat_exp(phi))
         place_line_ends(model, work)
-        return measure_energy(model, work)[2]
+        return energies(model, work)[2]
     return U
 
 
