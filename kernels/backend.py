@@ -12,7 +12,8 @@ LLVM inlines anyway, is correct; tests/test_conservation.py checks 1 vs 2 thread
 from typing import NamedTuple
 
 from numba import njit, prange
-from numba.extending import overload
+from numba.core import cgutils, types
+from numba.extending import intrinsic
 
 from .rotations import INNER, KERNEL
 
@@ -61,19 +62,21 @@ def _pick(backend, serial, parallel):
     return parallel if backend.instance_class is Parallel else serial
 
 
-def dispatch3(serial, parallel):
-    """Return f(backend, a, b, c) calling serial(a, b, c) or parallel(a, b, c) by the type of
-    backend (resolved at compile time; njit only). Fixed arity: star-args cost a copy."""
-    def call(backend, a, b, c):
-        raise TypeError("dispatch targets are callable from njit code only")
+def dispatch(serial, parallel):
+    """Return f(backend, *args) calling serial(*args) or parallel(*args) by the type of
+    backend, resolved when the caller is compiled (njit only). An intrinsic: the chosen call
+    is emitted straight into the caller, with no function in between to compile (each
+    compiled function re-optimises the code of everything it calls)."""
+    @intrinsic
+    def call(typingctx, backend, *args):
+        fnty = typingctx.resolve_value_type(_pick(backend, serial, parallel))
+        sig = typingctx.resolve_function_type(fnty, args, {})
 
-    @overload(call)
-    def typer(backend, a, b, c):
-        fn = _pick(backend, serial, parallel)
-
-        def impl(backend, a, b, c):
-            fn(a, b, c)
-        return impl
+        def codegen(context, builder, signature, llargs):
+            # the star-args arrive packed in one tuple (the signature says so)
+            context.get_function(fnty, sig)(builder, cgutils.unpack_tuple(builder, llargs[1]))
+            return context.get_dummy_value()
+        return types.none(backend, types.StarArgTuple(args)), codegen
     return call
 
 
@@ -99,33 +102,3 @@ def each_node(body):
         for k in prange((n + NODE_BLOCK - 1) // NODE_BLOCK):
             block(k * NODE_BLOCK, min((k + 1) * NODE_BLOCK, n), a, b, c, d)
     return serial, parallel
-
-
-def dispatch5(serial, parallel):
-    """As dispatch3, for functions of five arguments."""
-    def call(backend, a, b, c, d, e):
-        raise TypeError("dispatch targets are callable from njit code only")
-
-    @overload(call)
-    def typer(backend, a, b, c, d, e):
-        fn = _pick(backend, serial, parallel)
-
-        def impl(backend, a, b, c, d, e):
-            fn(a, b, c, d, e)
-        return impl
-    return call
-
-
-def dispatch4(serial, parallel):
-    """As dispatch3, for functions of four arguments."""
-    def call(backend, a, b, c, d):
-        raise TypeError("dispatch targets are callable from njit code only")
-
-    @overload(call)
-    def typer(backend, a, b, c, d):
-        fn = _pick(backend, serial, parallel)
-
-        def impl(backend, a, b, c, d):
-            fn(a, b, c, d)
-        return impl
-    return call

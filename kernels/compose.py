@@ -10,24 +10,29 @@ Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g
 """
 
 from numba import njit
-from numba.extending import overload
+from numba.core import types
+from numba.extending import intrinsic
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
 
 
-def _inlined(kernel):
-    """The kernel's body, inlined where the step calls it (with the kernel's own options): one
-    compilation pipeline fewer per effect, and no call. The registered dispatcher itself stays
-    callable from Python and other kernels."""
-    options = {k: v for k, v in kernel.targetoptions.items() if k != "nopython"}
-    return njit(**options, inline="always")(kernel.py_func)
+def _inner(kernel):
+    """The kernel as the step calls it: without numba's Python entry wrapper (a function
+    receiving the model and state records compiles several times slower with it). A kernel
+    declared that way already is used as it is; others get a wrapper-less twin, and stay
+    callable from Python."""
+    options = dict(kernel.targetoptions)
+    if options.get("no_cpython_wrapper"):
+        return kernel
+    options.pop("nopython", None)
+    return njit(**options, no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
 
 
 def load_kernel(declaration):
     """Register the decorated njit function as the load kernel of ``declaration``."""
     def register(kernel):
-        LOAD_KERNELS[declaration] = _inlined(kernel)
+        LOAD_KERNELS[declaration] = _inner(kernel)
         return kernel
     return register
 
@@ -35,49 +40,36 @@ def load_kernel(declaration):
 def flow_kernel(declaration):
     """Register the decorated njit function as the velocity-flow kernel of ``declaration``."""
     def register(kernel):
-        FLOW_KERNELS[declaration] = _inlined(kernel)
+        FLOW_KERNELS[declaration] = _inner(kernel)
         return kernel
     return register
 
 
-def _chain(kernels, i):
-    """Return an njit function calling kernels[i:] on effects[i:] in order."""
-    if i == len(kernels):
-        @njit(inline="always")
-        def done(effects, model, state, arg):
-            return None
-        return done
-    kernel = kernels[i]
-    rest = _chain(kernels, i + 1)
-
-    @njit(inline="always")
-    def call(effects, model, state, arg):
-        kernel(effects[i], model, state, arg)
-        rest(effects, model, state, arg)
-    return call
-
-
-def apply_loads(effects, model, state, loads):
-    """Add the loads of every effect in the tuple ``effects`` (njit only)."""
-
-
-def apply_flows(effects, model, state, h):
-    """Apply the velocity flow of every effect in the tuple ``effects`` for time h (njit only)."""
-
-
-def _overload_chain(registry, what):
-    def typer(effects, model, state, arg):
+def _chain(registry, what):
+    """Return an intrinsic f(effects, model, state, arg) emitting, into its caller, one call
+    kernel(effects[i], model, state, arg) per effect in order (the kernel of each effect's
+    type, looked up in registry when the caller is compiled)."""
+    @intrinsic
+    def apply(typingctx, effects, model, state, arg):
         try:
             kernels = [registry[t.instance_class] for t in effects.types]
         except (AttributeError, KeyError):
             raise TypeError(f"no {what} kernel registered for effect types {effects}")
-        call = _chain(kernels, 0)
+        calls = []
+        for kernel, t in zip(kernels, effects.types):
+            fnty = typingctx.resolve_value_type(kernel)
+            calls.append((fnty, typingctx.resolve_function_type(fnty, (t, model, state, arg), {})))
 
-        def impl(effects, model, state, arg):
-            call(effects, model, state, arg)
-        return impl
-    return typer
+        def codegen(context, builder, signature, args):
+            effs, m, s, a = args
+            for i, (fnty, sig) in enumerate(calls):
+                context.get_function(fnty, sig)(builder, (builder.extract_value(effs, i), m, s, a))
+            return context.get_dummy_value()
+        return types.none(effects, model, state, arg), codegen
+    return apply
 
 
-overload(apply_loads)(_overload_chain(LOAD_KERNELS, "load"))
-overload(apply_flows)(_overload_chain(FLOW_KERNELS, "flow"))
+# apply_loads(effects, model, state, loads): add the loads of every effect of the tuple
+apply_loads = _chain(LOAD_KERNELS, "load")
+# apply_flows(effects, model, state, h): the velocity flow of every effect for time h
+apply_flows = _chain(FLOW_KERNELS, "flow")

@@ -11,7 +11,7 @@ and the time stepper is variational: energy has no secular drift.
 
 from numba import njit, prange
 
-from .backend import PASS, STEP, dispatch3
+from .backend import PASS, STEP, dispatch
 from .layout import columns, quat_columns, uint
 from .rotations import (INLINE, INNER, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
                         relative_rotation, small_rotation)
@@ -211,4 +211,4 @@ def compute_internal_loads_parallel(model, state, loads):
         compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
 
 
-internal_loads_on = dispatch3(compute_internal_loads, compute_internal_loads_parallel)
+internal_loads_on = dispatch(compute_internal_loads, compute_internal_loads_parallel)

@@ -11,7 +11,7 @@ import math
 
 from numba import njit, prange
 
-from .backend import ENTRY, PASS, STEP, dispatch4, dispatch5, each_node
+from .backend import ENTRY, PASS, STEP, dispatch, each_node
 from .layout import columns, quat_columns
 from .rotations import INLINE, INNER, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
@@ -211,7 +211,7 @@ def drift_block(model, state, h, order, vs, ve, es, ee):
 # drift_bodies(model, state, h, order): vertex positions and element frames by the free
 # flight of time h (and its threaded twin)
 drift_bodies, drift_bodies_parallel = each_row_block(drift_block)
-drift_bodies_on = dispatch4(drift_bodies, drift_bodies_parallel)
+drift_bodies_on = dispatch(drift_bodies, drift_bodies_parallel)
 
 
 def drift_node(nd, model, state, h, order):
@@ -231,7 +231,7 @@ def drift_node(nd, model, state, h, order):
         place_line_end(model.node_attach_list[j], model, state)
 
 
-drift_nodes_on = dispatch5(*each_node(drift_node))
+drift_nodes_on = dispatch(*each_node(drift_node))
 
 
 @njit(**STEP)
@@ -294,7 +294,7 @@ def gather_node(nd, model, state, loads, unused):
         loads.node_tau[nd, 2] += cz + tz
 
 
-gather_node_loads_on = dispatch5(*each_node(gather_node))
+gather_node_loads_on = dispatch(*each_node(gather_node))
 
 
 @njit(**PASS)
@@ -318,7 +318,7 @@ def kick_block(model, state, loads, h, vs, ve, es, ee):
 # kick_bodies(model, state, loads, h): vertex velocities and element angular velocities
 # given the loads over time h (and its threaded twin)
 kick_bodies, kick_bodies_parallel = each_row_block(kick_block)
-kick_bodies_on = dispatch4(kick_bodies, kick_bodies_parallel)
+kick_bodies_on = dispatch(kick_bodies, kick_bodies_parallel)
 
 
 def kick_node(nd, model, state, loads, h):
@@ -338,7 +338,7 @@ def kick_node(nd, model, state, loads, h):
             state.node_hold[nd, k] += h * tb[k]
 
 
-kick_nodes_on = dispatch5(*each_node(kick_node))
+kick_nodes_on = dispatch(*each_node(kick_node))
 
 
 @njit(**STEP, inline="always")  # one caller: kick_loads
