@@ -20,64 +20,88 @@ import numpy as np
 from .kernels.layout import Model, State
 
 
-# ----------------------------------------------------------------- quaternion stacks (n, 4)
+# --------------------------------------------------- quaternions and vectors as column tuples
+# A quaternion stack is a tuple of four 1-D arrays (w, x, y, z), a vector stack a tuple of
+# three: the per-element arrays of the model and state are column-major, so each component
+# runs contiguously and every operation below is a plain vectorised loop.
+def cols(a) -> tuple:
+    """The columns of a (n, k) array, as a tuple of k 1-D arrays."""
+    return tuple(a[:, k] for k in range(a.shape[1]))
+
+
 def qmul(a, b):
-    """(n, 4) Hamilton products a b of quaternion stacks (w, x, y, z)."""
-    aw, ax, ay, az = a.T
-    bw, bx, by, bz = b.T
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
-                     aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw], axis=1)
+    """Hamilton products a b."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def qrot(q, v, inverse=False):
-    """(n, 3) R(q) v (body -> lab), or R(q)^T v with inverse=True."""
-    w = -q[:, :1] if inverse else q[:, :1]
-    u = q[:, 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    """R(q) v (body -> lab), or R(q)^T v with inverse=True."""
+    w, u = (-q[0] if inverse else q[0]), q[1:]
+    t = tuple(2.0 * c for c in cross(u, v))
+    ut = cross(u, t)
+    return tuple(v[k] + w * t[k] + ut[k] for k in range(3))
 
 
 def qlog(q):
-    """(n, 3) rotation vectors, |theta| <= pi, of unit quaternions q (n, 4)."""
-    q = np.where(q[:, :1] < 0.0, -q, q)
-    w, u = q[:, 0], q[:, 1:]
-    s = np.sqrt(np.sum(u * u, axis=1))
-    small = s < 1e-4 * w
-    r = np.where(small, (s / np.where(small, w, 1.0)) ** 2, 0.0)
-    f = np.where(small, (2.0 / np.where(small, w, 1.0)) * (1.0 - r / 3.0 + r * r / 5.0),
-                 2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
-    return f[:, None] * u
+    """Rotation vectors, |theta| <= pi, of unit quaternions q."""
+    sign = np.where(q[0] < 0.0, -1.0, 1.0)
+    w, x, y, z = (sign * c for c in q)
+    s = np.sqrt(x * x + y * y + z * z)
+    turned = s > 0.0
+    f = np.where(turned, 2.0 * np.arctan2(s, w) / np.where(turned, s, 1.0), 2.0 / w)
+    return f * x, f * y, f * z
 
 
 def qexp(theta):
-    """(n, 4) unit quaternions exp(theta) of rotation vectors theta (n, 3)."""
-    a = np.sqrt(np.sum(theta * theta, axis=1))
-    small = a < 1e-6
-    s = np.where(small, 0.5 - a * a / 48.0, np.sin(0.5 * a) / np.where(small, 1.0, a))
-    return np.concatenate([np.cos(0.5 * a)[:, None], s[:, None] * theta], axis=1)
+    """Unit quaternions exp(theta) of rotation vectors theta."""
+    tx, ty, tz = theta
+    a = np.sqrt(tx * tx + ty * ty + tz * tz)
+    turned = a > 0.0
+    s = np.where(turned, np.sin(0.5 * a) / np.where(turned, a, 1.0), 0.5)
+    return np.cos(0.5 * a), s * tx, s * ty, s * tz
 
 
 def conj(q):
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
+    return q[0], -q[1], -q[2], -q[3]
 
 
 # ----------------------------------------------------------------- strains of a block of lines
 class Strains(NamedTuple):
-    """Strains of the lines l0 .. l1-1 (element arrays (ne_b, ...), Voronoi arrays (nv_b, ...))."""
+    """Strains of the lines l0 .. l1-1: element columns (ne_b,), Voronoi columns (nv_b,)."""
 
+    lines: slice          # l0 .. l1-1
     elements: slice       # global element range
     vertices: slice       # global vertex (Voronoi point) range
-    stretch: np.ndarray   # (ne_b, 3) v - d3 per element, principal frame (3.22)
-    theta: np.ndarray     # (nv_b, 3) rotation vector between the frames on either side (3.24)
-    left: np.ndarray      # (nv_b, 4) frame on the left of each Voronoi point
-    curvature: np.ndarray  # (nv_b, 3) u - u0 = theta / L - u0 (3.22)
+    stretch: tuple        # 3 columns: v - d3 per element, principal frame (3.22)
+    theta: tuple          # 3 columns: rotation vector between the frames on either side (3.24)
+    left: tuple           # 4 columns: frame on the left of each Voronoi point
+    curvature: tuple      # 3 columns: u - u0 = theta / L - u0 (3.22)
 
 
-def end_frames(model: Model, state: State, ends) -> np.ndarray:
-    """(len(ends), 4) director frames D(nu) X(nu, lambda) of line ends ``ends`` (1.3)."""
-    return qmul(state.node_q[model.attach_node[ends]], model.attach_frame[ends])
+def end_frames(model: Model, state: State, ends) -> tuple:
+    """Director frames D(nu) X(nu, lambda) of line ends ``ends`` (1.3)."""
+    return qmul(cols(state.node_q[model.attach_node[ends]]), cols(model.attach_frame[ends]))
+
+
+def element_stretch(model: Model, state: State, l0: int = 0, l1: int | None = None) -> tuple:
+    """Columns of v - d3 = D^T (x_{e+1} - x_e) / l - e3 of the elements of lines l0 .. l1-1
+    (all by default), principal frame (3.22)."""
+    eoff = model.line_element_offsets
+    l1 = eoff.shape[0] - 1 if l1 is None else l1
+    e0, e1 = int(eoff[l0]), int(eoff[l1])
+    left_vertex = np.arange(e1 - e0) + np.repeat(np.arange(l1 - l0), np.diff(eoff[l0:l1 + 1]))
+    x = state.x[e0 + l0:e1 + l1]
+    dx = tuple(np.diff(x[:, k])[left_vertex] for k in range(3))
+    inv_l = model.element_inv_rest_length[e0:e1]
+    sx, sy, sz = qrot(cols(state.q[e0:e1]), dx, inverse=True)
+    return sx * inv_l, sy * inv_l, sz * inv_l - 1.0
 
 
 def line_strains(model: Model, state: State, l0: int = 0, l1: int | None = None) -> Strains:
@@ -87,34 +111,35 @@ def line_strains(model: Model, state: State, l0: int = 0, l1: int | None = None)
     lines = np.arange(l0, l1)
     e0, e1 = int(eoff[l0]), int(eoff[l1])
     v0, v1 = e0 + l0, e1 + l1
+    ne, nl = e1 - e0, l1 - l0
     counts = np.diff(eoff[l0:l1 + 1])
-    line_of_e = np.repeat(lines, counts)                  # (ne_b,)
-    left_vertex = np.arange(e0, e1) + line_of_e           # (ne_b,) global
-    q = state.q[e0:e1]
-    s = qrot(q, state.x[left_vertex + 1] - state.x[left_vertex], inverse=True)
-    stretch = s * model.element_inv_rest_length[e0:e1, None]
-    stretch[:, 2] -= 1.0
-    # the frames of each line in order: start frame, its elements, end frame; Voronoi point
-    # (local vertex) k of line l lies between frames k + (l - l0) and k + (l - l0) + 1
-    chain = np.empty((v1 - v0 + l1 - l0, 4))
-    chain[np.arange(e0, e1) - e0 + 2 * (line_of_e - l0) + 1] = q
-    starts = eoff[l0:l1] - e0 + 2 * (lines - l0)
-    chain[starts] = end_frames(model, state, 2 * lines)
-    chain[starts + counts + 1] = end_frames(model, state, 2 * lines + 1)
-    line_of_v = np.repeat(lines, counts + 1)
-    k = np.arange(v1 - v0) + (line_of_v - l0)
-    left, right = chain[k], chain[k + 1]
+    q = cols(state.q[e0:e1])
+    stretch = element_stretch(model, state, l0, l1)
+    # Voronoi point (local vertex) k, i-th of its line (l, n elements), lies between element
+    # k - l - 1 (or the line's start frame if i = 0) and element k - l (its end frame if i = n)
+    line_of_v = np.repeat(lines - l0, counts + 1)
+    i = np.arange(v1 - v0) - (eoff[l0:l1] - e0 + lines - l0)[line_of_v]
+    k_elem = np.arange(v1 - v0) - line_of_v
+    left_idx = np.where(i > 0, k_elem - 1, ne + line_of_v)
+    right_idx = np.where(i < counts[line_of_v], k_elem, ne + nl + line_of_v)
+    frames = [np.concatenate(parts) for parts in zip(q, end_frames(model, state, 2 * lines),
+                                                      end_frames(model, state, 2 * lines + 1))]
+    left = tuple(f[left_idx] for f in frames)
+    right = tuple(f[right_idx] for f in frames)
     theta = qlog(qmul(conj(left), right))
-    curvature = theta * model.voronoi_inv_rest_length[v0:v1, None] - model.voronoi_rest_curvature[v0:v1]
-    return Strains(slice(e0, e1), slice(v0, v1), stretch, theta, left, curvature)
+    inv_lv = model.voronoi_inv_rest_length[v0:v1]
+    u0 = cols(model.voronoi_rest_curvature[v0:v1])
+    curvature = tuple(theta[k] * inv_lv - u0[k] for k in range(3))
+    return Strains(slice(l0, l1), slice(e0, e1), slice(v0, v1), stretch, theta, left, curvature)
 
 
 def strain_energy(model: Model, st: Strains) -> float:
     """Strain energy (3.25) of the lines of st."""
     e, v = st.elements, st.vertices
-    u = 0.5 * np.sum(model.element_rest_length[e, None] * model.element_stiffness[e] * st.stretch ** 2)
-    u += 0.5 * np.sum(model.voronoi_rest_length[v, None] * model.voronoi_stiffness[v] * st.curvature ** 2)
-    return float(u)
+    le, lv = model.element_rest_length[e], model.voronoi_rest_length[v]
+    K, B = cols(model.element_stiffness[e]), cols(model.voronoi_stiffness[v])
+    return 0.5 * float(sum(np.dot(le * K[k], st.stretch[k] ** 2) + np.dot(lv * B[k], st.curvature[k] ** 2)
+                           for k in range(3)))
 
 
 def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
@@ -122,30 +147,32 @@ def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
     the mid-rotation between neighbouring frames, the line-end frame at the ends), force n and
     torque m in the lab (3.22), strain v - d3 and curvature u - u0 in the director frame."""
     st = line_strains(model, state, l0, l1)
-    e = st.elements
-    eoff = model.line_element_offsets[l0:l1 + 1]
-    n_lab = qrot(state.q[e], model.element_stiffness[e] * st.stretch)
-    # vertex values: the mean of the two neighbouring elements, an end element's own at the ends
-    line_of_e = np.repeat(np.arange(l0, l1), np.diff(eoff))
-    lv = np.arange(e.start, e.stop) + line_of_e - st.vertices.start   # local left vertex
-    nvb = st.vertices.stop - st.vertices.start
-    ends_lo = eoff[:-1] + np.arange(l0, l1) - st.vertices.start
-    ends_hi = eoff[1:] + np.arange(l0, l1) - st.vertices.start
-    weight = np.full(nvb, 0.5)
-    weight[ends_lo] = weight[ends_hi] = 1.0
+    e, v = st.elements, st.vertices
+    K = cols(model.element_stiffness[e])
+    n_lab = qrot(cols(state.q[e]), tuple(K[k] * st.stretch[k] for k in range(3)))
+    lines = np.arange(l0, l1)
+    counts = np.diff(model.line_element_offsets[l0:l1 + 1])
+    starts = model.line_vertex_offsets[l0:l1] - v.start       # local first vertex of each line
+    ends = starts + counts
+    left_vertex = np.arange(e.stop - e.start) + np.repeat(lines - l0, counts)
 
     def at_vertices(a):
-        out = np.zeros((nvb, 3))
-        out[lv] += a          # each element is the left neighbour of one vertex
-        out[lv + 1] += a      # and the right neighbour of the next
-        return out * weight[:, None]
+        """(nv_b, 3): the mean of the two neighbouring elements, an end element's own at the ends."""
+        out = np.zeros((v.stop - v.start, 3))
+        for k in range(3):
+            out[left_vertex, k] += 0.5 * a[k]       # each element is the left neighbour of one vertex
+            out[left_vertex + 1, k] += 0.5 * a[k]   # and the right neighbour of the next
+        out[starts] *= 2.0
+        out[ends] *= 2.0
+        return out
 
-    frames = qmul(st.left, qexp(0.5 * st.theta))
-    frames[ends_lo] = end_frames(model, state, 2 * np.arange(l0, l1))
-    frames[ends_hi] = end_frames(model, state, 2 * np.arange(l0, l1) + 1)
-    moment = model.voronoi_stiffness[st.vertices] * st.curvature
-    return {"frames": frames, "force": at_vertices(n_lab), "torque": qrot(frames, moment),
-            "strain": at_vertices(st.stretch), "curvature": st.curvature}
+    frames = np.column_stack(qmul(st.left, qexp(tuple(0.5 * t for t in st.theta))))
+    frames[starts] = np.column_stack(end_frames(model, state, 2 * lines))
+    frames[ends] = np.column_stack(end_frames(model, state, 2 * lines + 1))
+    B = cols(model.voronoi_stiffness[v])
+    torque = qrot(cols(frames), tuple(B[k] * st.curvature[k] for k in range(3)))
+    return {"frames": frames, "force": at_vertices(n_lab), "torque": np.column_stack(torque),
+            "strain": at_vertices(st.stretch), "curvature": np.column_stack(st.curvature)}
 
 
 def worst_strain(model: Model, state: State) -> tuple[float, int]:
@@ -153,7 +180,8 @@ def worst_strain(model: Model, state: State) -> tuple[float, int]:
     the worst."""
     if model.element_rest_length.shape[0] == 0:
         return 0.0, 0
-    s = np.sum(np.abs(line_strains(model, state).stretch), axis=1)
+    sx, sy, sz = element_stretch(model, state)
+    s = np.abs(sx) + np.abs(sy) + np.abs(sz)
     bad = np.flatnonzero(~np.isfinite(s))
     e = int(bad[0]) if bad.size else int(np.argmax(s))
     return float(s[e]), e
@@ -163,9 +191,9 @@ def worst_strain(model: Model, state: State) -> tuple[float, int]:
 def energies(model: Model, state: State) -> tuple[float, float, float]:
     """(translational kinetic, rotational kinetic, strain) energy of lines and nodes: the
     kinetic terms of (3.7)/(4.6) and the potential (3.25)."""
-    moving = model.vertex_inv_mass > 0.0
-    kt = 0.5 * np.sum(model.vertex_mass[moving, None] * state.v[moving] ** 2)
-    kr = 0.5 * np.sum(model.element_inertia * state.w ** 2)
+    moving = np.where(model.vertex_inv_mass > 0.0, model.vertex_mass, 0.0)
+    kt = 0.5 * sum(np.dot(moving, state.v[:, k] ** 2) for k in range(3))
+    kr = 0.5 * sum(np.dot(model.element_inertia[:, k], state.w[:, k] ** 2) for k in range(3))
     nodes = model.node_inv_mass > 0.0
     kt += 0.5 * np.sum(model.node_mass[nodes, None] * state.node_v[nodes] ** 2)
     free = model.node_locked == 0.0
@@ -184,9 +212,10 @@ def momenta(model: Model, state: State) -> np.ndarray:
         p = mass[moving, None] * v[moving]
         out[0] += p.sum(axis=0)
         out[1] += np.cross(x[moving], p).sum(axis=0)
-    out[1] += qrot(state.q, model.element_inertia * state.w).sum(axis=0)
-    spin = np.where(model.node_locked == 0.0, model.node_inertia, 0.0) * state.node_w
-    out[1] += qrot(state.node_q, spin).sum(axis=0)
+    J, w = cols(model.element_inertia), cols(state.w)
+    out[1] += [c.sum() for c in qrot(cols(state.q), tuple(J[k] * w[k] for k in range(3)))]
+    spin = cols(np.where(model.node_locked == 0.0, model.node_inertia, 0.0) * state.node_w)
+    out[1] += [c.sum() for c in qrot(cols(state.node_q), spin)]
     return out
 
 

@@ -4,6 +4,7 @@ state with a compiled symplectic stepper (no Python loop over lines or elements 
 from __future__ import annotations
 
 import math
+import zlib
 from functools import lru_cache
 
 import numba
@@ -21,7 +22,7 @@ from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, 
 from .net import Line, Net, Node
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
-CHUNK_STEPS = 2000  # steps between the driver's cheap health checks
+CHUNK_STEPS = 2000  # steps between the watch's strain and energy checks (non-finite values: every run() call)
 PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs more than it saves
 
 
@@ -92,7 +93,10 @@ class Simulation:
         self._params = [e.bind(self) for e in self.effects]   # each effect's kernel record
         self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
         self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
-        self._e_last = None   # energy at the last health check (the watch's continuity test)
+        self._e_start = None  # the energy watch's reference (None: taken at the next check)
+        self._scale = 0.0
+        self._watched_at = None   # step count at the last strain/energy check
+        self._seal = None         # fingerprint of the state as the last run() left it
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -174,6 +178,7 @@ class Simulation:
             self.steps += n
             steps -= n
             self._check_health()
+        self._seal = self._fingerprint()
         return self
 
     def _check_locked_axes(self):
@@ -184,25 +189,23 @@ class Simulation:
                              f"(infinite-inertia) axis must be zero")
 
     def _watch_start(self):
-        """Reference for the energy watch (only when no effect feeds energy in). It is kept
-        across run() calls, so slow growth over many short runs is still seen, and reset only
-        when the state was changed from outside since the last run."""
+        """Keep the energy watch's reference across run() calls, so slow growth over many
+        short runs is still seen; a state changed from outside since the last run (found by
+        its fingerprint) starts a new reference at the next check."""
         self._watch_energy = all(not e.adds_energy for e in self.effects)
-        if self._watch_energy:
-            p = self.energy_parts()
-            e_now = p["kinetic"] + p["strain"] + p["potential"]
-            if self._e_last is not None and abs(e_now - self._e_last) <= 1e-12 * self._scale:
-                return
-            self._e_start = e_now
-            # floor: round-off of a net at rest must not count as growth (1e-6 strain energy),
-            # nor Verlet's error on the energy an effect can feed the motion (a net let go
-            # from rest under gravity: its weight times its size)
-            floor = 1e-12 * float(np.sum(self.model.element_stiffness[:, 2] * self.model.element_rest_length))
-            floor = max(floor, sum(e.energy_scale(self) for e in self.effects))
-            self._scale = max(p["kinetic"] + p["strain"] + abs(p["potential"]), floor)
+        if self._seal is not None and self._seal != self._fingerprint():
+            self._e_start = None
+
+    def _fingerprint(self) -> int:
+        """CRC-32 of every state array (a pass over the state: no copy, no energy)."""
+        crc = 0
+        for a in self.state:
+            crc = zlib.crc32(np.ravel(a, order="K"), crc)
+        return crc
 
     def _check_health(self):
-        """Stop with InstabilityError on non-finite values, runaway strain, or energy growth."""
+        """Stop with InstabilityError on non-finite values (every call), runaway strain or
+        energy growth (at most every CHUNK_STEPS steps, and on the first call)."""
         s = self.state
         for name, arr in (("position", s.x), ("velocity", s.v), ("angular velocity", s.w),
                           ("node position", s.node_x), ("node velocity", s.node_v),
@@ -210,6 +213,9 @@ class Simulation:
             if not np.all(np.isfinite(arr)):
                 idx = int(np.argwhere(~np.isfinite(arr))[0, 0])
                 self._fail(f"non-finite {name}", self._where(name, idx))
+        if self._watched_at is not None and self.steps - self._watched_at < CHUNK_STEPS:
+            return
+        self._watched_at = self.steps
         worst, e = measure.worst_strain(self.model, self.state)
         if worst > STRAIN_LIMIT:
             quantity = f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})"
@@ -218,14 +224,25 @@ class Simulation:
                              "the line can bear (a physical overload, not a time-step problem)")
             self._fail(quantity, self._where("element", e))
         if self._watch_energy:
-            p = self.energy_parts()
-            e_now = p["kinetic"] + p["strain"] + p["potential"]
-            if self._scale > 0 and e_now - self._e_start > ENERGY_GROWTH * self._scale:
-                worst, e = measure.worst_strain(self.model, self.state)
-                self._fail(f"energy grew from {self._e_start:.4g} J to {e_now:.4g} J with nothing "
-                           f"feeding it (largest strain {worst:.3g})", self._where("element", e))
-            self._scale = max(self._scale, p["kinetic"] + p["strain"] + abs(p["potential"]))
-            self._e_last = e_now
+            self._watch_energy_growth()
+
+    def _watch_energy_growth(self):
+        p = self.energy_parts()
+        e_now = p["kinetic"] + p["strain"] + p["potential"]
+        size = p["kinetic"] + p["strain"] + abs(p["potential"])
+        if self._e_start is None:
+            # floor: round-off of a net at rest must not count as growth (1e-6 strain energy),
+            # nor Verlet's error on the energy an effect can feed the motion (a net let go
+            # from rest under gravity: its weight times its size)
+            floor = 1e-12 * float(np.sum(self.model.element_stiffness[:, 2] * self.model.element_rest_length))
+            floor = max(floor, sum(e.energy_scale(self) for e in self.effects))
+            self._e_start, self._scale = e_now, max(size, floor)
+            return
+        if self._scale > 0 and e_now - self._e_start > ENERGY_GROWTH * self._scale:
+            worst, e = measure.worst_strain(self.model, self.state)
+            self._fail(f"energy grew from {self._e_start:.4g} J to {e_now:.4g} J with nothing "
+                       f"feeding it (largest strain {worst:.3g})", self._where("element", e))
+        self._scale = max(self._scale, size)
 
     def _fail(self, quantity, where):
         est = self.stable_dt()

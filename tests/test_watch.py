@@ -44,18 +44,43 @@ def test_overload_at_a_stable_dt_is_called_physical_not_a_step_problem():
 
 
 def test_energy_reference_survives_many_short_runs():
-    """Energy growth is measured from the first run, not from each run() call, but a state
-    changed from outside between runs starts a new reference."""
+    """Energy growth is measured from the first check, not from each run() call, but a state
+    changed from outside between runs starts a new reference at the next check."""
     sim = cosnet.Simulation(free_net(3))
     smooth_motion(sim)
     sim.run(steps=10)
     e0 = sim._e_start
+    assert e0 == pytest.approx(sim.energy(), rel=1e-6)
     for _ in range(5):
-        sim.run(steps=10)
+        sim.run(steps=CHUNK_STEPS // 2)
     assert sim._e_start == e0
     sim.state.v[:] *= 2.0
-    sim.run(steps=10)
-    assert sim._e_start != e0
+    sim.run(steps=CHUNK_STEPS)
+    assert sim._e_start == pytest.approx(sim.energy(), rel=1e-6) and sim._e_start > 1.5 * e0
+
+
+def test_short_runs_still_stop_at_the_first_non_finite_value():
+    """The strain and energy checks run every CHUNK_STEPS steps at most, but a non-finite
+    value stops the very run() call that produced it, whatever its length."""
+    sim = cosnet.Simulation(free_net(3))
+    smooth_motion(sim)
+    for _ in range(3):
+        sim.run(steps=1)
+    sim.state.w[2, 1] = np.nan
+    with pytest.raises(cosnet.InstabilityError, match="non-finite") as info:
+        sim.run(steps=1)
+    assert "line 'l1'" in info.value.where
+
+
+def test_watch_looks_again_after_many_short_runs():
+    """Runaway strain reached through many one-step runs is caught within CHUNK_STEPS steps."""
+    net, line, root, tip = cantilever(n=4, radius=0.002, material=cosnet.Material(E=1e6, G=4e5, density=1e3))
+    EA = 1e6 * np.pi * 0.002 ** 2
+    sim = cosnet.Simulation(net, effects=[cosnet.NodeLoad(tip, force=(3 * EA, 0.0, 0.0))])
+    limit = int(2.0 / sim.dt) + CHUNK_STEPS
+    with pytest.raises(cosnet.InstabilityError, match="physical overload"):
+        for _ in range(limit):
+            sim.run(steps=1)
 
 
 def test_soft_rod_let_go_under_gravity_is_not_called_unstable():
