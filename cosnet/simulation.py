@@ -15,7 +15,7 @@ from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
-from .kernels.checksum import checksum
+from .kernels.checksum import scan_state
 from .kernels.layout import empty_loads
 from .kernels.motion import place_line_ends
 from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, advance_verlet
@@ -27,6 +27,10 @@ PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs mo
 
 
 STRAIN_LIMIT = 1.0  # |v - d3| beyond this (100 % stretch or shear) means the run has blown up
+# what the instability watch calls each state array
+STATE_NAMES = {"x": "position", "v": "velocity", "q": "orientation", "w": "angular velocity",
+               "node_x": "node position", "node_v": "node velocity", "node_q": "node orientation",
+               "node_w": "node angular velocity", "node_hold": "node held momentum", "clock": "time"}
 ENERGY_GROWTH = 10.0  # energy rising by this many times its scale, with nothing feeding it in
 
 
@@ -178,7 +182,6 @@ class Simulation:
             self.steps += n
             steps -= n
             self._check_health()
-        self._seal = self._fingerprint()
         return self
 
     def _check_locked_axes(self):
@@ -193,23 +196,17 @@ class Simulation:
         short runs is still seen; a state changed from outside since the last run (found by
         its fingerprint) starts a new reference at the next check."""
         self._watch_energy = all(not e.adds_energy for e in self.effects)
-        if self._seal is not None and self._seal != self._fingerprint():
+        if self._seal is not None and self._seal != scan_state(self.state)[0]:
             self._e_start = None
-
-    def _fingerprint(self) -> int:
-        """A hash of every state array (a pass over the state: no copy, no energy)."""
-        return checksum(self.state)
 
     def _check_health(self):
         """Stop with InstabilityError on non-finite values (every call), runaway strain or
         energy growth (at most every CHUNK_STEPS steps, and on the first call)."""
-        s = self.state
-        for name, arr in (("position", s.x), ("velocity", s.v), ("angular velocity", s.w),
-                          ("node position", s.node_x), ("node velocity", s.node_v),
-                          ("node angular velocity", s.node_w)):
-            if not np.all(np.isfinite(arr)):
-                idx = int(np.argwhere(~np.isfinite(arr))[0, 0])
-                self._fail(f"non-finite {name}", self._where(name, idx))
+        # one pass over the state: its non-finite values, and the hash that tells the next
+        # run() whether the state was changed in between
+        self._seal, field, row = scan_state(self.state)
+        if field is not None:
+            self._fail(f"non-finite {STATE_NAMES[field]}", self._where(STATE_NAMES[field], row))
         if self._watched_at is not None and self.steps - self._watched_at < CHUNK_STEPS:
             return
         self._watched_at = self.steps
@@ -247,9 +244,11 @@ class Simulation:
         raise InstabilityError(self.time, where, quantity, self.dt, safe)
 
     def _where(self, name: str, idx: int) -> str:
+        if name == "time":
+            return "the clock"
         if name.startswith("node"):
             return f"node {self.net.nodes[idx].name!r}"
-        on_elements = name in ("angular velocity", "element")
+        on_elements = name in ("orientation", "angular velocity", "element")
         offsets = self.model.line_element_offsets if on_elements else self.model.line_vertex_offsets
         l = int(np.searchsorted(offsets, idx, side="right") - 1)
         return f"line {self.net.lines[l].name!r} {'element' if on_elements else 'vertex'} {idx - offsets[l]}"
