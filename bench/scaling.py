@@ -140,6 +140,14 @@ def with_threads(sim, threads):
     return twin
 
 
+def steps_per_call(ne):
+    """Steps per run() call: enough that the call's own work (it hashes the state at its
+    start and scans it for non-finite values at its end: 2-3 ms on 10^5 elements, serial)
+    stays a small part of what is timed, as in a long run (printed separately as the cost
+    of run(steps=1))."""
+    return max(100, int(TARGET / ne))
+
+
 def nets(quick):
     """Each net built once; its 1- and 2-thread runs are timed alternately (best of N)."""
     out = []
@@ -151,9 +159,7 @@ def nets(quick):
             build_s = time.perf_counter() - t0
             ne = sim1.net.element_count
             sims = [sim1] + ([with_threads(sim1, 2)] if ne >= 5_000 else [])
-            # enough steps per run() that its own checks (energy, strain: a few ms on 1e5
-            # elements, serial) stay a small part of what is timed
-            steps = max(20, int(TARGET / ne))
+            steps = steps_per_call(ne)
             best = [np.inf] * len(sims)
             cpu = [np.inf] * len(sims)
             for s in sims:
@@ -178,7 +184,7 @@ def big_rod_threads(quick):
     n = 100_000
     sim1 = cosnet.Simulation(rod(n), effects=[cosnet.Gravity()], threads=1)
     sims = [sim1, with_threads(sim1, 2)]
-    steps = max(20, int(TARGET / n))
+    steps = steps_per_call(n)
     best = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims], REPEAT[quick])
     return [{"case": f"rod {n:,}", "elements": n, "threads": s.threads, "steps": steps,
              "load_average_1min": os.getloadavg()[0],

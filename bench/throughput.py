@@ -30,12 +30,20 @@ def measure_threads(name, net, steps, rounds):
     return [figures(name, s, steps, t) for s, t in zip(sims, times)]
 
 
+def call_cost(sim, step_s, calls=20):
+    """Seconds a run() call costs beyond its steps (the call's checks: a hash of the state at
+    its start, a scan for non-finite values at its end), from run(steps=1) in a loop."""
+    t = best_of(lambda: [sim.run(steps=1) for _ in range(calls)])
+    return t / calls - step_s
+
+
 def main():
     quick = "--quick" in sys.argv
     cases = [("rod 100", rod(100), 20_000), ("rod 1000", rod(1000), 2_000),
              ("chain 100 x 10", chain(100), 2_000), ("chain 1000 x 10", chain(1000), 200)]
     div = 10 if quick else 1
     results = [measure(n, net, s // div) for n, net, s in cases]
+    small = cosnet.Simulation(cases[0][1], effects=[cosnet.Gravity()])
     big = chain(10_000)
     start = cpu_times()
     threads = measure_threads("chain 10000 x 10", big, 100 // div, 5 if quick else 9)
@@ -48,7 +56,13 @@ def main():
     speedup = threads[1]["element_steps_per_s"] / threads[0]["element_steps_per_s"]
     print(f"\n2 threads vs 1 on {big.element_count:,} elements: {speedup:.2f}x "
           f"({100 * stolen:.0f}% of the CPU time stolen by the hypervisor meanwhile)")
-    write_json(__file__, {"throughput": results, "thread_speedup": speedup, "cpu_stolen": stolen})
+    big1 = cosnet.Simulation(big, effects=[cosnet.Gravity()], threads=1)
+    calls = {"rod 100": call_cost(small, 1e-6 * results[0]["us_per_step"]),
+             "chain 10000 x 10": call_cost(big1, 1e-6 * threads[0]["us_per_step"], 5)}
+    print("cost of a run() call beyond its steps: " +
+          ", ".join(f"{k} {1e6 * v:.0f} us" for k, v in calls.items()))
+    write_json(__file__, {"throughput": results, "thread_speedup": speedup, "cpu_stolen": stolen,
+                          "run_call_cost_s": calls})
 
 
 if __name__ == "__main__":

@@ -127,6 +127,15 @@ class Net:
 
     nodes: list[Node] = field(default_factory=list)
     lines: list[Line] = field(default_factory=list)
+    # name -> item, rebuilt whenever it lags behind the lists (building a net of 10^5 nodes
+    # by name searches would cost O(N^2))
+    _by_name: dict = field(default_factory=dict, init=False, repr=False)
+
+    def _named(self, items: list, kind: str) -> dict:
+        index = self._by_name.get(kind)
+        if index is None or len(index) != len(items) or (items and index.get(items[-1].name) is not items[-1]):
+            index = self._by_name[kind] = {item.name: item for item in items}
+        return index
 
     # ------------------------------------------------------------------ nodes
     def add_node(self, position, *, frame=None, mass: float = 0.0, inertia=None,
@@ -144,7 +153,8 @@ class Net:
         idx = len(self.nodes)
         name = f"node{idx}" if name is None else str(name)
         who = f"node {name!r}"
-        if any(n.name == name for n in self.nodes):
+        names = self._named(self.nodes, "node")
+        if name in names:
             raise ValueError(f"{who}: a node with this name already exists")
         pos = _vector(who, "position", position)
         frm = np.eye(3) if frame is None else _rotation(who, "frame", frame)
@@ -160,6 +170,7 @@ class Net:
             I = self._inertia(who, inertia)
         node = Node(idx, pos, frm, m, I, name)
         self.nodes.append(node)
+        names[node.name] = node
         return node
 
     @staticmethod
@@ -218,7 +229,8 @@ class Net:
         idx = len(self.lines)
         name = f"line{idx}" if name is None else str(name)
         who = f"line {name!r}"
-        if any(l.name == name for l in self.lines):
+        names = self._named(self.lines, "line")
+        if name in names:
             raise ValueError(f"{who}: a line with this name already exists")
         for role, node in (("start", start), ("end", end)):
             if not isinstance(node, Node) or node.index >= len(self.nodes) or self.nodes[node.index] is not node:
@@ -257,6 +269,7 @@ class Net:
             if d1v is not None and np.linalg.norm(np.cross(t / np.linalg.norm(t), d1v)) < 1e-9 * np.linalg.norm(d1v):
                 raise ValueError(f"{who}: d1 hint {d1v.tolist()} is parallel to element {k}'s tangent")
         self.lines.append(line)
+        names[line.name] = line
         return line
 
     @staticmethod
@@ -297,16 +310,16 @@ class Net:
 
     # ------------------------------------------------------------------ queries
     def node(self, name: str) -> Node:
-        for n in self.nodes:
-            if n.name == name:
-                return n
-        raise KeyError(f"no node named {name!r}")
+        try:
+            return self._named(self.nodes, "node")[name]
+        except KeyError:
+            raise KeyError(f"no node named {name!r}") from None
 
     def line(self, name: str) -> Line:
-        for l in self.lines:
-            if l.name == name:
-                return l
-        raise KeyError(f"no line named {name!r}")
+        try:
+            return self._named(self.lines, "line")[name]
+        except KeyError:
+            raise KeyError(f"no line named {name!r}") from None
 
     def lines_at(self, node: Node) -> list[tuple[Line, int]]:
         """Lines ending at ``node`` with their orientation Omega(node, line) (2.3)."""

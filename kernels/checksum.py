@@ -10,16 +10,42 @@ EXPONENT = np.uint64(0x7FF0000000000000)   # all exponent bits set: inf or NaN
 
 
 @njit(cache=True)
+def mix(h, w):
+    """Return h after taking in the word w: an FNV-1a step (xor, multiply), whose multiply
+    carries differences only upwards, then a shift that carries them down."""
+    h = (h ^ np.uint64(w)) * FNV_PRIME
+    return h ^ (h >> np.uint64(29))
+
+
+@njit(cache=True)
 def scan_words(words, h):
-    """Return (the FNV-1a hash of words (n,) uint64, continued from h; the index of the
-    first word that is a non-finite float64, or -1). One multiply per word: a zlib CRC-32
-    of a 10^5-element net's state took 10 ms, this about 1."""
+    """Return (a hash of words (n,) uint64 continued from h: ``mix`` on four interleaved
+    lanes, so that four multiplies are in flight; the index of the first word that is a
+    non-finite float64, or -1). A zlib CRC-32 of a 10^5-element net's state took 10 ms,
+    one FNV-1a lane 1.7 ms."""
+    n = words.shape[0]
+    h0, h1, h2, h3 = h, h ^ np.uint64(1), h ^ np.uint64(2), h ^ np.uint64(3)
+    odd = 0
+    for i in range(0, n - 3, 4):
+        w0, w1, w2, w3 = words[i], words[i + 1], words[i + 2], words[i + 3]
+        h0 = mix(h0, w0)
+        h1 = mix(h1, w1)
+        h2 = mix(h2, w2)
+        h3 = mix(h3, w3)
+        odd += 1 if (w0 & EXPONENT) == EXPONENT else 0
+        odd += 1 if (w1 & EXPONENT) == EXPONENT else 0
+        odd += 1 if (w2 & EXPONENT) == EXPONENT else 0
+        odd += 1 if (w3 & EXPONENT) == EXPONENT else 0
+    for i in range(n - n % 4, n):
+        h0 = mix(h0, words[i])
+        odd += 1 if (words[i] & EXPONENT) == EXPONENT else 0
+    h = mix(mix(mix(mix(h0, h1), h2), h3), n)
     bad = -1
-    for i in range(words.shape[0]):
-        w = words[i]
-        h = (h ^ w) * FNV_PRIME
-        if bad < 0 and (w & EXPONENT) == EXPONENT:
-            bad = i
+    if odd:
+        for i in range(n):
+            if (words[i] & EXPONENT) == EXPONENT:
+                bad = i
+                break
     return h, bad
 
 

@@ -69,32 +69,28 @@ def end_frame(model, state, a):
     return quat_mul(nq[0], nq[1], nq[2], nq[3], xq[0], xq[1], xq[2], xq[3])
 
 
-@njit(**PASS)
-def bend_lines(l0, l1, voff, eoff, vor, q, left, right):
-    """Update left, right at the interior Voronoi points of lines l0 .. l1-1 given their
-    element quaternions q, by the series log map (vectorised along each line); return how many
-    points turned by 0.2 rad or more (their values are then meaningless). voff, eoff: the
-    lines' vertex and element offsets; column tuples (see layout.columns). One call serves a
-    block of lines: a call passes dozens of array fields, which cost more than the arithmetic
-    of a ten-element line."""
+@njit(**INLINE)
+def bend_span(v0, e0, j0, j1, vor, q, left, right):
+    """Update left, right at the interior Voronoi points j0 .. j1-1 (1 <= j0, j1 <= n) of the
+    line whose first vertex is v0 and first element e0, given the element quaternions q, by
+    the series log map; return how many points turned by 0.2 rad or more (their values are
+    then meaningless: see bend_large_span)."""
     large = 0
-    for l in range(l0, l1):
-        v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
-        for j in range(1, n):
-            a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
-            rw, rx, ry, rz, small = relative_quat(q[0][a], q[1][a], q[2][a], q[3][a],
-                                                  q[0][b], q[1][b], q[2][b], q[3][b])
-            large += 0 if small else 1
-            tx, ty, tz, c = small_rotation(rw, rx, ry, rz)
-            store_bend(vor, k, tx, ty, tz, c, left, right)
+    for j in range(j0, j1):
+        a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
+        rw, rx, ry, rz, small = relative_quat(q[0][a], q[1][a], q[2][a], q[3][a],
+                                              q[0][b], q[1][b], q[2][b], q[3][b])
+        large += 0 if small else 1
+        tx, ty, tz, c = small_rotation(rw, rx, ry, rz)
+        store_bend(vor, k, tx, ty, tz, c, left, right)
     return large
 
 
 @njit(**INLINE)
-def bend_interior_large(v0, e0, n, vor, q, left, right):
-    """Update left, right at the interior Voronoi points of a line turned by 0.2 rad or
-    more, by the exact log map."""
-    for j in range(1, n):
+def bend_large_span(v0, e0, j0, j1, vor, q, left, right):
+    """Update left, right at those interior Voronoi points j0 .. j1-1 of a line (as
+    bend_span) turned by 0.2 rad or more, by the exact log map."""
+    for j in range(j0, j1):
         a, b, k = e0 + uint(j - 1), e0 + uint(j), v0 + uint(j)
         aw, ax, ay, az = q[0][a], q[1][a], q[2][a], q[3][a]
         bw, bx, by, bz = q[0][b], q[1][b], q[2][b], q[3][b]
@@ -103,41 +99,80 @@ def bend_interior_large(v0, e0, n, vor, q, left, right):
             store_bend(vor, k, tx, ty, tz, c, left, right)
 
 
+@njit(**INLINE)
+def stretch_span(v0, e0, j0, j1, x, q, stiff, inv_len, left, right, force, tau):
+    """Update force, the lab contact force n = D K (D^T r'/l - e3), and tau, the body torque
+    r' x n plus the bending torques of the Voronoi points on either side, of elements
+    j0 .. j1-1 of a line (as bend_span) (3.2)/(3.3), (3.22)."""
+    for j in range(j0, j1):
+        e, v, w = e0 + uint(j), v0 + uint(j), v0 + uint(j + 1)
+        qw, qx, qy, qz = q[0][e], q[1][e], q[2][e], q[3][e]
+        il = inv_len[e]
+        sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][w] - x[0][v], x[1][w] - x[1][v], x[2][w] - x[2][v])
+        nx, ny, nz = stiff[0][e] * sx * il, stiff[1][e] * sy * il, stiff[2][e] * (sz * il - 1.0)
+        fx, fy, fz = quat_rotate(qw, qx, qy, qz, nx, ny, nz)
+        force[0][e], force[1][e], force[2][e] = fx, fy, fz
+        cx, cy, cz = cross(sx, sy, sz, nx, ny, nz)
+        tau[0][e] = cx + right[0][v] + left[0][w]
+        tau[1][e] = cy + right[1][v] + left[1][w]
+        tau[2][e] = cz + right[2][v] + left[2][w]
+
+
+@njit(**INLINE)
+def vertex_span(v0, e0, j0, j1, force, f):
+    """Update f at the interior vertices j0 .. j1-1 (1 <= j0, j1 <= n) of a line (as
+    bend_span) with the difference of the contact forces of the elements on either side (3.2)."""
+    for j in range(j0, j1):
+        v, e, d = v0 + uint(j), e0 + uint(j), e0 + uint(j - 1)
+        f[0][v] = force[0][e] - force[0][d]
+        f[1][v] = force[1][e] - force[1][d]
+        f[2][v] = force[2][e] - force[2][d]
+
+
+@njit(**INLINE)
+def finish_line(l, voff, eoff, force, f, left, right, ends):
+    """Update f at the two end vertices of line l (its end elements' forces) and ends (the
+    loads' end_tau) with the torques of its boundary Voronoi points on the nodes' frames."""
+    v0, vn = voff[l], voff[l + 1] - 1
+    first, last = eoff[l], eoff[l + 1] - 1
+    for k in range(3):
+        f[k][v0] = force[k][first]
+        f[k][vn] = -force[k][last]
+        ends[2 * l, k] = left[k][v0]
+        ends[2 * l + 1, k] = right[k][vn]
+
+
+@njit(**PASS)
+def bend_lines(l0, l1, voff, eoff, vor, q, left, right):
+    """Update left, right at the interior Voronoi points of lines l0 .. l1-1 (bend_span;
+    vectorised along each line); return how many points turned by 0.2 rad or more. voff, eoff: the lines' vertex and element offsets; column tuples (see
+    layout.columns). One call serves a block of lines: a call passes dozens of array fields,
+    which cost more than the arithmetic of a ten-element line."""
+    large = 0
+    for l in range(l0, l1):
+        large += bend_span(uint(voff[l]), uint(eoff[l]), 1, eoff[l + 1] - eoff[l], vor, q, left, right)
+    return large
+
+
 @njit(**PASS)
 def stretch_lines(l0, l1, voff, eoff, x, q, stiff, inv_len, left, right, force, tau):
-    """Update force, the lab contact force n = D K (D^T r'/l - e3), and tau, the body torque
-    r' x n plus the bending torques of the Voronoi points on either side, of the elements of
-    lines l0 .. l1-1 (3.2)/(3.3), (3.22) (vectorised along each line; as bend_lines)."""
+    """Update force and tau of the elements of lines l0 .. l1-1 (stretch_span; vectorised
+    along each line, as bend_lines)."""
     for l in range(l0, l1):
-        v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
-        for j in range(n):
-            e, v, w = e0 + uint(j), v0 + uint(j), v0 + uint(j + 1)
-            qw, qx, qy, qz = q[0][e], q[1][e], q[2][e], q[3][e]
-            il = inv_len[e]
-            sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][w] - x[0][v], x[1][w] - x[1][v], x[2][w] - x[2][v])
-            nx, ny, nz = stiff[0][e] * sx * il, stiff[1][e] * sy * il, stiff[2][e] * (sz * il - 1.0)
-            fx, fy, fz = quat_rotate(qw, qx, qy, qz, nx, ny, nz)
-            force[0][e], force[1][e], force[2][e] = fx, fy, fz
-            cx, cy, cz = cross(sx, sy, sz, nx, ny, nz)
-            tau[0][e] = cx + right[0][v] + left[0][w]
-            tau[1][e] = cy + right[1][v] + left[1][w]
-            tau[2][e] = cz + right[2][v] + left[2][w]
+        stretch_span(uint(voff[l]), uint(eoff[l]), 0, eoff[l + 1] - eoff[l], x, q, stiff, inv_len,
+                     left, right, force, tau)
 
 
 @njit(**PASS)
 def vertex_lines(l0, l1, voff, eoff, force, f):
-    """Update f at the vertices of lines l0 .. l1-1 with the difference of the contact forces
-    of the elements on either side (3.2) (vectorised along each line; as bend_lines)."""
+    """Update f at the vertices of lines l0 .. l1-1 (vertex_span inside, the end elements'
+    forces at the ends; vectorised along each line, as bend_lines)."""
     for l in range(l0, l1):
         v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
-        for j in range(1, n):
-            v, e, d = v0 + uint(j), e0 + uint(j), e0 + uint(j - 1)
-            f[0][v] = force[0][e] - force[0][d]
-            f[1][v] = force[1][e] - force[1][d]
-            f[2][v] = force[2][e] - force[2][d]
-        first, last, end = v0, v0 + uint(n), e0 + uint(n - 1)
+        vertex_span(v0, e0, 1, n, force, f)
+        last, end = v0 + uint(n), e0 + uint(n - 1)
         for k in range(3):
-            f[k][first] = force[k][e0]
+            f[k][v0] = force[k][e0]
             f[k][last] = -force[k][end]
 
 
@@ -159,18 +194,17 @@ def bend_ends(l, model, state, vor, q, left, right):
 
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
 def compute_line_block(l0, l1, model, state, loads):
-    """Update loads.f, loads.tau, loads.end_tau of lines l0 .. l1-1 in vectorised passes over
-    their Voronoi points, elements and vertices, through the scratch loads.bend_left,
-    bend_right, elem_force: the bending of every line of the block, then stretch and shear,
-    then the vertex forces (each pass reads fewer arrays at once, and a block's scratch stays
-    in cache) (3.2)/(3.3), (3.22)-(3.25)."""
+    """Update loads.f, loads.tau, loads.end_tau of lines l0 .. l1-1 in vectorised passes over their Voronoi points, elements and vertices, through the scratch
+    loads.bend_left, bend_right, elem_force: the bending of every line of the block, then
+    stretch and shear, then the vertex forces (each pass reads fewer arrays at once, and a
+    block's scratch stays in cache) (3.2)/(3.3), (3.22)-(3.25)."""
     x, q, stiff = columns(state.x), quat_columns(state.q), columns(model.element_stiffness)
     vor, left, right = voronoi_columns(model), columns(loads.bend_left), columns(loads.bend_right)
     force, f, tau = columns(loads.elem_force), columns(loads.f), columns(loads.tau)
     voff, eoff = model.line_vertex_offsets, model.line_element_offsets
     if bend_lines(l0, l1, voff, eoff, vor, q, left, right):
         for l in range(l0, l1):
-            bend_interior_large(uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l], vor, q, left, right)
+            bend_large_span(uint(voff[l]), uint(eoff[l]), 1, eoff[l + 1] - eoff[l], vor, q, left, right)
     for l in range(l0, l1):
         bend_ends(l, model, state, vor, q, left, right)
     stretch_lines(l0, l1, voff, eoff, x, q, stiff, model.element_inv_rest_length, left, right, force, tau)
@@ -181,6 +215,64 @@ def compute_line_block(l0, l1, model, state, loads):
         for k in range(3):
             ends[2 * l, k] = left[k][v0]
             ends[2 * l + 1, k] = right[k][vn]
+
+
+# a line longer than this is split across the threads in parts of LINE_BLOCK elements (one
+# task per line would leave the other thread idle)
+LONG_LINE = 2 * LINE_BLOCK
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def bend_part(v0, e0, j0, j1, model, state, loads):
+    """Update loads.bend_left, bend_right at interior Voronoi points j0 .. j1-1 of a line
+    (bend_span, then bend_large_span where needed)."""
+    vor, q = voronoi_columns(model), quat_columns(state.q)
+    left, right = columns(loads.bend_left), columns(loads.bend_right)
+    if bend_span(v0, e0, j0, j1, vor, q, left, right):
+        bend_large_span(v0, e0, j0, j1, vor, q, left, right)
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def stretch_part(v0, e0, j0, j1, model, state, loads):
+    """Update loads.elem_force, tau of elements j0 .. j1-1 of a line (stretch_span)."""
+    stretch_span(v0, e0, j0, j1, columns(state.x), quat_columns(state.q), columns(model.element_stiffness),
+                 model.element_inv_rest_length, columns(loads.bend_left), columns(loads.bend_right),
+                 columns(loads.elem_force), columns(loads.tau))
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def vertex_part(v0, e0, j0, j1, model, state, loads):
+    """Update loads.f at interior vertices j0 .. j1-1 of a line (vertex_span)."""
+    vertex_span(v0, e0, j0, j1, columns(loads.elem_force), columns(loads.f))
+
+
+def in_parts(part):
+    """Return a threaded kernel f(v0, e0, j0, j1, model, state, loads) running part over
+    j0 .. j1-1 in parts of LINE_BLOCK (a task each)."""
+    @njit(**INNER, parallel=True)
+    def run(v0, e0, j0, j1, model, state, loads):
+        for p in prange((j1 - j0 + LINE_BLOCK - 1) // LINE_BLOCK):
+            a = j0 + p * LINE_BLOCK
+            part(v0, e0, a, min(a + LINE_BLOCK, j1), model, state, loads)
+    return run
+
+
+bend_parts, stretch_parts, vertex_parts = in_parts(bend_part), in_parts(stretch_part), in_parts(vertex_part)
+
+
+@njit(**STEP)
+def compute_long_line(l, model, state, loads):
+    """Update loads.f, loads.tau, loads.end_tau of line l as compute_line_block, each pass
+    split across the threads (a pass finishes before the next one reads its results)."""
+    voff, eoff = model.line_vertex_offsets, model.line_element_offsets
+    v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
+    bend_parts(v0, e0, 1, n, model, state, loads)
+    vor, q = voronoi_columns(model), quat_columns(state.q)
+    left, right = columns(loads.bend_left), columns(loads.bend_right)
+    bend_ends(l, model, state, vor, q, left, right)
+    stretch_parts(v0, e0, 0, n, model, state, loads)
+    vertex_parts(v0, e0, 1, n, model, state, loads)
+    finish_line(l, voff, eoff, columns(loads.elem_force), columns(loads.f), left, right, loads.end_tau)
 
 
 @njit(**INLINE)
@@ -203,12 +295,38 @@ def compute_internal_loads(model, state, loads):
 
 @njit(**INNER, parallel=True)
 def compute_internal_loads_parallel(model, state, loads):
-    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads, a block of lines
-    per task."""
+    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads: a block of lines
+    per task, and each line longer than LONG_LINE split across the threads."""
     nl = model.line_vertex_offsets.shape[0] - 1
     per = lines_per_block(model)
     for b in prange((nl + per - 1) // per):
-        compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
+        compute_short_lines(b * per, min((b + 1) * per, nl), model, state, loads)
+    longest_lines(nl, model, state, loads)
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def compute_short_lines(l0, l1, model, state, loads):
+    """compute_line_block over the runs of lines of l0 .. l1-1 between those longer than
+    LONG_LINE (which longest_lines splits across the threads)."""
+    eoff = model.line_element_offsets
+    start = l0
+    for l in range(l0, l1):
+        if eoff[l + 1] - eoff[l] > LONG_LINE:
+            if start < l:
+                compute_line_block(start, l, model, state, loads)
+            start = l + 1
+    if start < l1:
+        compute_line_block(start, l1, model, state, loads)
+
+
+@njit(**STEP)
+def longest_lines(nl, model, state, loads):
+    """compute_long_line for every line longer than LONG_LINE (outside the prange loop over
+    blocks: each of its passes is a threaded loop of its own)."""
+    eoff = model.line_element_offsets
+    for l in range(nl):
+        if eoff[l + 1] - eoff[l] > LONG_LINE:
+            compute_long_line(l, model, state, loads)
 
 
 internal_loads_on = dispatch(compute_internal_loads, compute_internal_loads_parallel)

@@ -8,7 +8,8 @@ from scipy.spatial.transform import Rotation
 
 import cosnet
 from cosnet.flatten import matrix_from_quat, quat_from_matrix
-from cosnet.kernels.backend import Serial
+from cosnet.kernels.backend import Parallel, Serial
+from cosnet.kernels.elastic import LONG_LINE
 from cosnet.kernels.motion import place_line_ends
 from cosnet.kernels.stepping import evaluate_loads
 from nets import free_net, perturb, smooth_motion
@@ -173,6 +174,36 @@ def test_runs_are_deterministic_and_thread_count_changes_only_round_off():
     c = run(2)
     assert np.abs(c[0] - a[0]).max() < 1e-12 * np.abs(a[0]).max()
     assert np.abs(c[1] - a[1]).max() < 1e-12
+
+
+def test_a_long_line_split_across_threads_has_the_serial_loads():
+    """A line longer than LONG_LINE is cut into parts computed on different threads (each
+    pass of the internal loads finishing before the next): the loads on every vertex,
+    element and line end equal the serial ones to round-off, also where elements turned by
+    more than 0.2 rad take the exact log map, and for the short lines beside it."""
+    net = cosnet.Net()
+    mat = cosnet.Material(E=2e11, G=8e10, density=7850.0)
+    a, b, c = net.add_node((0, 0, 0)), net.add_node((1, 0, 0)), net.add_node((1, 1, 0), fixed=True)
+    net.add_line(a, b, material=mat, section=cosnet.Rectangle(0.02, 0.01), elements=LONG_LINE + 1000)
+    net.add_line(b, c, material=mat, section=cosnet.Circle(0.01), elements=10)
+    net.add_line(c, a, material=mat, section=cosnet.Circle(0.01), elements=7)
+    rng = np.random.default_rng(3)
+    loads = {}
+    for threads, backend in ((1, Serial()), (2, Parallel())):
+        sim = cosnet.Simulation(net, threads=threads)
+        m, s = sim.model, sim.state
+        s.x[:] += 1e-5 * np.random.default_rng(1).standard_normal(s.x.shape)
+        turn = 0.01 * np.random.default_rng(2).standard_normal((s.q.shape[0], 3))
+        turn[::997] *= 50.0                         # some neighbours 0.5 rad apart
+        s.q[:] = quat_from_matrix(matrix_from_quat(s.q) @ Rotation.from_rotvec(turn).as_matrix())
+        s.node_q[:] = quat_from_matrix(Rotation.from_rotvec(0.1 * rng.standard_normal((3, 3))).as_matrix()) \
+            if threads == 1 else loads[1][3]
+        place_line_ends(m, s)
+        evaluate_loads(m, s, sim.loads, (), backend)
+        loads[threads] = (sim.loads.f.copy(), sim.loads.tau.copy(), sim.loads.end_tau.copy(), s.node_q.copy())
+    assert np.abs(loads[1][1]).max() > 1.0                      # the state is far from rest
+    for serial, split in zip(loads[1][:3], loads[2][:3]):
+        assert np.abs(split - serial).max() <= 1e-12 * np.abs(serial).max()
 
 
 def test_principal_axes_of_a_round_body_do_not_depend_on_the_lapack(monkeypatch):

@@ -92,3 +92,29 @@ def test_soft_rod_let_go_under_gravity_is_not_called_unstable():
     sim.run(until=0.3)
     assert sim.line_positions(line)[-1, 2] < -0.01          # it did swing down
     assert abs(sim.energy()) < 1e-3 * sim.net.total_mass() * 9.81 * 0.5
+
+
+def test_state_hash_sees_every_kind_of_outside_change():
+    """The hash the watch compares between run() calls changes with any edit of the state:
+    a doubled velocity, two signs flipped (in one lane of the hash, or in two), a frame
+    copied over its neighbour's, the lowest bit of one angular velocity, the clock."""
+    from cosnet.kernels.checksum import scan_state
+    sim = cosnet.Simulation(free_net(3))
+    smooth_motion(sim)
+    sim.run(steps=10)
+    s = sim.state
+
+    def flip(rows, col):
+        s.x[rows, col] *= -1.0
+
+    def lowest_bit():
+        bits = s.w.view(np.uint64)
+        bits[5, 2] ^= np.uint64(1)
+
+    edits = [lambda: s.v.__imul__(2.0), lambda: flip([0, 4], 0), lambda: flip([0, 1], 1),
+             lambda: s.q.__setitem__(2, s.q[3]), lowest_bit, lambda: s.clock.__iadd__(1e-9)]
+    for edit in edits:
+        before, field, _ = scan_state(s)
+        assert field is None
+        edit()
+        assert scan_state(s)[0] != before
