@@ -76,7 +76,6 @@ def conj(q):
 class Strains(NamedTuple):
     """Strains of the lines l0 .. l1-1: element columns (ne_b,), Voronoi columns (nv_b,)."""
 
-    lines: slice          # l0 .. l1-1
     elements: slice       # global element range
     vertices: slice       # global vertex (Voronoi point) range
     stretch: tuple        # 3 columns: v - d3 per element, principal frame (3.22)
@@ -130,7 +129,7 @@ def line_strains(model: Model, state: State, l0: int = 0, l1: int | None = None)
     inv_lv = model.voronoi_inv_rest_length[v0:v1]
     u0 = cols(model.voronoi_rest_curvature[v0:v1])
     curvature = tuple(theta[k] * inv_lv - u0[k] for k in range(3))
-    return Strains(slice(l0, l1), slice(e0, e1), slice(v0, v1), stretch, theta, left, curvature)
+    return Strains(slice(e0, e1), slice(v0, v1), stretch, theta, left, curvature)
 
 
 def strain_energy(model: Model, st: Strains) -> float:
