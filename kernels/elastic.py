@@ -18,7 +18,7 @@ from .rotations import (INLINE, INNER, cross, quat_mul, quat_rotate, quat_rotate
 
 # elements per block of whole lines (the unit of the threaded internal loads; a block's
 # scratch stays in cache)
-LINE_BLOCK = 4096
+LINE_BLOCK = 2048
 
 
 @njit(**INLINE)
@@ -217,9 +217,11 @@ def compute_line_block(l0, l1, model, state, loads):
             ends[2 * l + 1, k] = right[k][vn]
 
 
-# a line longer than this is split across the threads in parts of LINE_BLOCK elements (one
+# elements per part of a long line (a task of the threaded passes); a line longer than
+# LONG_LINE is split across the threads in such parts (one
 # task per line would leave the other thread idle)
-LONG_LINE = 2 * LINE_BLOCK
+LINE_PART = 4096
+LONG_LINE = 2 * LINE_PART
 
 
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
@@ -248,12 +250,12 @@ def vertex_part(v0, e0, j0, j1, model, state, loads):
 
 def in_parts(part):
     """Return a threaded kernel f(v0, e0, j0, j1, model, state, loads) running part over
-    j0 .. j1-1 in parts of LINE_BLOCK (a task each)."""
+    j0 .. j1-1 in parts of LINE_PART (a task each)."""
     @njit(**INNER, parallel=True)
     def run(v0, e0, j0, j1, model, state, loads):
-        for p in prange((j1 - j0 + LINE_BLOCK - 1) // LINE_BLOCK):
-            a = j0 + p * LINE_BLOCK
-            part(v0, e0, a, min(a + LINE_BLOCK, j1), model, state, loads)
+        for p in prange((j1 - j0 + LINE_PART - 1) // LINE_PART):
+            a = j0 + p * LINE_PART
+            part(v0, e0, a, min(a + LINE_PART, j1), model, state, loads)
     return run
 
 
