@@ -145,9 +145,10 @@ def finish_line(l, voff, eoff, force, f, left, right, ends):
 @njit(**PASS)
 def bend_lines(l0, l1, voff, eoff, vor, q, left, right):
     """Update left, right at the interior Voronoi points of lines l0 .. l1-1 (bend_span;
-    vectorised along each line); return how many points turned by 0.2 rad or more. voff, eoff: the lines' vertex and element offsets; column tuples (see
-    layout.columns). One call serves a block of lines: a call passes dozens of array fields,
-    which cost more than the arithmetic of a ten-element line."""
+    vectorised along each line); return how many points turned by 0.2 rad or more. voff,
+    eoff: the lines' vertex and element offsets; column tuples (see layout.columns). One call
+    serves a block of lines: a call passes dozens of array fields, which cost more than the
+    arithmetic of a ten-element line."""
     large = 0
     for l in range(l0, l1):
         large += bend_span(uint(voff[l]), uint(eoff[l]), 1, eoff[l + 1] - eoff[l], vor, q, left, right)
@@ -165,15 +166,10 @@ def stretch_lines(l0, l1, voff, eoff, x, q, stiff, inv_len, left, right, force, 
 
 @njit(**PASS)
 def vertex_lines(l0, l1, voff, eoff, force, f):
-    """Update f at the vertices of lines l0 .. l1-1 (vertex_span inside, the end elements'
-    forces at the ends; vectorised along each line, as bend_lines)."""
+    """Update f at the interior vertices of lines l0 .. l1-1 (vertex_span; vectorised along
+    each line, as bend_lines; finish_line does the end vertices)."""
     for l in range(l0, l1):
-        v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
-        vertex_span(v0, e0, 1, n, force, f)
-        last, end = v0 + uint(n), e0 + uint(n - 1)
-        for k in range(3):
-            f[k][v0] = force[k][e0]
-            f[k][last] = -force[k][end]
+        vertex_span(uint(voff[l]), uint(eoff[l]), 1, eoff[l + 1] - eoff[l], force, f)
 
 
 @njit(**INLINE)
@@ -194,10 +190,11 @@ def bend_ends(l, model, state, vor, q, left, right):
 
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
 def compute_line_block(l0, l1, model, state, loads):
-    """Update loads.f, loads.tau, loads.end_tau of lines l0 .. l1-1 in vectorised passes over their Voronoi points, elements and vertices, through the scratch
-    loads.bend_left, bend_right, elem_force: the bending of every line of the block, then
-    stretch and shear, then the vertex forces (each pass reads fewer arrays at once, and a
-    block's scratch stays in cache) (3.2)/(3.3), (3.22)-(3.25)."""
+    """Update loads.f, loads.tau, loads.end_tau of lines l0 .. l1-1 in vectorised passes
+    over their Voronoi points, elements and vertices, through the scratch loads.bend_left,
+    bend_right, elem_force: the bending of every line of the block, then stretch and shear,
+    then the vertex forces (each pass reads fewer arrays at once, and a block's scratch stays
+    in cache) (3.2)/(3.3), (3.22)-(3.25)."""
     x, q, stiff = columns(state.x), quat_columns(state.q), columns(model.element_stiffness)
     vor, left, right = voronoi_columns(model), columns(loads.bend_left), columns(loads.bend_right)
     force, f, tau = columns(loads.elem_force), columns(loads.f), columns(loads.tau)
@@ -209,17 +206,13 @@ def compute_line_block(l0, l1, model, state, loads):
         bend_ends(l, model, state, vor, q, left, right)
     stretch_lines(l0, l1, voff, eoff, x, q, stiff, model.element_inv_rest_length, left, right, force, tau)
     vertex_lines(l0, l1, voff, eoff, force, f)
-    ends = loads.end_tau
     for l in range(l0, l1):
-        v0, vn = voff[l], voff[l + 1] - 1
-        for k in range(3):
-            ends[2 * l, k] = left[k][v0]
-            ends[2 * l + 1, k] = right[k][vn]
+        finish_line(l, voff, eoff, force, f, left, right, loads.end_tau)
 
 
 # elements per part of a long line (a task of the threaded passes); a line longer than
-# LONG_LINE is split across the threads in such parts (one
-# task per line would leave the other thread idle)
+# LONG_LINE is split across the threads in such parts (as one task it would leave the other
+# thread idle)
 LINE_PART = 4096
 LONG_LINE = 2 * LINE_PART
 
