@@ -60,7 +60,6 @@ class SeriesWriter:
         self.net = net
         counts = [l.elements + 1 for l in net.lines]
         self._offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        nv = int(self._offsets[-1])
         seg = [np.column_stack([np.arange(a, b - 1), np.arange(a + 1, b)])
                for a, b in zip(self._offsets[:-1], self._offsets[1:])]
         self._segments = np.concatenate(seg).astype(np.int64) if seg else np.zeros((0, 2), np.int64)
@@ -68,7 +67,6 @@ class SeriesWriter:
         self._seg_elem = np.concatenate([np.arange(c - 1) for c in counts]).astype(np.int32) \
             if counts else np.zeros(0, np.int32)
         self._vert_line = np.repeat(np.arange(len(counts)), counts).astype(np.int32)
-        self._buf = {k: np.zeros((nv, 3)) for k in ("position",) + LINE_FIELDS}
         self._radius = np.concatenate([[l.section_at(s).radius for s in np.linspace(0, 1, l.elements + 1)]
                                        for l in net.lines]) if net.lines else np.zeros(0)
         self._nodes_pts = np.zeros((len(net.nodes), 3))
@@ -92,13 +90,10 @@ class SeriesWriter:
         """Write the current state as the next frame; return its index."""
         k = len(self.times)
         lines_file, nodes_file = _frame_files(k)
-        b = self._buf
         f = sim.net_fields()   # vertices in line order, as self._offsets
-        for key in b:
-            b[key][:] = f[key]
-        mesh = meshio.Mesh(b["position"], [("line", self._segments)],
+        mesh = meshio.Mesh(f["position"], [("line", self._segments)],
                            point_data={"line_id": self._vert_line, "radius": self._radius,
-                                       **{k: b[k] for k in LINE_FIELDS}},
+                                       **{k: np.ascontiguousarray(f[k]) for k in LINE_FIELDS}},
                            cell_data={"line_id": [self._seg_line], "element": [self._seg_elem]})
         mesh.write(self.dir / lines_file, file_format="vtu", binary=True)
         nb = self._node_buf

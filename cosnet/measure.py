@@ -84,52 +84,66 @@ class Strains(NamedTuple):
     curvature: tuple      # 3 columns: u - u0 = theta / L - u0 (3.22)
 
 
+class Block(NamedTuple):
+    """Indices of the lines l0 .. l1-1 of a net."""
+
+    lines: np.ndarray        # (nl_b,) global line indices
+    counts: np.ndarray       # (nl_b,) elements per line
+    elements: slice          # global element range
+    vertices: slice          # global vertex (Voronoi point) range
+    left_vertex: np.ndarray  # (ne_b,) local vertex at the start of each element
+    starts: np.ndarray       # (nl_b,) local first vertex of each line (its last: starts + counts)
+
+
+def block_of(model: Model, l0: int = 0, l1: int | None = None) -> Block:
+    """The Block of lines l0 .. l1-1 (all lines by default)."""
+    eoff = model.line_element_offsets
+    l1 = eoff.shape[0] - 1 if l1 is None else l1
+    lines = np.arange(l0, l1)
+    counts = np.diff(eoff[l0:l1 + 1])
+    e0, e1 = int(eoff[l0]), int(eoff[l1])
+    starts = eoff[l0:l1] - e0 + lines - l0
+    return Block(lines, counts, slice(e0, e1), slice(e0 + l0, e1 + l1),
+                 np.arange(e1 - e0) + np.repeat(lines - l0, counts), starts)
+
+
 def end_frames(model: Model, state: State, ends) -> tuple:
     """Director frames D(nu) X(nu, lambda) of line ends ``ends`` (1.3)."""
     return qmul(cols(state.node_q[model.attach_node[ends]]), cols(model.attach_frame[ends]))
 
 
-def element_stretch(model: Model, state: State, l0: int = 0, l1: int | None = None) -> tuple:
-    """Columns of v - d3 = D^T (x_{e+1} - x_e) / l - e3 of the elements of lines l0 .. l1-1
-    (all by default), principal frame (3.22)."""
-    eoff = model.line_element_offsets
-    l1 = eoff.shape[0] - 1 if l1 is None else l1
-    e0, e1 = int(eoff[l0]), int(eoff[l1])
-    left_vertex = np.arange(e1 - e0) + np.repeat(np.arange(l1 - l0), np.diff(eoff[l0:l1 + 1]))
-    x = state.x[e0 + l0:e1 + l1]
-    dx = tuple(np.diff(x[:, k])[left_vertex] for k in range(3))
-    inv_l = model.element_inv_rest_length[e0:e1]
-    sx, sy, sz = qrot(cols(state.q[e0:e1]), dx, inverse=True)
+def element_stretch(model: Model, state: State, b: Block) -> tuple:
+    """Columns of v - d3 = D^T (x_{e+1} - x_e) / l - e3 of the elements of block b,
+    principal frame (3.22)."""
+    x = state.x[b.vertices]
+    dx = tuple(np.diff(x[:, k])[b.left_vertex] for k in range(3))
+    inv_l = model.element_inv_rest_length[b.elements]
+    sx, sy, sz = qrot(cols(state.q[b.elements]), dx, inverse=True)
     return sx * inv_l, sy * inv_l, sz * inv_l - 1.0
 
 
-def line_strains(model: Model, state: State, l0: int = 0, l1: int | None = None) -> Strains:
-    """Strains of lines l0 .. l1-1 (all lines by default) given state.x, q and node_q."""
-    eoff = model.line_element_offsets
-    l1 = eoff.shape[0] - 1 if l1 is None else l1
-    lines = np.arange(l0, l1)
-    e0, e1 = int(eoff[l0]), int(eoff[l1])
-    v0, v1 = e0 + l0, e1 + l1
-    ne, nl = e1 - e0, l1 - l0
-    counts = np.diff(eoff[l0:l1 + 1])
-    q = cols(state.q[e0:e1])
-    stretch = element_stretch(model, state, l0, l1)
-    # Voronoi point (local vertex) k, i-th of its line (l, n elements), lies between element
-    # k - l - 1 (or the line's start frame if i = 0) and element k - l (its end frame if i = n)
-    line_of_v = np.repeat(lines - l0, counts + 1)
-    i = np.arange(v1 - v0) - (eoff[l0:l1] - e0 + lines - l0)[line_of_v]
-    k_elem = np.arange(v1 - v0) - line_of_v
+def line_strains(model: Model, state: State, b: Block) -> Strains:
+    """Strains of the lines of block b given state.x, q and node_q."""
+    ne, nl = b.elements.stop - b.elements.start, b.lines.shape[0]
+    nv = b.vertices.stop - b.vertices.start
+    # Voronoi point (local vertex) k, i-th of the j-th line of the block (n elements), lies
+    # between element k - j - 1 (or the line's start frame if i = 0) and element k - j (its
+    # end frame if i = n); the frames are gathered from [elements, start frames, end frames]
+    line_of_v = np.repeat(np.arange(nl), b.counts + 1)
+    i = np.arange(nv) - b.starts[line_of_v]
+    k_elem = np.arange(nv) - line_of_v
     left_idx = np.where(i > 0, k_elem - 1, ne + line_of_v)
-    right_idx = np.where(i < counts[line_of_v], k_elem, ne + nl + line_of_v)
-    frames = [np.concatenate(parts) for parts in zip(q, end_frames(model, state, 2 * lines),
-                                                      end_frames(model, state, 2 * lines + 1))]
+    right_idx = np.where(i < b.counts[line_of_v], k_elem, ne + nl + line_of_v)
+    frames = [np.concatenate(parts) for parts in zip(cols(state.q[b.elements]),
+                                                      end_frames(model, state, 2 * b.lines),
+                                                      end_frames(model, state, 2 * b.lines + 1))]
     left = tuple(f[left_idx] for f in frames)
     right = tuple(f[right_idx] for f in frames)
     theta = qlog(qmul(conj(left), right))
-    inv_lv = model.voronoi_inv_rest_length[v0:v1]
-    u0 = cols(model.voronoi_rest_curvature[v0:v1])
+    inv_lv = model.voronoi_inv_rest_length[b.vertices]
+    u0 = cols(model.voronoi_rest_curvature[b.vertices])
     curvature = tuple(theta[k] * inv_lv - u0[k] for k in range(3))
-    return Strains(slice(e0, e1), slice(v0, v1), stretch, theta, left, curvature)
+    return Strains(b.elements, b.vertices, element_stretch(model, state, b), theta, left, curvature)
 
 
 def strain_energy(model: Model, st: Strains) -> float:
@@ -145,29 +159,26 @@ def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
     """Per-vertex fields of lines l0 .. l1-1, each (nv_b, ...): director frames (quaternions;
     the mid-rotation between neighbouring frames, the line-end frame at the ends), force n and
     torque m in the lab (3.22), strain v - d3 and curvature u - u0 in the director frame."""
-    st = line_strains(model, state, l0, l1)
+    b = block_of(model, l0, l1)
+    st = line_strains(model, state, b)
     e, v = st.elements, st.vertices
     K = cols(model.element_stiffness[e])
     n_lab = qrot(cols(state.q[e]), tuple(K[k] * st.stretch[k] for k in range(3)))
-    lines = np.arange(l0, l1)
-    counts = np.diff(model.line_element_offsets[l0:l1 + 1])
-    starts = model.line_vertex_offsets[l0:l1] - v.start       # local first vertex of each line
-    ends = starts + counts
-    left_vertex = np.arange(e.stop - e.start) + np.repeat(lines - l0, counts)
+    starts, ends = b.starts, b.starts + b.counts
 
     def at_vertices(a):
         """(nv_b, 3): the mean of the two neighbouring elements, an end element's own at the ends."""
         out = np.zeros((v.stop - v.start, 3))
         for k in range(3):
-            out[left_vertex, k] += 0.5 * a[k]       # each element is the left neighbour of one vertex
-            out[left_vertex + 1, k] += 0.5 * a[k]   # and the right neighbour of the next
+            out[b.left_vertex, k] += 0.5 * a[k]       # each element is the left neighbour of one vertex
+            out[b.left_vertex + 1, k] += 0.5 * a[k]   # and the right neighbour of the next
         out[starts] *= 2.0
         out[ends] *= 2.0
         return out
 
     frames = np.column_stack(qmul(st.left, qexp(tuple(0.5 * t for t in st.theta))))
-    frames[starts] = np.column_stack(end_frames(model, state, 2 * lines))
-    frames[ends] = np.column_stack(end_frames(model, state, 2 * lines + 1))
+    frames[starts] = np.column_stack(end_frames(model, state, 2 * b.lines))
+    frames[ends] = np.column_stack(end_frames(model, state, 2 * b.lines + 1))
     B = cols(model.voronoi_stiffness[v])
     torque = qrot(cols(frames), tuple(B[k] * st.curvature[k] for k in range(3)))
     return {"frames": frames, "force": at_vertices(n_lab), "torque": np.column_stack(torque),
@@ -179,7 +190,7 @@ def worst_strain(model: Model, state: State) -> tuple[float, int]:
     the worst."""
     if model.element_rest_length.shape[0] == 0:
         return 0.0, 0
-    sx, sy, sz = element_stretch(model, state)
+    sx, sy, sz = element_stretch(model, state, block_of(model))
     s = np.abs(sx) + np.abs(sy) + np.abs(sz)
     bad = np.flatnonzero(~np.isfinite(s))
     e = int(bad[0]) if bad.size else int(np.argmax(s))
@@ -197,7 +208,9 @@ def energies(model: Model, state: State) -> tuple[float, float, float]:
     kt += 0.5 * np.sum(model.node_mass[nodes, None] * state.node_v[nodes] ** 2)
     free = model.node_locked == 0.0
     kr += 0.5 * np.sum(np.where(free, model.node_inertia, 0.0) * np.where(free, state.node_w, 0.0) ** 2)
-    u = strain_energy(model, line_strains(model, state)) if model.element_rest_length.shape[0] else 0.0
+    u = 0.0
+    if model.element_rest_length.shape[0]:
+        u = strain_energy(model, line_strains(model, state, block_of(model)))
     return float(kt), float(kr), u
 
 

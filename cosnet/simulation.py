@@ -97,10 +97,11 @@ class Simulation:
         self._params = [e.bind(self) for e in self.effects]   # each effect's kernel record
         self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
         self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
+        self._watch_energy = all(not e.adds_energy for e in self.effects)   # nothing feeds energy in
         self._e_start = None  # the energy watch's reference (None: taken at the next check)
         self._scale = 0.0
         self._watched_at = None   # step count at the last strain/energy check
-        self._seal = None         # fingerprint of the state as the last run() left it
+        self._seal = None         # hash of the state as the last run() left it
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -194,8 +195,7 @@ class Simulation:
     def _watch_start(self):
         """Keep the energy watch's reference across run() calls, so slow growth over many
         short runs is still seen; a state changed from outside since the last run (found by
-        its fingerprint) starts a new reference at the next check."""
-        self._watch_energy = all(not e.adds_energy for e in self.effects)
+        its hash) starts a new reference at the next check."""
         if self._seal is not None and self._seal != scan_state(self.state)[0]:
             self._e_start = None
 
