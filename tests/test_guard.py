@@ -245,3 +245,23 @@ def test_nan_node_velocity_is_caught_even_by_a_zero_step_run():
         sim.run(steps=0)
     with pytest.raises(cosnet.InstabilityError, match=r"non-finite node velocity at node 'a'"):
         sim.run(until=sim.time)
+
+
+# ---------------------------------------------------------------------- docs/watch.md
+def test_docs_examples_run_as_shown(tmp_path, monkeypatch, capsys):
+    """The Python block of docs/watch.md prints the text block after it; its commands run."""
+    import shlex
+    text = (REPO / "docs/watch.md").read_text()
+    blocks = re.findall(r"```(\w+)\n(.*?)```", text, flags=re.S)
+    python = [b for kind, b in blocks if kind == "python"]
+    shown = [b for kind, b in blocks if kind == "text"]
+    shell = [b for kind, b in blocks if kind == "sh"]
+    assert len(python) == len(shown) == len(shell) == 1
+    monkeypatch.chdir(tmp_path)
+    exec(compile(python[0], "docs/watch.md", "exec"), {})
+    assert capsys.readouterr().out == shown[0]
+    for line in shell[0].strip().splitlines():
+        argv = shlex.split(line)
+        assert argv[0] == "cosnet"
+        assert cli.main(argv[1:]) == 0, line
+    assert len(read_output(tmp_path / "out").times) == 3
