@@ -6,7 +6,9 @@
     cosnet render DIR [--png|--gif|--mp4] [--field NAME]     pictures of a written series
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
 
-``run`` writes a frame, a probes row and a checkpoint every output interval. Frame k sits
+``run`` writes a frame, a probes row and a checkpoint every output interval, each only after
+the state has passed every test of the instability watch (so on instability the checkpoint
+holds the last state that passed). Frame k sits
 exactly at step ceil(k * interval / dt), and the steps between frames are taken in chunks
 whose boundaries depend only on the absolute step count, so ``--resume`` (continue from the
 last checkpoint in DIR) reproduces an uninterrupted run bit for bit.
@@ -104,14 +106,17 @@ def _probe_row(k, sim, probes) -> str:
 
 
 def _keep_probe_rows(path: Path, header: str, last_frame: int):
-    rows = [header]
+    """Keep the whole rows of frames up to last_frame (a row torn by a kill or a full disk
+    is dropped)."""
+    from .io import replace_atomically
+    rows, width = [header], header.count(",")
     if path.exists():
-        for line in path.read_text().splitlines(keepends=True)[1:]:
-            if line.strip() and int(line.split(",", 1)[0]) <= last_frame:
+        for line in path.read_text(errors="replace").splitlines(keepends=True)[1:]:
+            first = line.split(",", 1)[0]
+            if (line.endswith("\n") and line.count(",") == width and first.isdigit()
+                    and int(first) <= last_frame):
                 rows.append(line)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text("".join(rows))
-    os.replace(tmp, path)
+    replace_atomically(path, lambda tmp: tmp.write_text("".join(rows)))
 
 
 def cmd_run(args) -> int:
@@ -120,8 +125,8 @@ def cmd_run(args) -> int:
     scene = load_scene(scene_path(args.scene))
     out = Path(args.out)
     until = scene.run.until if args.until is None else float(args.until)
-    if not until > 0:
-        raise ValueError(f"--until must be positive, got {args.until}")
+    if not (until > 0 and math.isfinite(until)):
+        raise ValueError(f"--until must be a positive finite time in s, got {args.until}")
     sim = scene.simulation()
     ckpt = out / CHECKPOINT
     probes = scene.run.probes
@@ -285,6 +290,10 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # output piped into a reader that stopped (e.g. `| head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as e:  # a read-only or full disk, a path that is no directory, ...
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"\ncosnet: error: {where}{e.strerror or e}", file=sys.stderr)
+        return 2
 
 
 def command() -> int:

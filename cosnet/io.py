@@ -38,13 +38,26 @@ def _frame_files(k: int) -> tuple[str, str]:
     return f"lines_{k:06d}.vtu", f"nodes_{k:06d}.vtu"
 
 
-def _atomic_write(path: Path, text: str):
+def replace_atomically(path: Path, write):
+    """Create ``path`` through ``write(tmp)`` on a temporary file renamed over it: the file
+    is either its previous version or the new one, whole; on failure (a full disk) the
+    temporary file is removed and the error raised."""
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _atomic_write(path: Path, text: str):
+    def write(tmp):
+        with open(tmp, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+    replace_atomically(path, write)
 
 
 class SeriesWriter:
@@ -56,6 +69,8 @@ class SeriesWriter:
 
     def __init__(self, directory, net, resume_after: int | None = None):
         self.dir = Path(directory)
+        if self.dir.exists() and not self.dir.is_dir():
+            raise ValueError(f"{self.dir}: exists and is not a directory")
         self.dir.mkdir(parents=True, exist_ok=True)
         self.net = net
         counts = [l.elements + 1 for l in net.lines]
@@ -76,6 +91,8 @@ class SeriesWriter:
         _atomic_write(self.dir / META, json.dumps(meta, ensure_ascii=False, indent=1))
         self.times: list[float] = []
         if resume_after is not None:
+            if not (self.dir / PVD).is_file():
+                raise ValueError(f"{self.dir / PVD}: missing, so there is no series to resume")
             self.times = [t for t, _ in read_pvd(self.dir / PVD)][: resume_after + 1]
             if len(self.times) != resume_after + 1:
                 raise ValueError(f"{self.dir / PVD}: has fewer than {resume_after + 1} frames to resume from")
@@ -87,7 +104,9 @@ class SeriesWriter:
         return len(self.times)
 
     def write(self, sim) -> int:
-        """Write the current state as the next frame; return its index."""
+        """Write the current state as the next frame, once it has passed the instability
+        watch (``sim.check()``); return its index. Each file is written whole or not at all."""
+        sim.check()
         k = len(self.times)
         lines_file, nodes_file = _frame_files(k)
         f = sim.net_fields()   # vertices in line order, as self._offsets
@@ -95,7 +114,7 @@ class SeriesWriter:
                            point_data={"line_id": self._vert_line, "radius": self._radius,
                                        **{k: np.ascontiguousarray(f[k]) for k in LINE_FIELDS}},
                            cell_data={"line_id": [self._seg_line], "element": [self._seg_elem]})
-        mesh.write(self.dir / lines_file, file_format="vtu", binary=True)
+        replace_atomically(self.dir / lines_file, lambda tmp: mesh.write(tmp, file_format="vtu", binary=True))
         nb = self._node_buf
         for node in self.net.nodes:
             i = node.index
@@ -109,7 +128,7 @@ class SeriesWriter:
         ids = np.arange(len(self.net.nodes), dtype=np.int32)
         nodes = meshio.Mesh(self._nodes_pts, [("vertex", ids[:, None].astype(np.int64))],
                             point_data={"node_id": ids, **nb}, cell_data={"node_id": [ids]})
-        nodes.write(self.dir / nodes_file, file_format="vtu", binary=True)
+        replace_atomically(self.dir / nodes_file, lambda tmp: nodes.write(tmp, file_format="vtu", binary=True))
         self.times.append(float(sim.time))
         self._write_pvd()
         return k
@@ -133,13 +152,20 @@ def _node_body_w(sim, node) -> np.ndarray:
 
 
 def read_pvd(path) -> list[tuple[float, int]]:
-    """(time, frame index) of each frame listed in a series.pvd."""
-    root = ET.parse(path).getroot()
+    """(time, frame index) of each frame listed in a series.pvd; ValueError (one line) if it
+    cannot be read as one."""
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as e:
+        raise ValueError(f"{path}: not a readable ParaView collection ({e})") from None
     out = {}
     for ds in root.iter("DataSet"):
         m = re.search(r"_(\d+)\.vtu$", ds.get("file", ""))
         if m:
-            out[int(m.group(1))] = float(ds.get("timestep"))
+            try:
+                out[int(m.group(1))] = float(ds.get("timestep"))
+            except (TypeError, ValueError):
+                raise ValueError(f"{path}: frame {m.group(1)} has no valid timestep") from None
     return [(out[k], k) for k in sorted(out)]
 
 

@@ -4,13 +4,15 @@ state with a compiled symplectic stepper (no Python loop over lines or elements 
 from __future__ import annotations
 
 import math
+import numbers
 from functools import lru_cache
 
 import numba
 import numpy as np
 
 from . import kernels  # noqa: F401  (package import; registers nothing)
-from . import measure
+from . import checkpoint, measure
+from .checkpoint import fingerprint
 from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
@@ -22,7 +24,8 @@ from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, 
 from .net import Line, Net, Node
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
-CHUNK_STEPS = 2000  # steps between the watch's strain and energy checks (non-finite values: every run() call)
+CHUNK_STEPS = 2000  # steps between the watch's strain and energy checks within a run (non-finite values: every
+                    # run() call; all of them: before every write, see check())
 PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs more than it saves
 
 
@@ -75,6 +78,7 @@ class Simulation:
     stepper: "verlet" (position Verlet, order 2) or "pefrl" (order 4).
     dt: time step; None uses the estimated stable step ``stable_dt()``. A dt above the estimate
         is refused unless ``force_dt=True``.
+    safety: the fraction of the estimated stability limit taken as the automatic step, in (0, 1].
     threads: None picks one thread for nets under 20,000 elements and numba's thread count
         above; an integer forces that many (1 = serial loops).
     """
@@ -85,6 +89,9 @@ class Simulation:
             raise ValueError(f"Simulation: net must be a cosnet.Net, got {net!r}")
         if stepper not in STEPPERS:
             raise ValueError(f"Simulation: stepper must be one of {sorted(STEPPERS)}, got {stepper!r}")
+        if isinstance(safety, bool) or not isinstance(safety, numbers.Real) or not 0 < safety <= 1:
+            raise ValueError(f"Simulation: safety must be a number in (0, 1] (a fraction of the stable "
+                             f"step), got {safety!r}; to step beyond the estimate give dt and force_dt=True")
         self.net = net
         self.stepper = stepper
         self.safety = float(safety)
@@ -101,7 +108,8 @@ class Simulation:
         self._e_start = None  # the energy watch's reference (None: taken at the next check)
         self._scale = 0.0
         self._watched_at = None   # step count at the last strain/energy check
-        self._seal = None         # hash of the state as the last run() left it
+        self._seal = None         # hash of the state as the last run() or check() saw it
+        self._passed = None       # hash of the last state that passed the full check
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -120,6 +128,7 @@ class Simulation:
                                  f"{est:.4g} s ({self.stiffest()}); pass force_dt=True to insist")
         self.dt = dt
         self.steps = 0
+        self.fingerprint = fingerprint(self)   # before any step: the effects' counters are still zero
 
     # ------------------------------------------------------------------ stepping
     def _choose_threads(self, threads):
@@ -163,17 +172,24 @@ class Simulation:
 
     def run(self, until: float | None = None, steps: int | None = None):
         """Advance to time ``until`` (the last step may overshoot by less than dt) or by
-        ``steps`` steps."""
+        ``steps`` steps (a non-negative integer). Even zero steps scan the state for
+        non-finite values."""
         if (until is None) == (steps is None):
             raise ValueError("Simulation.run: give exactly one of until or steps")
         if steps is None:
+            if isinstance(until, bool) or not isinstance(until, numbers.Real) or not math.isfinite(until):
+                raise ValueError(f"Simulation.run: until must be a finite time in s, got {until!r}")
+            # a run to `until` ends less than dt past it: an earlier until is no target of this run
+            if until <= self.time - self.dt:
+                raise ValueError(f"Simulation.run: until = {float(until):.9g} s is before the current "
+                                 f"time {self.time:.9g} s")
             steps = max(0, int(math.ceil((float(until) - self.time) / self.dt - 1e-9)))
+        elif isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
+            raise ValueError(f"Simulation.run: steps must be a non-negative integer, got {steps!r}")
         steps = int(steps)
-        if steps < 0:
-            raise ValueError(f"Simulation.run: steps must be >= 0, got {steps}")
+        self._watch_start()
         self._check_locked_axes()
         place_line_ends(self.model, self.state)
-        self._watch_start()
         while steps > 0:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
@@ -192,23 +208,48 @@ class Simulation:
             raise ValueError(f"node {self.net.nodes[nd].name!r}: its angular velocity about a locked "
                              f"(infinite-inertia) axis must be zero")
 
-    def _watch_start(self):
+    def check(self):
+        """Run every test of the watch on the current state now: non-finite values, runaway
+        strain, energy growth (InstabilityError on failure). A state that has already passed
+        costs one pass over its bits. Writers call this before anything is written, so no
+        frame, probe row or checkpoint holds a state that has not passed."""
+        place_line_ends(self.model, self.state)
+        seal = self._scan()
+        if seal == self._passed:
+            return self
+        self._reseal(seal)
+        self._full_check()
+        return self
+
+    def _scan(self) -> int:
+        """One pass over the state: stop on its first non-finite value; return its hash."""
+        seal, field, row = scan_state(self.state)
+        if field is not None:
+            self._fail(f"non-finite {STATE_NAMES[field]}", self._where(STATE_NAMES[field], row))
+        return seal
+
+    def _reseal(self, seal: int):
         """Keep the energy watch's reference across run() calls, so slow growth over many
-        short runs is still seen; a state changed from outside since the last run (found by
-        its hash) starts a new reference at the next check."""
-        if self._seal is not None and self._seal != scan_state(self.state)[0]:
+        short runs is still seen; a state changed from outside since the watch last saw it
+        (found by its hash) starts a new reference at the next check."""
+        if self._seal is not None and self._seal != seal:
             self._e_start = None
+        self._seal = seal
+
+    def _watch_start(self):
+        self._reseal(self._scan())
 
     def _check_health(self):
         """Stop with InstabilityError on non-finite values (every call), runaway strain or
         energy growth (at most every CHUNK_STEPS steps, and on the first call)."""
-        # one pass over the state: its non-finite values, and the hash that tells the next
-        # run() whether the state was changed in between
-        self._seal, field, row = scan_state(self.state)
-        if field is not None:
-            self._fail(f"non-finite {STATE_NAMES[field]}", self._where(STATE_NAMES[field], row))
+        # the hash tells the next run() or check() whether the state was changed in between
+        self._seal = self._scan()
         if self._watched_at is not None and self.steps - self._watched_at < CHUNK_STEPS:
             return
+        self._full_check()
+
+    def _full_check(self):
+        """The strain and energy tests on the state sealed in self._seal."""
         self._watched_at = self.steps
         worst, e = measure.worst_strain(self.model, self.state)
         if worst > STRAIN_LIMIT:
@@ -219,6 +260,7 @@ class Simulation:
             self._fail(quantity, self._where("element", e))
         if self._watch_energy:
             self._watch_energy_growth()
+        self._passed = self._seal
 
     def _watch_energy_growth(self):
         p = self.energy_parts()
@@ -366,22 +408,11 @@ class Simulation:
 
     # ------------------------------------------------------------------ checkpoints
     def save_checkpoint(self, path):
-        """Write the whole state (and step count, dt, stepper) to an .npz file atomically."""
-        import os
-        tmp = f"{path}.tmp.npz"
-        np.savez(tmp, steps=self.steps, dt=self.dt, stepper=self.stepper, **self.state._asdict())
-        os.replace(tmp, path)
+        """Write the whole state (with step count, dt, stepper and the model's fingerprint) to
+        an .npz file atomically, after the state has passed the watch (see check())."""
+        checkpoint.save(self, path)
 
     def load_checkpoint(self, path):
-        """Restore a state written by save_checkpoint (same net and stepper), bit-exactly."""
-        with np.load(path) as data:
-            if str(data["stepper"]) != self.stepper:
-                raise ValueError(f"checkpoint {path}: stepper {data['stepper']} differs from {self.stepper}")
-            for name, arr in self.state._asdict().items():
-                if data[name].shape != arr.shape:
-                    raise ValueError(f"checkpoint {path}: {name} has shape {data[name].shape}, "
-                                     f"this net needs {arr.shape}")
-                arr[...] = data[name]
-            self.steps = int(data["steps"])
-            self.dt = float(data["dt"])
-        return self
+        """Restore a state written by save_checkpoint, bit-exactly; refuse (ValueError, one
+        line saying what differs) a checkpoint of another model, effects, dt or stepper."""
+        return checkpoint.load(self, path)

@@ -60,3 +60,18 @@ def scan_state(state) -> tuple[int, str | None, int]:
         if bad >= 0 and where is None:
             where, row = name, int(np.argwhere(~np.isfinite(a))[0, 0])
     return int(h), where, row
+
+
+@njit(cache=True)
+def hash_segments(words, width, offsets, tag, h):
+    """Update h (s,) uint64, the running hash of each of s segments, given words (n,) uint64
+    (rows of ``width`` words), the CSR row offsets (s + 1,) of the segments, and a tag that
+    tells this array from the others hashed into h. Offsets outside the words are clamped."""
+    n = words.shape[0]
+    for s in range(h.shape[0]):
+        a = min(max(offsets[s] * width, 0), n)
+        b = min(max(offsets[s + 1] * width, a), n)
+        x = mix(h[s], tag)
+        for i in range(a, b):
+            x = mix(x, words[i])
+        h[s] = mix(x, b - a)

@@ -231,3 +231,103 @@ def test_interrupted_run_resumes_bit_identically(tiny, tmp_path, monkeypatch):
         for key in ca.files:
             np.testing.assert_array_equal(ca[key], cb[key], err_msg=key)
     assert (full / "probes.csv").read_text() == (cut / "probes.csv").read_text()
+
+
+# ---------------------------------------------------------------------- faults: one line, exit 2
+def _error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = [l for l in err.splitlines() if l.startswith("cosnet: error:")]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A tmpfs mounted at tmp_path/mnt with the given mount options (skipped where mounting
+    is not allowed); ``remount(options)`` changes them."""
+    import subprocess
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    mounted = []
+
+    def mount(options, remount=False):
+        cmd = ["mount", "-o", f"remount,{options}", str(mnt)] if remount else \
+            ["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)]
+        try:
+            r = subprocess.run(cmd, capture_output=True, text=True)
+        except OSError as e:
+            pytest.skip(f"cannot mount a tmpfs here: {e}")
+        if r.returncode:
+            pytest.skip(f"cannot mount a tmpfs here: {r.stderr.strip()}")
+        mounted.append(True)
+        return mnt
+
+    yield mount
+    if mounted:
+        subprocess.run(["umount", str(mnt)], capture_output=True)
+
+
+def test_disk_full_stops_in_one_line_leaving_a_valid_series_that_resumes(tiny, tmp_path, small_disk, capsys):
+    """The disk fills up after a dozen frames: one line naming the file, exit 2, no temporary
+    file left, every listed frame readable; with room again, --resume ends bit-identical to a
+    run that never stopped."""
+    long = tmp_path / "long.toml"
+    long.write_text(TINY.replace("until = 0.02", "until = 0.2"))
+    full = tmp_path / "full"
+    assert cli.main(["run", str(long), "--out", str(full)]) == 0
+    mnt = small_disk("size=128k")
+    out = mnt / "out"
+    assert cli.main(["run", str(long), "--out", str(out)]) == 2
+    assert "No space left on device" in _error_line(capsys)
+    assert not [p.name for p in out.iterdir() if ".tmp" in p.name]
+    series = read_output(out)
+    assert 3 <= len(series.times) < 51
+    for k in range(len(series.times)):
+        series.frame(k)
+    small_disk("size=4m", remount=True)
+    assert cli.main(["run", str(long), "--out", str(out), "--resume"]) == 0
+    a, b = read_output(full), read_output(out)
+    np.testing.assert_array_equal(a.times, b.times)
+    for k in (len(series.times) - 1, len(a.times) - 1):
+        np.testing.assert_array_equal(a.frame(k)["lines"]["arm"]["position"], b.frame(k)["lines"]["arm"]["position"])
+    assert (full / "probes.csv").read_text() == (out / "probes.csv").read_text()
+
+
+def test_read_only_out_is_one_line(tiny, small_disk, capsys):
+    mnt = small_disk("ro,size=1m")
+    assert cli.main(["run", str(tiny), "--out", str(mnt)]) == 2
+    assert "Read-only file system" in _error_line(capsys)
+    assert cli.main(["run", str(tiny), "--out", str(mnt / "sub")]) == 2
+    assert "Read-only file system" in _error_line(capsys)
+
+
+def test_out_that_is_a_file_and_bad_until_are_one_line(tiny, tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("x")
+    assert cli.main(["run", str(tiny), "--out", str(f)]) == 2
+    assert f"{f}: exists and is not a directory" in _error_line(capsys)
+    for bad in ("inf", "nan", "-1", "0"):
+        assert cli.main(["run", str(tiny), "--out", str(tmp_path / "o"), "--until", bad]) == 2
+        assert "--until must be a positive finite time" in _error_line(capsys)
+
+
+def test_resume_from_damaged_checkpoint_or_series_is_one_line(tiny, tmp_path, capsys):
+    out = tmp_path / "o"
+    assert cli.main(["run", str(tiny), "--out", str(out)]) == 0
+    ckpt, pvd = out / "checkpoint.npz", out / "series.pvd"
+    good_ckpt, good_pvd = ckpt.read_bytes(), pvd.read_bytes()
+    ckpt.write_bytes(good_ckpt[: len(good_ckpt) // 3])
+    capsys.readouterr()
+    assert cli.main(["run", str(tiny), "--out", str(out), "--resume"]) == 2
+    assert "unreadable, truncated or corrupted" in _error_line(capsys)
+    ckpt.write_bytes(good_ckpt)
+    for broken in (good_pvd[: len(good_pvd) // 2], b"\xff\xfe not xml", None):
+        if broken is None:
+            pvd.unlink()
+        else:
+            pvd.write_bytes(broken)
+        assert cli.main(["run", str(tiny), "--out", str(out), "--resume"]) == 2
+        line = _error_line(capsys)
+        assert str(pvd) in line and ("not a readable ParaView collection" in line or "missing" in line)
+    pvd.write_bytes(good_pvd)
+    assert cli.main(["run", str(tiny), "--out", str(out), "--resume"]) == 0
