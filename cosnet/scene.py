@@ -42,12 +42,16 @@ import numpy as np
 from . import materials as M
 from .net import Net
 from .scaling import Scale
+from .limits import check_elements
+from .net import frame_from_tangent
 from .scene_values import (Table, Units, _one_line, _si, array, auto_or_positive, boolean,
-                           choice, floats, frame, integer, mass_value, nonnegative, number, positive,
-                           seed, string, string_list, vec3)
+                           choice, direction, floats, frame, integer, mass_value, nonnegative,
+                           number, positive, quote_key, seed, string, string_list, vec3)
 
 TOP_KEYS = ("title", "description", "scale", "materials", "sections", "nodes", "lines",
             "effects", "initial", "run")
+
+
 # ---------------------------------------------------------------------- net tables
 def _material(t: Table, name) -> M.Material:
     t.expect("E", "density", "G", "poisson")
@@ -125,8 +129,9 @@ def _line(t: Table, net: Net, name: str, materials, sections):
         raise t.err("section", f"must name one of the sections {sorted(sections)} or be an "
                                f"inline table, got {sec!r}")
     kw = dict(material=materials[mname], section=sec, elements=t.get("elements", integer))
-    for key in ("start_offset", "end_offset", "rest_curvature", "d1"):
+    for key in ("start_offset", "end_offset", "rest_curvature"):
         kw[key] = t.get(key, vec3, default=None)
+    kw["d1"] = t.get("d1", direction, default=None)
     for key in ("start_frame", "end_frame"):
         kw[key] = t.get(key, frame, default=None)
     kw["points"] = t.get("points", array((-1, 3)), default=None)
@@ -134,7 +139,20 @@ def _line(t: Table, net: Net, name: str, materials, sections):
     for key in ("start_offset", "end_offset"):
         if kw[key] is None:
             kw[key] = (0.0, 0.0, 0.0)
-    _wrap(t, "points", lambda: net.add_line(*ends, name=name, **kw))
+    line = _wrap(t, "points", lambda: net.add_line(*ends, name=name, **kw))
+    _check_first_frame(t, line)
+
+
+def _check_first_frame(t: Table, line):
+    """The director frame of the first element, which the simulation derives from the d1 hint
+    or the start frame, must exist: checked here so that the message names this table."""
+    hint = line.d1
+    if hint is None and line.start_frame is not None:
+        hint = (line.start.frame @ line.start_frame)[:, 0]
+    try:
+        frame_from_tangent(line.points[1] - line.points[0], hint)
+    except ValueError as e:
+        raise t.err("d1" if line.d1 is not None else "start_frame", e) from None
 
 
 def _wrap(t: Table, fallback_key, build):
@@ -205,7 +223,10 @@ def _named(t: Table, name, kind, net: Net):
 
 def _effect(t: Table, net: Net, units: Units):
     import cosnet
-    kind = EFFECTS[t.get("kind", choice(*EFFECTS))]
+    name = t.get("kind", choice(*EFFECTS))
+    kind = EFFECTS[name]
+    if t.label.startswith("[[effects]]"):
+        t.label += f" ({name})"
     t.expect("kind", *kind.keys)
     kw = {}
     for key, conv in kind.keys.items():
@@ -213,6 +234,11 @@ def _effect(t: Table, net: Net, units: Units):
             continue
         kw[key] = _ref(t, key, conv, net) if isinstance(conv, str) else _si(units, key, t.get(key, conv))
     t.done()
+    if kw.get("lines") is not None:
+        have = [x.name for x in net.lines]
+        for name in kw["lines"]:
+            if name not in have:
+                raise t.err("lines", f"unknown line {name!r}; lines are {have}")
     cls = getattr(cosnet, kind.cls, None)
     if cls is None:
         raise t.err("kind", f"effect {kind.cls} is not available in this version of cosnet")
@@ -226,7 +252,8 @@ def _effects(top: Table, net: Net, units: Units) -> list:
     raw = top.data["effects"]
     if isinstance(raw, list):
         top.used.add("effects")
-        return [_effect(Table(top.file, f"effects[{i}]", e), net, units) for i, e in enumerate(raw)]
+        return [_effect(Table(top.file, f"effects[{i}]", e, label=f"[[effects]] #{i + 1}"), net, units)
+                for i, e in enumerate(raw)]
     return [_effect(t, net, units) for _, t in top.tables("effects")]
 
 
@@ -312,11 +339,19 @@ def _initial(t: Table | None, net: Net, units: Units) -> Initial:
         return init
     for key in ("velocity", "angular_velocity", "center"):
         setattr(init, key, _si(units, key, t.get(key, vec3, default=None)))
+    rigid = [k for k in ("velocity", "angular_velocity") if getattr(init, k) is not None]
+    if rigid and any(n.fixed_position or n.locked_axes.any() for n in net.nodes):
+        raise t.err(rigid[0], "a rigid motion of the whole net needs a net without fixed nodes "
+                              "or locked axes")
     for name, nt in t.tables("nodes"):
         node = _named(nt, name, "node", net)
-        init.nodes[node] = tuple(_si(units, k, nt.get(k, vec3, default=None))
-                                 for k in ("velocity", "angular_velocity"))
+        v, w = (_si(units, k, nt.get(k, vec3, default=None)) for k in ("velocity", "angular_velocity"))
         nt.done()
+        if v is not None and node.fixed_position:
+            raise nt.err("velocity", f"node {node.name!r} is fixed")
+        if w is not None and np.any(node.locked_axes & (np.abs(node.frame.T @ w) > 1e-12 * np.abs(w).max())):
+            raise nt.err("angular_velocity", f"it turns node {node.name!r} about a locked (fixed) axis")
+        init.nodes[node] = (v, w)
     for name, lt in t.tables("lines"):
         lt.expect("velocity", "profile")
         line = _named(lt, name, "line", net)
@@ -371,7 +406,8 @@ def _probe(t: Table, text: str, net: Net) -> Probe:
 @dataclass
 class RunSettings:
     """[run] (SI): end time ``until``, ``dt`` (None = the estimated stable step), ``stepper``,
-    ``output_interval`` (default until / 50), ``probes`` and ``force_dt``."""
+    ``output_interval`` (default until / 50), ``probes``, ``force_dt`` and ``limits`` (False:
+    skip the resource limits of cosnet.limits)."""
 
     until: float
     dt: float | None = None
@@ -379,6 +415,7 @@ class RunSettings:
     output_interval: float | None = None
     probes: list = field(default_factory=list)
     force_dt: bool = False
+    limits: bool = True
 
     @property
     def interval(self) -> float:
@@ -386,7 +423,7 @@ class RunSettings:
 
 
 def _run(t: Table, net: Net, units: Units) -> RunSettings:
-    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt")
+    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "limits")
     sec = units.factor(0, 0, 1)
     until = t.get("until", positive) * sec
     dt = t.get("dt", auto_or_positive, default="auto")
@@ -395,9 +432,12 @@ def _run(t: Table, net: Net, units: Units) -> RunSettings:
                       t.get("stepper", choice("verlet", "pefrl"), default="verlet"),
                       None if out is None else out * sec,
                       [_probe(t, p, net) for p in t.get("probes", string_list, default=[])],
-                      t.get("force_dt", boolean, default=False))
+                      t.get("force_dt", boolean, default=False), t.get("limits", boolean, default=True))
     if run.output_interval is not None and run.output_interval > until:
         raise t.err("output_interval", f"must not exceed until = {until:g} s")
+    if run.output_interval is not None and run.dt is not None and run.output_interval < run.dt:
+        raise t.err("output_interval", f"{run.output_interval:g} s is shorter than dt = {run.dt:g} s "
+                                       f"(frames would repeat); give at least dt")
     t.done()
     return run
 
@@ -445,19 +485,49 @@ def read_toml(path) -> dict:
         raise ValueError(f"{path}: cannot read the scene file ({e.strerror})") from None
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{path}: not valid TOML: {_one_line(e)}") from None
+    except UnicodeDecodeError as e:
+        line = e.object[:e.start].count(b"\n") + 1
+        raise ValueError(f"{path}: not UTF-8 text: byte {e.object[e.start]:#04x} in line {line} "
+                         f"(TOML files are UTF-8)") from None
+    except RecursionError:
+        raise ValueError(f"{path}: arrays or tables nested too deeply to read") from None
 
 
-def load_scene(path) -> Scene:
-    """Read a TOML scene file and return a validated Scene."""
+def load_scene(path, limits: bool = True) -> Scene:
+    """Read a TOML scene file and return a validated Scene. ``limits=False`` skips the
+    resource limits (as ``[run] limits = false`` in the file does)."""
     path = Path(path)
-    return build_scene(read_toml(path), path)
+    return build_scene(read_toml(path), path, limits=limits)
 
 
-def build_scene(data: dict, path="<scene>") -> Scene:
+def build_scene(data: dict, path="<scene>", limits: bool = True) -> Scene:
     """Build a Scene from already-parsed TOML data (``path`` only appears in messages)."""
     path = Path(path)
+    try:
+        return _build_scene(data, path, limits)
+    except RecursionError:
+        raise ValueError(f"{path}: values nested too deeply") from None
+
+
+def _check_net_size(top: Table, data: dict):
+    """Refuse a net above the element limit before building it (which would take minutes and
+    gigabytes first): named by its largest line."""
+    lines = data.get("lines")
+    if not isinstance(lines, dict):
+        return
+    counts = {name: t.get("elements") for name, t in lines.items() if isinstance(t, dict)}
+    counts = {n: c for n, c in counts.items() if isinstance(c, int) and not isinstance(c, bool) and c > 0}
+    if counts:
+        big = max(counts, key=counts.get)
+        check_elements(sum(counts.values()), f"{top.file}: [lines.{quote_key(big)}] elements")
+
+
+def _build_scene(data: dict, path: Path, limits: bool) -> Scene:
     top = Table(str(path), "", data)
     top.done(TOP_KEYS)
+    run_data = data.get("run")
+    if limits and not (isinstance(run_data, dict) and run_data.get("limits") is False):
+        _check_net_size(top, data)
     title = top.get("title", string, default=path.stem)
     top.get("description", string, default="")
     scale = None
