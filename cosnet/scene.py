@@ -48,6 +48,16 @@ from .scene_values import (Table, Units, _one_line, _si, array, auto_or_positive
                            choice, direction, floats, frame, integer, mass_value, nonnegative,
                            number, positive, quote_key, seed, string, string_list, vec3)
 
+# what building a net from scene values may raise for values out of range: refused, not a crash
+REFUSED = (ValueError, ArithmeticError)
+
+
+def _why(e) -> str:
+    if isinstance(e, ArithmeticError):
+        return f"numbers out of range to compute with ({e.args[-1] if e.args else type(e).__name__})"
+    return str(e)
+
+
 TOP_KEYS = ("title", "description", "scale", "materials", "sections", "nodes", "lines",
             "effects", "initial", "run")
 
@@ -60,8 +70,8 @@ def _material(t: Table, name) -> M.Material:
     t.done()
     try:
         return M.Material(name=name, **kw)
-    except ValueError as e:
-        raise t.err("G" if kw["G"] is not None else "poisson", e) from None
+    except REFUSED as e:
+        raise t.err("G" if kw["G"] is not None else "poisson", _why(e)) from None
 
 
 SECTIONS = {  # kind -> (constructor, required keys)
@@ -85,8 +95,8 @@ def _section(t: Table) -> M.Section:
     t.done()
     try:
         return make(**kw)
-    except ValueError as e:
-        raise t.err(keys[-1], e) from None
+    except REFUSED as e:
+        raise t.err(keys[-1], _why(e)) from None
 
 
 def _node(t: Table, net: Net, name: str):
@@ -146,6 +156,10 @@ def _line(t: Table, net: Net, name: str, materials, sections):
 def _check_first_frame(t: Table, line):
     """The director frame of the first element, which the simulation derives from the d1 hint
     or the start frame, must exist: checked here so that the message names this table."""
+    seg = np.linalg.norm(np.diff(line.points, axis=0), axis=1)
+    if not np.all(np.isfinite(seg)):
+        raise t.err("points" if "points" in t.data else "end",
+                    "the line's length overflows: coordinates too large (keep them below 1e150)")
     hint = line.d1
     if hint is None and line.start_frame is not None:
         hint = (line.start.frame @ line.start_frame)[:, 0]
@@ -159,8 +173,8 @@ def _wrap(t: Table, fallback_key, build):
     """Run a Net call, turning its ValueError into one naming the file, table and key."""
     try:
         return build()
-    except ValueError as e:
-        msg = _one_line(e)
+    except REFUSED as e:
+        msg = _one_line(_why(e))
         said = msg.split(":", 1)[1] if ":" in msg else msg
         words = set(re.findall(r"[A-Za-z_0-9]+", said))
         if "points" in t.data and words & {"point", "points"}:
@@ -464,11 +478,13 @@ class Scene:
                   force_dt=self.run.force_dt)
         kw.update(overrides)
         try:
-            sim = Simulation(self.net, **kw)
-        except ValueError as e:
-            msg = _one_line(e)
-            key = next((k for k in ("dt", "stepper") if k in msg), "")
-            raise ValueError(f"{self.path}: [run] {key}{': ' if key else ''}{msg}") from None
+            with np.errstate(all="ignore"):   # a net that overflows is refused below, in one line
+                sim = Simulation(self.net, **kw)
+        except REFUSED as e:
+            msg = _one_line(_why(e))
+            key = next((k for k in ("dt", "stepper") if re.search(rf"\b{k}\b", msg)), None)
+            where = f"[run] {key}: " if key else ""
+            raise ValueError(f"{self.path}: {where}{msg}") from None
         self.initial.apply(sim, f"{self.path}: [initial]")
         return sim
 
@@ -504,9 +520,13 @@ def build_scene(data: dict, path="<scene>", limits: bool = True) -> Scene:
     """Build a Scene from already-parsed TOML data (``path`` only appears in messages)."""
     path = Path(path)
     try:
-        return _build_scene(data, path, limits)
+        # extreme numbers overflow in checks that then refuse them: one message, no warnings
+        with np.errstate(all="ignore"):
+            return _build_scene(data, path, limits)
     except RecursionError:
         raise ValueError(f"{path}: values nested too deeply") from None
+    except ArithmeticError as e:
+        raise ValueError(f"{path}: {_why(e)}") from None
 
 
 def _check_net_size(top: Table, data: dict):
@@ -539,8 +559,8 @@ def _build_scene(data: dict, path: Path, limits: bool) -> Scene:
         st.done()
         try:
             scale = Scale(**kw)
-        except ValueError as e:
-            raise st.err("torque", e) from None
+        except REFUSED as e:
+            raise st.err("torque", _why(e)) from None
     units = Units(scale)
     materials = {n: _material(t, n) for n, t in top.tables("materials")}
     sections = {n: _section(t) for n, t in top.tables("sections")}
@@ -553,8 +573,8 @@ def _build_scene(data: dict, path: Path, limits: bool) -> Scene:
         raise top.err("nodes", "the scene needs at least one [nodes.NAME] table")
     try:
         net.validate()
-    except ValueError as e:
-        msg = _one_line(e)
+    except REFUSED as e:
+        msg = _one_line(_why(e))
         name = msg.split("'")[1] if msg.startswith("node '") else ""
         raise ValueError(f"{path}: [nodes.{name}] mass: {msg}") from None
     if scale is not None:
