@@ -564,3 +564,13 @@ def test_a_name_with_a_line_break_stays_on_one_line(tmp_path):
     text = SCENE.replace("[materials.soft]", '[materials."so\\nft\\u2028"]').replace(
         'material = "soft"', 'material = "so\\nft\\u2028"').replace("poisson = 0.25", "poisson = 0.25\nmass = 1")
     refused(write(tmp_path, text), r'\[materials\."so\\nft\\u2028"\] mass: unknown key')
+
+
+@pytest.mark.parametrize("old,new,match", [
+    ("radius = 0.01", "radius = 1e300", r"\[sections\.rod\] radius: numbers out of range to compute with"),
+    ("position = [1.0, 0.0, 0.0]\nmass = 0.5", "position = [1e300, -1e300, 0.0]\nmass = 0.5",
+     r"\[lines\.arm\] end: the line's length overflows"),
+])
+def test_numbers_that_overflow_are_refused_naming_the_key(tmp_path, recwarn, old, new, match):
+    refused(write(tmp_path, SCENE.replace(old, new)), match)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
