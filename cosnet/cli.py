@@ -22,6 +22,8 @@ import sys
 import time
 from pathlib import Path
 
+from .scene_values import _one_line
+
 CHECKPOINT = "checkpoint.npz"
 PROBES = "probes.csv"
 CHUNK = 2000  # steps per compiled call; boundaries at multiples of CHUNK (see module docstring)
@@ -304,13 +306,6 @@ def parser() -> argparse.ArgumentParser:
                    help="probe point (repeatable; default: every node)")
     a.add_argument("--verbose", action="store_true", help="list the runs on stderr")
     return p
-
-
-def _one_line(e) -> str:
-    """A message as one printable line: a control character or line separator (a scene may
-    put one in a name) is shown escaped, never as a line break."""
-    text = " ".join(str(e).split())
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def main(argv=None) -> int:

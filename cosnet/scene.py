@@ -19,7 +19,7 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
-                                    force_dt
+                                    force_dt, limits (false lifts cosnet.limits)
 
 A frame (node ``frame``, line ``start_frame`` / ``end_frame``) is the 3x3 matrix written as
 its three rows (its columns are d1 d2 d3) or an inline table with two or three of d1, d2, d3
@@ -27,7 +27,10 @@ its three rows (its columns are d1 d2 d3) or an inline table with two or three o
 [sections.NAME] table or is an inline table of the same form.
 
 Every unknown or misspelt key, wrong type, missing reference or unphysical value raises a
-``ValueError`` whose one-line message names the file, the table and the key.
+``ValueError`` whose one-line message names the file, the table and the key (``[[effects]]``
+tables as ``[[effects]] #k (kind)``, counted from 1), on loading: what the simulation would
+refuse later (a d1 hint along a line, an unknown contact line, a velocity for a fixed node)
+is checked here too, so that the message names the table at fault.
 """
 
 from __future__ import annotations
@@ -40,11 +43,10 @@ from pathlib import Path
 import numpy as np
 
 from . import materials as M
-from .net import Net
-from .scaling import Scale
 from .limits import check_elements
-from .net import frame_from_tangent
-from .scene_values import (Table, Units, _one_line, _si, array, auto_or_positive, boolean,
+from .net import Net, frame_from_tangent
+from .scaling import Scale
+from .scene_values import (Table, Units, _one_line, _show, _si, array, auto_or_positive, boolean,
                            choice, direction, floats, frame, integer, mass_value, nonnegative,
                            number, positive, quote_key, seed, string, string_list, vec3)
 
@@ -137,7 +139,7 @@ def _line(t: Table, net: Net, name: str, materials, sections):
         sec = sections[sec]
     else:
         raise t.err("section", f"must name one of the sections {sorted(sections)} or be an "
-                               f"inline table, got {sec!r}")
+                               f"inline table, got {_show(sec)}")
     kw = dict(material=materials[mname], section=sec, elements=t.get("elements", integer))
     for key in ("start_offset", "end_offset", "rest_curvature"):
         kw[key] = t.get(key, vec3, default=None)

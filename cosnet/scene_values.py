@@ -18,7 +18,10 @@ _REQUIRED = object()
 
 
 def _one_line(e) -> str:
-    return " ".join(str(e).split())
+    """A message as one printable line: a control character or line separator (a scene may
+    put one in a name) is shown escaped, never as a line break."""
+    text = " ".join(str(e).split())
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 _REPR = reprlib.Repr()
