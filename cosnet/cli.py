@@ -1,6 +1,7 @@
 """The ``cosnet`` command.
 
-    cosnet run [SCENE] [--out DIR] [--until T] [--resume]   run a scene, writing a VTK series
+    cosnet run [SCENE] [--out DIR] [--until T] [--resume|--overwrite] [--no-limits]
+                                                             run a scene, writing a VTK series
     cosnet info SCENE                                        net size, mass, stable dt, effects
     cosnet modes SCENE [--count K] [--out DIR] [--analytic]  normal modes: spectrum, VTK shapes
     cosnet render DIR [--png|--gif|--mp4] [--field NAME]     pictures of a written series
@@ -22,6 +23,8 @@ import os
 import sys
 import time
 from pathlib import Path
+
+from .scene_values import _one_line
 
 CHECKPOINT = "checkpoint.npz"
 PROBES = "probes.csv"
@@ -120,14 +123,31 @@ def _keep_probe_rows(path: Path, header: str, last_frame: int):
 
 
 def cmd_run(args) -> int:
-    from .io import SeriesWriter
+    from . import outdir
+    from .limits import check_run
     from .scene import load_scene
-    scene = load_scene(scene_path(args.scene))
+    scene = load_scene(scene_path(args.scene), limits=not args.no_limits)
     out = Path(args.out)
     until = scene.run.until if args.until is None else float(args.until)
-    if not (until > 0 and math.isfinite(until)):
-        raise ValueError(f"--until must be a positive finite time in s, got {args.until}")
+    if not (math.isfinite(until) and until > 0):
+        raise ValueError(f"--until must be a positive number of seconds, got {args.until}")
     sim = scene.simulation()
+    interval = min(scene.run.interval, until)
+    if interval < sim.dt:
+        what = "until" if interval == until else "output_interval"
+        raise ValueError(f"{scene.path}: [run] {what}: {interval:g} s is shorter than one step "
+                         f"(dt = {sim.dt:.4g} s){'; frames would repeat' if what != 'until' else ''}")
+    if scene.run.limits and not args.no_limits:
+        source = "[run] dt" if scene.run.dt is not None else f"the stable step of {sim.stiffest()}"
+        check_run(until / sim.dt, until / interval, f"dt = {sim.dt:.4g} s ({source})",
+                  f"{scene.path}: [run] until = {until:g} s")
+    with outdir.locked(out):
+        outdir.prepare(out, resume=args.resume, overwrite=args.overwrite)
+        return _write_run(args, scene, sim, out, until)
+
+
+def _write_run(args, scene, sim, out: Path, until: float) -> int:
+    from .io import SeriesWriter
     ckpt = out / CHECKPOINT
     probes = scene.run.probes
     header = _probe_header(probes)
@@ -198,8 +218,6 @@ def cmd_modes(args) -> int:
     from .modes import main_modes
     from .scene import load_scene
     scene = load_scene(scene_path(args.scene))
-    if args.count < 1:
-        raise ValueError(f"--count must be a positive integer, got {args.count}")
     out = None if args.no_output else Path(args.out)
     res = main_modes(scene, count=args.count, out_dir=out, frames=args.frames, sigma=args.sigma)
     if args.analytic:
@@ -234,22 +252,44 @@ def cmd_accuracy(args) -> int:
     return 0 if best is not None else 1
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage mistakes end in one line (like every other error), exit code 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return n
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="cosnet", description="Dynamics of Cosserat nets.")
+    p = _Parser(prog="cosnet", description="Dynamics of Cosserat nets.")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene and write a VTK time series")
     r.add_argument("scene", nargs="?", help="scene file or ready case name (default: bridge)")
     r.add_argument("--out", default="out", help="output directory (default: ./out)")
     r.add_argument("--until", type=float, help="end time in s (default: the scene's [run] until)")
-    r.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    once = r.add_mutually_exclusive_group()
+    once.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    once.add_argument("--overwrite", action="store_true",
+                      help="replace the run already in --out (its frames, probes and checkpoint)")
+    r.add_argument("--no-limits", action="store_true",
+                   help="lift the limits on elements, memory, steps and frames (see docs/faults.md)")
     i = sub.add_parser("info", help="describe a scene")
     i.add_argument("scene", help="scene file or ready case name")
     m = sub.add_parser("modes", help="normal modes of a scene's net (§6): spectrum and VTK mode shapes")
     m.add_argument("scene", help="scene file or ready case name")
-    m.add_argument("--count", type=int, default=6, help="how many elastic modes (default 6)")
+    m.add_argument("--count", type=_positive_int, default=6, help="how many elastic modes (default 6)")
     m.add_argument("--out", default="modes", help="directory for spectrum.csv and mode_JJ.pvd (default ./modes)")
     m.add_argument("--no-output", action="store_true", help="print the spectrum only")
-    m.add_argument("--frames", type=int, default=16, help="frames per animated period (default 16)")
+    m.add_argument("--frames", type=_positive_int, default=16, help="frames per animated period (default 16)")
     m.add_argument("--sigma", type=float, default=0.0, help="find the modes nearest this angular frequency")
     m.add_argument("--analytic", action="store_true",
                    help="also the exact modes of the continuous net (straight uniform lines)")
@@ -261,7 +301,7 @@ def parser() -> argparse.ArgumentParser:
     g.add_argument("--mp4", action="store_true", help="an MP4 movie (needs ffmpeg)")
     v.add_argument("--field", default="velocity", help="line field to colour by (magnitude)")
     v.add_argument("--frame", type=int, default=-1, help="frame for --png (default: last)")
-    v.add_argument("--every", type=int, default=1, help="use every n-th frame for --gif/--mp4")
+    v.add_argument("--every", type=_positive_int, default=1, help="use every n-th frame for --gif/--mp4")
     v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4)")
     a = sub.add_parser("accuracy", help="estimate the error and cost of refined settings")
     a.add_argument("scene", help="scene file or ready case name")
@@ -279,7 +319,12 @@ def main(argv=None) -> int:
         return {"run": cmd_run, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
                 "accuracy": cmd_accuracy}[args.command](args)
     except ValueError as e:
-        print(f"cosnet: error: {e}", file=sys.stderr)
+        print(f"cosnet: error: {_one_line(e)}", file=sys.stderr)
+        return 2
+    except (MemoryError, RecursionError) as e:
+        where = getattr(args, "scene", None) or getattr(args, "dir", None) or default_scene()
+        what = "out of memory: too large for this machine" if isinstance(e, MemoryError) else "nested too deeply"
+        print(f"cosnet: error: {_one_line(where)}: {what}", file=sys.stderr)
         return 2
     except RuntimeError as e:  # InstabilityError and other run failures
         print(f"\ncosnet: error: {e}", file=sys.stderr)

@@ -19,7 +19,7 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
-                                    force_dt
+                                    force_dt, limits (false lifts cosnet.limits)
 
 A frame (node ``frame``, line ``start_frame`` / ``end_frame``) is the 3x3 matrix written as
 its three rows (its columns are d1 d2 d3) or an inline table with two or three of d1, d2, d3
@@ -27,7 +27,10 @@ its three rows (its columns are d1 d2 d3) or an inline table with two or three o
 [sections.NAME] table or is an inline table of the same form.
 
 Every unknown or misspelt key, wrong type, missing reference or unphysical value raises a
-``ValueError`` whose one-line message names the file, the table and the key.
+``ValueError`` whose one-line message names the file, the table and the key (``[[effects]]``
+tables as ``[[effects]] #k (kind)``, counted from 1), on loading: what the simulation would
+refuse later (a d1 hint along a line, an unknown contact line, a velocity for a fixed node)
+is checked here too, so that the message names the table at fault.
 """
 
 from __future__ import annotations
@@ -40,14 +43,27 @@ from pathlib import Path
 import numpy as np
 
 from . import materials as M
-from .net import Net
+from .limits import check_elements
+from .net import Net, frame_from_tangent
 from .scaling import Scale
-from .scene_values import (Table, Units, _one_line, _si, array, auto_or_positive, boolean,
-                           choice, floats, frame, integer, mass_value, nonnegative, number, positive,
-                           seed, string, string_list, vec3)
+from .scene_values import (Table, Units, _one_line, _show, _si, array, auto_or_positive, boolean,
+                           choice, direction, floats, frame, integer, mass_value, nonnegative,
+                           number, positive, quote_key, seed, string, string_list, vec3)
+
+# what building a net from scene values may raise for values out of range: refused, not a crash
+REFUSED = (ValueError, ArithmeticError)
+
+
+def _why(e) -> str:
+    if isinstance(e, ArithmeticError):
+        return f"numbers out of range to compute with ({e.args[-1] if e.args else type(e).__name__})"
+    return str(e)
+
 
 TOP_KEYS = ("title", "description", "scale", "materials", "sections", "nodes", "lines",
             "effects", "initial", "run")
+
+
 # ---------------------------------------------------------------------- net tables
 def _material(t: Table, name) -> M.Material:
     t.expect("E", "density", "G", "poisson")
@@ -56,8 +72,8 @@ def _material(t: Table, name) -> M.Material:
     t.done()
     try:
         return M.Material(name=name, **kw)
-    except ValueError as e:
-        raise t.err("G" if kw["G"] is not None else "poisson", e) from None
+    except REFUSED as e:
+        raise t.err("G" if kw["G"] is not None else "poisson", _why(e)) from None
 
 
 SECTIONS = {  # kind -> (constructor, required keys)
@@ -81,8 +97,8 @@ def _section(t: Table) -> M.Section:
     t.done()
     try:
         return make(**kw)
-    except ValueError as e:
-        raise t.err(keys[-1], e) from None
+    except REFUSED as e:
+        raise t.err(keys[-1], _why(e)) from None
 
 
 def _node(t: Table, net: Net, name: str):
@@ -123,10 +139,11 @@ def _line(t: Table, net: Net, name: str, materials, sections):
         sec = sections[sec]
     else:
         raise t.err("section", f"must name one of the sections {sorted(sections)} or be an "
-                               f"inline table, got {sec!r}")
+                               f"inline table, got {_show(sec)}")
     kw = dict(material=materials[mname], section=sec, elements=t.get("elements", integer))
-    for key in ("start_offset", "end_offset", "rest_curvature", "d1"):
+    for key in ("start_offset", "end_offset", "rest_curvature"):
         kw[key] = t.get(key, vec3, default=None)
+    kw["d1"] = t.get("d1", direction, default=None)
     for key in ("start_frame", "end_frame"):
         kw[key] = t.get(key, frame, default=None)
     kw["points"] = t.get("points", array((-1, 3)), default=None)
@@ -134,15 +151,32 @@ def _line(t: Table, net: Net, name: str, materials, sections):
     for key in ("start_offset", "end_offset"):
         if kw[key] is None:
             kw[key] = (0.0, 0.0, 0.0)
-    _wrap(t, "points", lambda: net.add_line(*ends, name=name, **kw))
+    line = _wrap(t, "points", lambda: net.add_line(*ends, name=name, **kw))
+    _check_first_frame(t, line)
+
+
+def _check_first_frame(t: Table, line):
+    """The director frame of the first element, which the simulation derives from the d1 hint
+    or the start frame, must exist: checked here so that the message names this table."""
+    seg = np.linalg.norm(np.diff(line.points, axis=0), axis=1)
+    if not np.all(np.isfinite(seg)):
+        raise t.err("points" if "points" in t.data else "end",
+                    "the line's length overflows: coordinates too large (keep them below 1e150)")
+    hint = line.d1
+    if hint is None and line.start_frame is not None:
+        hint = (line.start.frame @ line.start_frame)[:, 0]
+    try:
+        frame_from_tangent(line.points[1] - line.points[0], hint)
+    except ValueError as e:
+        raise t.err("d1" if line.d1 is not None else "start_frame", e) from None
 
 
 def _wrap(t: Table, fallback_key, build):
     """Run a Net call, turning its ValueError into one naming the file, table and key."""
     try:
         return build()
-    except ValueError as e:
-        msg = _one_line(e)
+    except REFUSED as e:
+        msg = _one_line(_why(e))
         said = msg.split(":", 1)[1] if ":" in msg else msg
         words = set(re.findall(r"[A-Za-z_0-9]+", said))
         if "points" in t.data and words & {"point", "points"}:
@@ -205,7 +239,10 @@ def _named(t: Table, name, kind, net: Net):
 
 def _effect(t: Table, net: Net, units: Units):
     import cosnet
-    kind = EFFECTS[t.get("kind", choice(*EFFECTS))]
+    name = t.get("kind", choice(*EFFECTS))
+    kind = EFFECTS[name]
+    if t.label.startswith("[[effects]]"):
+        t.label += f" ({name})"
     t.expect("kind", *kind.keys)
     kw = {}
     for key, conv in kind.keys.items():
@@ -213,6 +250,11 @@ def _effect(t: Table, net: Net, units: Units):
             continue
         kw[key] = _ref(t, key, conv, net) if isinstance(conv, str) else _si(units, key, t.get(key, conv))
     t.done()
+    if kw.get("lines") is not None:
+        have = [x.name for x in net.lines]
+        for name in kw["lines"]:
+            if name not in have:
+                raise t.err("lines", f"unknown line {name!r}; lines are {have}")
     cls = getattr(cosnet, kind.cls, None)
     if cls is None:
         raise t.err("kind", f"effect {kind.cls} is not available in this version of cosnet")
@@ -226,7 +268,8 @@ def _effects(top: Table, net: Net, units: Units) -> list:
     raw = top.data["effects"]
     if isinstance(raw, list):
         top.used.add("effects")
-        return [_effect(Table(top.file, f"effects[{i}]", e), net, units) for i, e in enumerate(raw)]
+        return [_effect(Table(top.file, f"effects[{i}]", e, label=f"[[effects]] #{i + 1}"), net, units)
+                for i, e in enumerate(raw)]
     return [_effect(t, net, units) for _, t in top.tables("effects")]
 
 
@@ -312,11 +355,19 @@ def _initial(t: Table | None, net: Net, units: Units) -> Initial:
         return init
     for key in ("velocity", "angular_velocity", "center"):
         setattr(init, key, _si(units, key, t.get(key, vec3, default=None)))
+    rigid = [k for k in ("velocity", "angular_velocity") if getattr(init, k) is not None]
+    if rigid and any(n.fixed_position or n.locked_axes.any() for n in net.nodes):
+        raise t.err(rigid[0], "a rigid motion of the whole net needs a net without fixed nodes "
+                              "or locked axes")
     for name, nt in t.tables("nodes"):
         node = _named(nt, name, "node", net)
-        init.nodes[node] = tuple(_si(units, k, nt.get(k, vec3, default=None))
-                                 for k in ("velocity", "angular_velocity"))
+        v, w = (_si(units, k, nt.get(k, vec3, default=None)) for k in ("velocity", "angular_velocity"))
         nt.done()
+        if v is not None and node.fixed_position:
+            raise nt.err("velocity", f"node {node.name!r} is fixed")
+        if w is not None and np.any(node.locked_axes & (np.abs(node.frame.T @ w) > 1e-12 * np.abs(w).max())):
+            raise nt.err("angular_velocity", f"it turns node {node.name!r} about a locked (fixed) axis")
+        init.nodes[node] = (v, w)
     for name, lt in t.tables("lines"):
         lt.expect("velocity", "profile")
         line = _named(lt, name, "line", net)
@@ -371,7 +422,8 @@ def _probe(t: Table, text: str, net: Net) -> Probe:
 @dataclass
 class RunSettings:
     """[run] (SI): end time ``until``, ``dt`` (None = the estimated stable step), ``stepper``,
-    ``output_interval`` (default until / 50), ``probes`` and ``force_dt``."""
+    ``output_interval`` (default until / 50), ``probes``, ``force_dt`` and ``limits`` (False:
+    skip the resource limits of cosnet.limits)."""
 
     until: float
     dt: float | None = None
@@ -379,6 +431,7 @@ class RunSettings:
     output_interval: float | None = None
     probes: list = field(default_factory=list)
     force_dt: bool = False
+    limits: bool = True
 
     @property
     def interval(self) -> float:
@@ -386,7 +439,7 @@ class RunSettings:
 
 
 def _run(t: Table, net: Net, units: Units) -> RunSettings:
-    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt")
+    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "limits")
     sec = units.factor(0, 0, 1)
     until = t.get("until", positive) * sec
     dt = t.get("dt", auto_or_positive, default="auto")
@@ -395,9 +448,12 @@ def _run(t: Table, net: Net, units: Units) -> RunSettings:
                       t.get("stepper", choice("verlet", "pefrl"), default="verlet"),
                       None if out is None else out * sec,
                       [_probe(t, p, net) for p in t.get("probes", string_list, default=[])],
-                      t.get("force_dt", boolean, default=False))
+                      t.get("force_dt", boolean, default=False), t.get("limits", boolean, default=True))
     if run.output_interval is not None and run.output_interval > until:
         raise t.err("output_interval", f"must not exceed until = {until:g} s")
+    if run.output_interval is not None and run.dt is not None and run.output_interval < run.dt:
+        raise t.err("output_interval", f"{run.output_interval:g} s is shorter than dt = {run.dt:g} s "
+                                       f"(frames would repeat); give at least dt")
     t.done()
     return run
 
@@ -424,11 +480,13 @@ class Scene:
                   force_dt=self.run.force_dt)
         kw.update(overrides)
         try:
-            sim = Simulation(self.net, **kw)
-        except ValueError as e:
-            msg = _one_line(e)
-            key = next((k for k in ("dt", "stepper") if k in msg), "")
-            raise ValueError(f"{self.path}: [run] {key}{': ' if key else ''}{msg}") from None
+            with np.errstate(all="ignore"):   # a net that overflows is refused below, in one line
+                sim = Simulation(self.net, **kw)
+        except REFUSED as e:
+            msg = _one_line(_why(e))
+            key = next((k for k in ("dt", "stepper") if re.search(rf"\b{k}\b", msg)), None)
+            where = f"[run] {key}: " if key else ""
+            raise ValueError(f"{self.path}: {where}{msg}") from None
         self.initial.apply(sim, f"{self.path}: [initial]")
         return sim
 
@@ -445,19 +503,53 @@ def read_toml(path) -> dict:
         raise ValueError(f"{path}: cannot read the scene file ({e.strerror})") from None
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{path}: not valid TOML: {_one_line(e)}") from None
+    except UnicodeDecodeError as e:
+        line = e.object[:e.start].count(b"\n") + 1
+        raise ValueError(f"{path}: not UTF-8 text: byte {e.object[e.start]:#04x} in line {line} "
+                         f"(TOML files are UTF-8)") from None
+    except RecursionError:
+        raise ValueError(f"{path}: arrays or tables nested too deeply to read") from None
 
 
-def load_scene(path) -> Scene:
-    """Read a TOML scene file and return a validated Scene."""
+def load_scene(path, limits: bool = True) -> Scene:
+    """Read a TOML scene file and return a validated Scene. ``limits=False`` skips the
+    resource limits (as ``[run] limits = false`` in the file does)."""
     path = Path(path)
-    return build_scene(read_toml(path), path)
+    return build_scene(read_toml(path), path, limits=limits)
 
 
-def build_scene(data: dict, path="<scene>") -> Scene:
+def build_scene(data: dict, path="<scene>", limits: bool = True) -> Scene:
     """Build a Scene from already-parsed TOML data (``path`` only appears in messages)."""
     path = Path(path)
+    try:
+        # extreme numbers overflow in checks that then refuse them: one message, no warnings
+        with np.errstate(all="ignore"):
+            return _build_scene(data, path, limits)
+    except RecursionError:
+        raise ValueError(f"{path}: values nested too deeply") from None
+    except ArithmeticError as e:
+        raise ValueError(f"{path}: {_why(e)}") from None
+
+
+def _check_net_size(top: Table, data: dict):
+    """Refuse a net above the element limit before building it (which would take minutes and
+    gigabytes first): named by its largest line."""
+    lines = data.get("lines")
+    if not isinstance(lines, dict):
+        return
+    counts = {name: t.get("elements") for name, t in lines.items() if isinstance(t, dict)}
+    counts = {n: c for n, c in counts.items() if isinstance(c, int) and not isinstance(c, bool) and c > 0}
+    if counts:
+        big = max(counts, key=counts.get)
+        check_elements(sum(counts.values()), f"{top.file}: [lines.{quote_key(big)}] elements")
+
+
+def _build_scene(data: dict, path: Path, limits: bool) -> Scene:
     top = Table(str(path), "", data)
     top.done(TOP_KEYS)
+    run_data = data.get("run")
+    if limits and not (isinstance(run_data, dict) and run_data.get("limits") is False):
+        _check_net_size(top, data)
     title = top.get("title", string, default=path.stem)
     top.get("description", string, default="")
     scale = None
@@ -469,8 +561,8 @@ def build_scene(data: dict, path="<scene>") -> Scene:
         st.done()
         try:
             scale = Scale(**kw)
-        except ValueError as e:
-            raise st.err("torque", e) from None
+        except REFUSED as e:
+            raise st.err("torque", _why(e)) from None
     units = Units(scale)
     materials = {n: _material(t, n) for n, t in top.tables("materials")}
     sections = {n: _section(t) for n, t in top.tables("sections")}
@@ -483,8 +575,8 @@ def build_scene(data: dict, path="<scene>") -> Scene:
         raise top.err("nodes", "the scene needs at least one [nodes.NAME] table")
     try:
         net.validate()
-    except ValueError as e:
-        msg = _one_line(e)
+    except REFUSED as e:
+        msg = _one_line(_why(e))
         name = msg.split("'")[1] if msg.startswith("node '") else ""
         raise ValueError(f"{path}: [nodes.{name}] mass: {msg}") from None
     if scale is not None:

@@ -6,7 +6,9 @@ range, and the §5 unit conversion of a [scale] table. Every failure names file,
 from __future__ import annotations
 
 import difflib
+import json
 import math
+import reprlib
 
 import numpy as np
 
@@ -16,7 +18,33 @@ _REQUIRED = object()
 
 
 def _one_line(e) -> str:
-    return " ".join(str(e).split())
+    """A message as one printable line: a control character or line separator (a scene may
+    put one in a name) is shown escaped, never as a line break."""
+    text = " ".join(str(e).split())
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother = 3, 8, 6, 80, 80
+
+
+def _show(v) -> str:
+    """A value as quoted in a message: short, and safe for deeply nested or huge values
+    (plain repr recurses without bound and can print megabytes)."""
+    return _REPR.repr(v)
+
+
+def quote_key(key) -> str:
+    """A key as TOML writes it: bare when it may be, else quoted with escapes (so a name with
+    a newline or control character cannot break a one-line message)."""
+    key = str(key)
+    if key and key.replace("_", "").replace("-", "").isalnum() and key.isascii():
+        return key
+    return json.dumps(key, ensure_ascii=False).translate(_LINE_BREAKS)
+
+
+# characters str.splitlines breaks at that json.dumps leaves alone
+_LINE_BREAKS = {0x85: "\\u0085", 0x2028: "\\u2028", 0x2029: "\\u2029"}
 
 
 class _Bad(Exception):
@@ -27,10 +55,11 @@ class _Bad(Exception):
 class Table:
     """A TOML table being read: remembers which keys were used so ``done`` can refuse the rest."""
 
-    def __init__(self, file: str, name: str, data):
+    def __init__(self, file: str, name: str, data, label: str | None = None):
         self.file, self.name = file, name
+        self.label = f"[{name}]" if label is None else label   # how messages name the table
         if not isinstance(data, dict):
-            raise ValueError(f"{file}: [{name}] must be a table, got {type(data).__name__}")
+            raise ValueError(f"{file}: {self.label} must be a table, got {type(data).__name__}")
         self.data, self.used, self.known = data, set(), None
 
     def expect(self, *keys) -> Table:
@@ -39,7 +68,7 @@ class Table:
         return self
 
     def err(self, key, msg) -> ValueError:
-        where = f"[{self.name}] {key}" if self.name else f"{key}"
+        where = f"{self.label} {quote_key(key)}" if self.name else quote_key(key)
         return ValueError(f"{self.file}: {where}: {_one_line(msg)}")
 
     def get(self, key, conv, default=_REQUIRED):
@@ -66,7 +95,7 @@ class Table:
         return Table(self.file, self._join(key), self.data[key])
 
     def _join(self, key) -> str:
-        k = key if key.replace("_", "").replace("-", "").isalnum() and key.isascii() else f'"{key}"'
+        k = quote_key(key)
         return f"{self.name}.{k}" if self.name else k
 
     def tables(self, key):
@@ -89,23 +118,23 @@ class Table:
 
 def number(v) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise _Bad(f"must be a number, got {v!r}")
+        raise _Bad(f"must be a number, got {_show(v)}")
     if not math.isfinite(v):
-        raise _Bad(f"must be finite, got {v!r}")
+        raise _Bad(f"must be finite, got {_show(v)}")
     return float(v)
 
 
 def positive(v) -> float:
     x = number(v)
     if x <= 0:
-        raise _Bad(f"must be positive, got {v!r}")
+        raise _Bad(f"must be positive, got {_show(v)}")
     return x
 
 
 def nonnegative(v) -> float:
     x = number(v)
     if x < 0:
-        raise _Bad(f"must be >= 0, got {v!r}")
+        raise _Bad(f"must be >= 0, got {_show(v)}")
     return x
 
 
@@ -115,37 +144,37 @@ def mass_value(v) -> float:
     try:
         return nonnegative(v)
     except _Bad:
-        raise _Bad(f'must be a number >= 0 or "inf", got {v!r}') from None
+        raise _Bad(f'must be a number >= 0 or "inf", got {_show(v)}') from None
 
 
 def integer(v) -> int:
     if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-        raise _Bad(f"must be a positive integer, got {v!r}")
+        raise _Bad(f"must be a positive integer, got {_show(v)}")
     return v
 
 
 def boolean(v) -> bool:
     if not isinstance(v, bool):
-        raise _Bad(f"must be true or false, got {v!r}")
+        raise _Bad(f"must be true or false, got {_show(v)}")
     return v
 
 
 def seed(v) -> int:
     if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-        raise _Bad(f"must be an integer >= 0, got {v!r}")
+        raise _Bad(f"must be an integer >= 0, got {_show(v)}")
     return v
 
 
 def string(v) -> str:
     if not isinstance(v, str):
-        raise _Bad(f"must be a string, got {v!r}")
+        raise _Bad(f"must be a string, got {_show(v)}")
     return v
 
 
 def choice(*options):
     def conv(v):
         if v not in options:
-            raise _Bad(f"must be one of {list(options)}, got {v!r}")
+            raise _Bad(f"must be one of {list(options)}, got {_show(v)}")
         return v
     return conv
 
@@ -154,21 +183,23 @@ def array(shape, allow_inf=False):
     """Numbers of the given shape (-1: any length >= 2 along that axis)."""
     def conv(v):
         if not isinstance(v, list):
-            raise _Bad(f"must be a list of numbers of shape {tuple(shape)}, got {v!r}")
+            raise _Bad(f"must be a list of numbers of shape {tuple(shape)}, got {_show(v)}")
 
-        def walk(x):
+        def walk(x, depth):
             if isinstance(x, list):
-                return [walk(y) for y in x]
+                if depth == len(shape):   # deeper than the shape: refuse before recursing on
+                    raise _Bad(f"must have shape {tuple(shape)} (a nested list), got {_show(v)}")
+                return [walk(y, depth + 1) for y in x]
             if allow_inf and isinstance(x, str) and x.strip().lower() == "inf":
                 return math.inf
             return number(x)
         try:
-            a = np.array(walk(v), dtype=float)
+            a = np.array(walk(v, 0), dtype=float)
         except ValueError:
-            raise _Bad(f"must be numbers of shape {shape}, got {v!r}") from None
+            raise _Bad(f"must be numbers of shape {shape}, got {_show(v)}") from None
         ok = a.ndim == len(shape) and all(s == -1 and n >= 2 or s == n for s, n in zip(shape, a.shape))
         if not ok:
-            raise _Bad(f"must have shape {tuple(shape)} (a nested list), got {v!r}")
+            raise _Bad(f"must have shape {tuple(shape)} (a nested list), got {_show(v)}")
         return a
     return conv
 
@@ -176,15 +207,23 @@ def array(shape, allow_inf=False):
 vec3 = array((3,))
 
 
+def direction(v):
+    """A non-zero 3-vector (a direction hint)."""
+    a = vec3(v)
+    if not np.any(a):
+        raise _Bad(f"must be a non-zero vector, got {_show(v)}")
+    return a
+
+
 def floats(v):
     if not isinstance(v, list) or not v:
-        raise _Bad(f"must be a non-empty list of numbers, got {v!r}")
+        raise _Bad(f"must be a non-empty list of numbers, got {_show(v)}")
     return np.array([number(x) for x in v])
 
 
 def string_list(v):
     if not isinstance(v, list):
-        raise _Bad(f"must be a list of strings, got {v!r}")
+        raise _Bad(f"must be a list of strings, got {_show(v)}")
     return [string(x) for x in v]
 
 
@@ -197,7 +236,7 @@ def frame(v):
     if isinstance(v, list):
         return array((3, 3))(v)
     if not isinstance(v, dict):
-        raise _Bad(f"must be a 3x3 matrix (rows) or a table of d1, d2, d3, got {v!r}")
+        raise _Bad(f"must be a 3x3 matrix (rows) or a table of d1, d2, d3, got {_show(v)}")
     bad = set(v) - {"d1", "d2", "d3"}
     if bad:
         raise _Bad(f"unknown key {sorted(bad)[0]!r} (a frame table takes d1, d2, d3)")

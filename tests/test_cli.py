@@ -3,6 +3,7 @@ killed by a signal and resumed, and off-screen rendering."""
 
 import math
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -173,3 +174,97 @@ def test_mp4_without_ffmpeg_says_what_is_missing(tiny, tmp_path):
     assert cosnet("run", tiny, "--out", out, "--until", 0.01).returncode == 0
     r = cosnet("render", out, "--mp4")
     assert r.returncode == 2 and "ffmpeg" in r.stderr and "--gif" in r.stderr
+
+
+# ---------------------------------------------------------------------- faults (docs/faults.md)
+def main_err(capsys, *argv):
+    """cosnet.cli.main in this process: (exit code, the one line it wrote to stderr)."""
+    from cosnet import cli
+    try:
+        code = cli.main([str(a) for a in argv])
+    except SystemExit as e:   # argparse
+        code = e.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("cosnet"), err
+    return code, err[0]
+
+
+def test_a_second_run_into_one_out_is_refused_unless_overwrite(tiny, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cosnet("run", tiny, "--out", out, "--until", 0.02).returncode == 0
+    (out / "notes.txt").write_text("mine")
+    (out / "lines_000099.vtu").write_text("a later frame of an older, longer run")
+    code, err = main_err(capsys, "run", tiny, "--out", out, "--until", 0.01)
+    assert code == 2 and err == (f"cosnet: error: {out}: holds a run already (*.vtu, checkpoint.npz, "
+                                 f"meta.json, probes.csv, series.pvd); pass --overwrite to replace it "
+                                 f"or --resume to continue it")
+    assert len(read_output(out).times) == 3                  # untouched
+    r = cosnet("run", tiny, "--out", out, "--until", 0.01, "--overwrite")
+    assert r.returncode == 0, r.stderr
+    assert len(read_output(out).times) == 2
+    assert sorted(p.name for p in out.glob("*.vtu")) == ["lines_000000.vtu", "lines_000001.vtu",
+                                                         "nodes_000000.vtu", "nodes_000001.vtu"]
+    assert (out / "notes.txt").read_text() == "mine"
+    assert len((out / "probes.csv").read_text().splitlines()) == 3
+    code, err = main_err(capsys, "run", tiny, "--out", out, "--overwrite", "--resume")
+    assert code == 2 and "not allowed with argument" in err
+
+
+def test_an_out_that_is_a_file_is_refused_in_one_line(tiny, tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("")
+    code, err = main_err(capsys, "run", tiny, "--out", f, "--until", 0.01)
+    assert code == 2 and err.startswith(f"cosnet: error: {f}: cannot use it as the output directory")
+
+
+@pytest.mark.parametrize("edit,until,message", [
+    (("[run]", "[run]\ndt = 1e-30\nforce_dt = true"), None,
+     r"\[run\] until = 1 s: 1e\+30 steps of dt = 1e-30 s \(\[run\] dt\) exceed the limit of 1,000,000,000 steps; "
+     r"set \[run\] limits = false in the scene or pass --no-limits to go ahead"),
+    (("output_interval = 0.01", "output_interval = 1e-12"), None,
+     r"\[run\] output_interval: 1e-12 s is shorter than one step \(dt = [\d.e-]+ s\); frames would repeat"),
+    (("output_interval = 0.01", "output_interval = 1e-9"), 1e-9, r"\[run\] until: 1e-09 s is shorter than one step"),
+    (("[run]", "[run]\nlimits = false"), math.inf, r"--until must be a positive number of seconds, got inf"),
+    (("elements = 6", "elements = 1e9"), None, r"\[lines\.rod\] elements: must be a positive integer, got 1000000000\.0"),
+    (("elements = 6", "elements = 1_000_000_000"), None,
+     r"\[lines\.rod\] elements: 1,000,000,000 elements in the net need about 2e\+03 GB of memory"),
+])
+def test_nonsense_is_refused_up_front_with_its_numbers(tiny, tmp_path, capsys, edit, until, message):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TINY.replace(*edit))
+    extra = () if until is None else ("--until", until)
+    code, err = main_err(capsys, "run", bad, "--out", tmp_path / "o", *extra)
+    assert code == 2 and re.search(message, err), err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_joint_stiff_enough_for_1e151_steps_is_refused_naming_it(tmp_path, capsys):
+    case = (REPO / "cases" / "elastica_joints.toml").read_text()
+    assert "\nkind = \"spherical_joint\"" in case and "\nk = 1.0e6\n" in case
+    bad = tmp_path / "stiff.toml"
+    bad.write_text(case.replace("\nk = 1.0e6\n", "\nk = 1.0e300\n", 1))   # the spherical joint's
+    code, err = main_err(capsys, "run", bad, "--out", tmp_path / "o")
+    assert code == 2 and re.search(r"[\d.]+e\+1\d\d steps of dt = [\d.]+e-1\d\d s \(the stable step of "
+                                   r"SphericalJoint.*\) exceed the limit", err), err
+
+
+def test_unreadable_scenes_and_bad_options_end_in_one_line(tmp_path, capsys):
+    utf = tmp_path / "latin1.toml"
+    utf.write_bytes(TINY.replace("tiny rod", "tiny r\xf6d").encode("latin-1"))
+    assert main_err(capsys, "info", utf) == (2, f"cosnet: error: {utf}: not UTF-8 text: byte 0xf6 in line 2 "
+                                                 f"(TOML files are UTF-8)")
+    deep = tmp_path / "deep.toml"
+    deep.write_text(TINY.replace("position = [0.5, 0.0, 0.0]", "position = " + "[" * 5000 + "]" * 5000))
+    assert main_err(capsys, "run", deep) == (2, f"cosnet: error: {deep}: arrays or tables nested too deeply to read")
+    code, err = main_err(capsys, "modes", "cantilever", "--frames", "0")
+    assert code == 2 and err == ("cosnet modes: error: argument --frames: must be a positive integer, got '0' "
+                                 "(see cosnet modes --help)")
+
+
+def test_out_of_memory_ends_in_one_line(tiny, capsys, monkeypatch):
+    import cosnet.scene
+
+    def exhausted(*a, **kw):
+        raise MemoryError
+    monkeypatch.setattr(cosnet.scene, "load_scene", exhausted)
+    assert main_err(capsys, "info", tiny) == (2, f"cosnet: error: {tiny}: out of memory: too large for this machine")

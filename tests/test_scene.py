@@ -4,6 +4,7 @@ ValueError naming the file, the table and the key."""
 
 import copy
 import math
+import re
 import tomllib
 
 import numpy as np
@@ -248,7 +249,7 @@ def dumps(data) -> str:
         if isinstance(v, str):
             return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
         if isinstance(v, (int, float)):
-            return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf")
+            return repr(v) if math.isfinite(v) else "nan" if v != v else ("inf" if v > 0 else "-inf")
         if isinstance(v, list):
             return "[" + ", ".join(value(x) for x in v) + "]"
         if isinstance(v, dict):
@@ -303,9 +304,9 @@ def table_of(data, path):
 
 
 def table_label(path):
-    """How the message names the table: [lines.arm], [effects[1]], [run] ..."""
+    """How the message names the table: [lines.arm], [[effects]] #2, [run] ..."""
     if len(path) >= 2 and isinstance(path[1], int):
-        return f"{path[0]}[{path[1]}]"
+        return f"[[{path[0]}]] #{path[1] + 1}"
     return ".".join(str(p) for p in path)
 
 
@@ -420,11 +421,12 @@ def test_build_scene_accepts_parsed_data():
 
 
 def test_a_dt_above_the_stable_step_is_refused_naming_run_dt(tmp_path):
-    p = write(tmp_path, SCENE.replace('dt = "auto"', "dt = 1.0"))
+    text = SCENE.replace("output_interval = 0.001\n", "")   # (frames closer than dt are refused)
+    p = write(tmp_path, text.replace('dt = "auto"', "dt = 1.0"))
     scene = load_scene(p)
     with pytest.raises(ValueError, match=r"scene\.toml: \[run\] dt: .*exceeds the estimated stable step"):
         scene.simulation()
-    forced = load_scene(write(tmp_path, SCENE.replace('dt = "auto"', "dt = 1.0\nforce_dt = true"), "f.toml"))
+    forced = load_scene(write(tmp_path, text.replace('dt = "auto"', "dt = 1.0\nforce_dt = true"), "f.toml"))
     assert forced.simulation().dt == 1.0
 
 
@@ -461,10 +463,9 @@ until = 0.01
     # a rigid rotation stays rigid to first order: the strain energy grows only from the
     # centrifugal stretch, O(h^2), far below the kinetic energy
     assert sim.energy_parts()["strain"] - s0 < 1e-6 * e0["kinetic"]
-    # the everything scene has a fixed node: a rigid motion of the whole net is refused
-    broken = load_scene(write(tmp_path, SCENE + "\n[initial]\nvelocity = [1.0, 0.0, 0.0]\n", "fixed.toml"))
+    # the everything scene has a fixed node: a rigid motion of the whole net is refused (on loading)
     with pytest.raises(ValueError, match=r"\[initial\] velocity: a rigid motion of the whole net needs"):
-        broken.simulation()
+        load_scene(write(tmp_path, SCENE + "\n[initial]\nvelocity = [1.0, 0.0, 0.0]\n", "fixed.toml"))
 
 
 def test_effects_may_be_named_tables(tmp_path):
@@ -485,3 +486,91 @@ until = 0.01
     np.testing.assert_array_equal(scene.effects[0].g, [0.0, -1.62, 0.0])
     with pytest.raises(ValueError, match=r"\[effects\.air\] translatonal: unknown key"):
         load_scene(write(tmp_path, text.replace("translational", "translatonal"), "bad.toml"))
+
+
+# ---------------------------------------------------------------------- faults found at load
+def refused(p, match):
+    """load_scene(p) raises a one-line ValueError naming the file and matching ``match``."""
+    with pytest.raises(ValueError) as info:
+        load_scene(p)
+    msg = str(info.value)
+    assert len(msg.splitlines()) == 1 and msg.startswith(f"{p}: "), msg
+    assert re.search(match, msg), msg
+    return msg
+
+
+def test_invalid_utf8_is_refused_naming_the_file(tmp_path):
+    p = tmp_path / "latin1.toml"
+    p.write_bytes(SCENE.replace('"everything"', '"caf\xe9"').encode("latin-1"))
+    refused(p, r"not UTF-8 text: byte 0xe9 in line 2")
+
+
+def test_deeply_nested_arrays_are_refused_in_one_line(tmp_path):
+    """5,000 nested arrays overflow the TOML reader's recursion; 100 overflow no reader but
+    are no position either."""
+    deep = SCENE.replace("position = [1.0, 1.0, 0.0]", "position = " + "[" * 5000 + "]" * 5000)
+    refused(write(tmp_path, deep), r"nested too deeply")
+    deep = SCENE.replace("position = [1.0, 1.0, 0.0]", "position = " + "[" * 100 + "1.0" + "]" * 100)
+    msg = refused(write(tmp_path, deep, "500.toml"), r"\[nodes\.hinge\] position: must have shape \(3,\)")
+    assert len(msg) < 400
+
+
+def test_a_zero_d1_is_refused_at_load_naming_the_line(tmp_path):
+    text = SCENE.replace("[lines.arm]", '[lines."λ1"]').replace('line = "arm"', 'line = "λ1"')
+    text = text.replace('"arm@0.5"', '"λ1@0.5"').replace("end_offset = [0.0, 0.0, -0.1]",
+                                                           "end_offset = [0.0, 0.0, -0.1]\nd1 = [0, 0, 0]")
+    refused(write(tmp_path, text), r'\[lines\."λ1"\] d1: must be a non-zero vector')
+
+
+def test_a_start_frame_whose_d1_lies_along_the_line_is_refused_at_load(tmp_path):
+    """The brace runs along (1, 1, 0) / sqrt 2; a start frame with d1 along it leaves the first
+    element without a frame."""
+    text = SCENE.replace("start_frame = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]",
+                         "start_frame = { d1 = [0.7071067811865476, 0.7071067811865476, 0.0], "
+                         "d3 = [0.0, 0.0, 1.0] }")
+    refused(write(tmp_path, text), r"\[lines\.brace\] start_frame: d1 hint is parallel")
+
+
+def test_an_unknown_contact_line_is_refused_at_load_naming_the_effect(tmp_path):
+    text = SCENE.replace("[initial.nodes.body]", '[[effects]]\nkind = "contact"\nk = 1e4\nlines = ["arm", "x"]\n'
+                                                 "[initial.nodes.body]")
+    refused(write(tmp_path, text), r"\[\[effects\]\] #5 \(contact\) lines: unknown line 'x'; lines are")
+
+
+def test_initial_velocities_that_cannot_apply_are_refused_at_load(tmp_path):
+    text = SCENE.replace("[initial.nodes.body]", "[initial]\nvelocity = [1.0, 0.0, 0.0]\n[initial.nodes.body]")
+    refused(write(tmp_path, text), r"\[initial\] velocity: a rigid motion of the whole net needs")
+    refused(write(tmp_path, SCENE + "[initial.nodes.root]\nvelocity = [1.0, 0.0, 0.0]\n", "r.toml"),
+            r"\[initial\.nodes\.root\] velocity: node 'root' is fixed")
+    # the hinge's third body axis (d3 = lab z) is locked
+    refused(write(tmp_path, SCENE + "[initial.nodes.hinge]\nangular_velocity = [0.0, 0.0, 1.0]\n", "w.toml"),
+            r"\[initial\.nodes\.hinge\] angular_velocity: it turns node 'hinge' about a locked")
+
+
+def test_frames_closer_than_the_step_are_refused(tmp_path):
+    text = SCENE.replace('dt = "auto"', "dt = 1e-5").replace("output_interval = 0.001", "output_interval = 1e-12")
+    refused(write(tmp_path, text), r"\[run\] output_interval: 1e-12 s is shorter than dt = 1e-05 s")
+
+
+def test_a_net_above_the_element_limit_is_refused_before_it_is_built(tmp_path):
+    from cosnet.limits import MAX_ELEMENTS
+    text = SCENE.replace("elements = 4", "elements = 100_000_000")
+    msg = refused(write(tmp_path, text), r"\[lines\.bent\] elements: 100,000,0\d\d elements in the net "
+                                         r"need about [\d.]+ GB of memory")
+    assert f"{MAX_ELEMENTS:,} elements" in msg and "limits = false" in msg and "--no-limits" in msg
+
+
+def test_a_name_with_a_line_break_stays_on_one_line(tmp_path):
+    text = SCENE.replace("[materials.soft]", '[materials."so\\nft\\u2028"]').replace(
+        'material = "soft"', 'material = "so\\nft\\u2028"').replace("poisson = 0.25", "poisson = 0.25\nmass = 1")
+    refused(write(tmp_path, text), r'\[materials\."so\\nft\\u2028"\] mass: unknown key')
+
+
+@pytest.mark.parametrize("old,new,match", [
+    ("radius = 0.01", "radius = 1e300", r"\[sections\.rod\] radius: numbers out of range to compute with"),
+    ("position = [1.0, 0.0, 0.0]\nmass = 0.5", "position = [1e300, -1e300, 0.0]\nmass = 0.5",
+     r"\[lines\.arm\] end: the line's length overflows"),
+])
+def test_numbers_that_overflow_are_refused_naming_the_key(tmp_path, recwarn, old, new, match):
+    refused(write(tmp_path, SCENE.replace(old, new)), match)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
