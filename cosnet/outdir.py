@@ -35,6 +35,8 @@ def run_files(out: Path) -> list[Path]:
 def locked(out: Path):
     """Create ``out`` if needed and hold its lock for the duration of the block; a directory
     another process holds is refused with a ValueError naming it."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{out}: exists and is not a directory")
     try:
         out.mkdir(parents=True, exist_ok=True)
         fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT, 0o644)

@@ -154,7 +154,6 @@ def test_a_directory_locked_by_a_running_run_is_refused(scene, tmp_path):
     assert not (out / "series.pvd").exists()
 
 
-@pytest.mark.xfail(strict=False, reason="--resume does not yet refuse a corrupted checkpoint in one line")
 @pytest.mark.parametrize("damage", ["truncated", "random bytes"])
 def test_a_corrupted_checkpoint_is_refused_in_one_line(scene, full, tmp_path, damage):
     out = tmp_path / "copy"

@@ -308,7 +308,7 @@ def test_out_that_is_a_file_and_bad_until_are_one_line(tiny, tmp_path, capsys):
     assert f"{f}: exists and is not a directory" in _error_line(capsys)
     for bad in ("inf", "nan", "-1", "0"):
         assert cli.main(["run", str(tiny), "--out", str(tmp_path / "o"), "--until", bad]) == 2
-        assert "--until must be a positive finite time" in _error_line(capsys)
+        assert "--until must be a positive number of seconds" in _error_line(capsys)
 
 
 def test_resume_from_damaged_checkpoint_or_series_is_one_line(tiny, tmp_path, capsys):
