@@ -57,6 +57,8 @@ def cmd_run(args) -> int:
     if not until > 0:
         raise ValueError(f"--until must be positive, got {args.until}")
     sim = scene.simulation()
+    if not kernels_compiled(sim):
+        print("compiling kernels (first run only)...", file=sys.stderr)
     rec = Recorder(out, sim, until, scene.run.interval, scene.run.probes, resume=args.resume)
     if args.resume and rec.done:
         print(f"{scene.path}: already at t = {sim.time:.6g} s = --until; nothing to do", file=sys.stderr)
@@ -65,8 +67,6 @@ def cmd_run(args) -> int:
         print(f"resuming {scene.path} from frame {rec.k} at t = {sim.time:.6g} s", file=sys.stderr)
     print(f"{scene.title}: {len(scene.net.lines)} lines, {scene.net.element_count} elements, "
           f"dt = {sim.dt:.4g} s, {rec.steps_left()} steps to t = {until:g} s -> {out}", file=sys.stderr)
-    if not kernels_compiled(sim):
-        print("compiling kernels (first run only)...", file=sys.stderr)
     progress = Progress(until, sim.dt)
     rec.run(progress)
     progress(sim, force=True)
