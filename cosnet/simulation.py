@@ -252,7 +252,7 @@ class Simulation:
             f"a flutter of the discretised net (it turns at {rate:.3g} rad/s against the end "
             f"element of line {line.name!r}, a {angle:.2g} rad vibration at the grid scale grown "
             f"{h[1] / h[0]:.3g} and {h[2] / h[1]:.3g} times over the last two checks; a dead, "
-            f"constant-direction torque drives it on a node without rotary inertia of its own)",
+            f"constant-direction torque on a node without rotary inertia of its own drives such flutter)",
             self.dt, self.dt, advice="a smaller dt does not remove it; give the node a rotary "
             "inertia of its own (a fitting) or use another number of elements (docs/rolled_cantilever.md)")
 
