@@ -7,12 +7,11 @@
     cosnet render DIR [--png|--gif|--mp4] [--field NAME]     pictures of a written series
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
 
-``run`` writes a frame, a probes row and a checkpoint every output interval, each only after
-the state has passed every test of the instability watch (so on instability the checkpoint
-holds the last state that passed). Frame k sits
-exactly at step ceil(k * interval / dt), and the steps between frames are taken in chunks
-whose boundaries depend only on the absolute step count, so ``--resume`` (continue from the
-last checkpoint in DIR) reproduces an uninterrupted run bit for bit.
+``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
+interval (cosnet.record, which ``Simulation.run(out=...)`` uses too), each only after the
+state has passed every test of the instability watch (so on instability the checkpoint holds
+the last state that passed); ``--resume`` (continue
+from the last checkpoint in DIR) reproduces an uninterrupted run bit for bit.
 """
 
 from __future__ import annotations
@@ -21,14 +20,9 @@ import argparse
 import math
 import os
 import sys
-import time
 from pathlib import Path
 
 from .scene_values import _one_line
-
-CHECKPOINT = "checkpoint.npz"
-PROBES = "probes.csv"
-CHUNK = 2000  # steps per compiled call; boundaries at multiples of CHUNK (see module docstring)
 
 
 def cases_dir() -> Path:
@@ -60,68 +54,6 @@ def scene_path(arg: str | None) -> Path:
     raise ValueError(f"{arg}: no such scene file, nor a ready case; cases are {', '.join(names)}")
 
 
-def frame_steps(k: int, interval: float, dt: float, end_steps: int) -> int:
-    """Step count at which output frame k is written."""
-    return min(int(math.ceil(k * interval / dt - 1e-9)), end_steps)
-
-
-def advance_to(sim, target: int, progress=None):
-    """Step ``sim`` to ``target`` steps in chunks aligned on multiples of CHUNK."""
-    while sim.steps < target:
-        n = min(target, (sim.steps // CHUNK + 1) * CHUNK) - sim.steps
-        sim.run(steps=n)
-        if progress is not None:
-            progress(sim)
-
-
-class Progress:
-    """One status line on stderr: simulated time, steps per second, estimated time left."""
-
-    def __init__(self, until: float, dt: float, stream=sys.stderr):
-        self.until, self.dt, self.stream = until, dt, stream
-        self.t0 = time.perf_counter()
-        self.steps0 = None
-        self.last = 0.0
-
-    def __call__(self, sim, force=False):
-        now = time.perf_counter()
-        if self.steps0 is None:
-            self.steps0, self.t0 = sim.steps, now
-            return
-        if not force and now - self.last < 0.5:
-            return
-        self.last = now
-        rate = (sim.steps - self.steps0) / max(now - self.t0, 1e-9)
-        left = max(self.until - sim.time, 0.0) / self.dt / rate if rate > 0 else math.inf
-        self.stream.write(f"\r  t = {sim.time:.5g} / {self.until:.5g} s  {rate:,.0f} steps/s  "
-                          f"ETA {left:.0f} s   ")
-        self.stream.flush()
-
-
-def _probe_header(probes) -> str:
-    cols = ["frame", "time"] + [f"{p.name}_{a}" for p in probes for a in "xyz"]
-    return ",".join(cols) + "\n"
-
-
-def _probe_row(k, sim, probes) -> str:
-    vals = [repr(float(x)) for p in probes for x in p.position(sim)]
-    return ",".join([str(k), repr(sim.time)] + vals) + "\n"
-
-
-def _keep_probe_rows(path: Path, header: str, last_frame: int):
-    """Keep the whole rows of frames up to last_frame (a row torn by a kill or a full disk
-    is dropped)."""
-    from .io import replace_atomically
-    rows, width = [header], header.count(",")
-    if path.exists():
-        for line in path.read_text(errors="replace").splitlines(keepends=True)[1:]:
-            first = line.split(",", 1)[0]
-            if (line.endswith("\n") and line.count(",") == width and first.isdigit()
-                    and int(first) <= last_frame):
-                rows.append(line)
-    replace_atomically(path, lambda tmp: tmp.write_text("".join(rows)))
-
-
 def cmd_run(args) -> int:
     from . import outdir
     from .limits import check_run
@@ -147,46 +79,21 @@ def cmd_run(args) -> int:
 
 
 def _write_run(args, scene, sim, out: Path, until: float) -> int:
-    from .io import SeriesWriter
-    ckpt = out / CHECKPOINT
-    probes = scene.run.probes
-    header = _probe_header(probes)
-    interval = min(scene.run.interval, until)
+    from .record import Progress, Recorder, kernels_compiled
+    if not kernels_compiled(sim):
+        print("compiling kernels (first run only)...", file=sys.stderr)
+    rec = Recorder(out, sim, until, scene.run.interval, scene.run.probes, resume=args.resume)
+    if args.resume and rec.done:
+        print(f"{scene.path}: already at t = {sim.time:.6g} s = --until; nothing to do", file=sys.stderr)
+        return 0
     if args.resume:
-        if not ckpt.exists():
-            raise ValueError(f"{out}: nothing to resume (no {CHECKPOINT})")
-        sim.load_checkpoint(ckpt)
-    end = int(math.ceil(until / sim.dt - 1e-9))
-    frames = int(math.ceil(until / interval - 1e-9))
-    if args.resume:
-        k = next((j for j in range(frames + 1) if frame_steps(j, interval, sim.dt, end) == sim.steps), None)
-        if k is None:
-            raise ValueError(f"{ckpt}: its step {sim.steps} is not an output frame of this run "
-                             f"(same scene and --until needed to resume)")
-        writer = SeriesWriter(out, scene.net, resume_after=k)
-        _keep_probe_rows(out / PROBES, header, k)
-        print(f"resuming {scene.path} from frame {k} at t = {sim.time:.6g} s", file=sys.stderr)
-    else:
-        writer = SeriesWriter(out, scene.net)
-        (out / PROBES).write_text(header)
-        k = writer.write(sim)
-        with open(out / PROBES, "a") as f:
-            f.write(_probe_row(k, sim, probes))
-        sim.save_checkpoint(ckpt)
+        print(f"resuming {scene.path} from frame {rec.k} at t = {sim.time:.6g} s", file=sys.stderr)
     print(f"{scene.title}: {len(scene.net.lines)} lines, {scene.net.element_count} elements, "
-          f"dt = {sim.dt:.4g} s, {end - sim.steps} steps to t = {until:g} s -> {out}", file=sys.stderr)
+          f"dt = {sim.dt:.4g} s, {rec.steps_left()} steps to t = {until:g} s -> {out}", file=sys.stderr)
     progress = Progress(until, sim.dt)
-    progress(sim)
-    with open(out / PROBES, "a") as pf:
-        while k < frames:
-            k += 1
-            advance_to(sim, frame_steps(k, interval, sim.dt, end), progress)
-            writer.write(sim)
-            pf.write(_probe_row(k, sim, probes))
-            pf.flush()
-            sim.save_checkpoint(ckpt)
+    rec.run(progress)
     progress(sim, force=True)
-    sys.stderr.write(f"\ndone: {writer.frames} frames in {out}\n")
+    sys.stderr.write(f"\ndone: {rec.writer.frames} frames in {out}\n")
     return 0
 
 

@@ -118,13 +118,9 @@ class SeriesWriter:
         nb = self._node_buf
         for node in self.net.nodes:
             i = node.index
-            r = sim.node_rotation(node)
-            x = sim.node_position(node)
-            w_lab = r @ _node_body_w(sim, node)
-            self._nodes_pts[i] = x
-            nb["velocity"][i] = sim.node_velocity(node) + np.cross(w_lab, x - sim.state.node_x[i])
-            nb["angular_velocity"][i] = w_lab
-            nb["d1"][i], nb["d2"][i], nb["d3"][i] = r[:, 0], r[:, 1], r[:, 2]
+            self._nodes_pts[i] = sim.node_position(node)
+            for name, value in node_point_fields(sim, node).items():
+                nb[name][i] = value
         ids = np.arange(len(self.net.nodes), dtype=np.int32)
         nodes = meshio.Mesh(self._nodes_pts, [("vertex", ids[:, None].astype(np.int64))],
                             point_data={"node_id": ids, **nb}, cell_data={"node_id": [ids]})
@@ -142,6 +138,16 @@ class SeriesWriter:
                 ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(p), file=name)
         ET.indent(root)
         _atomic_write(self.dir / PVD, ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
+
+
+def node_point_fields(sim, node) -> dict:
+    """NODE_FIELDS of a node, each (3,): velocity of its reference point, angular velocity
+    (lab) and its frame's d1, d2, d3."""
+    r = sim.node_rotation(node)
+    x = sim.node_position(node)
+    w_lab = r @ _node_body_w(sim, node)
+    v = sim.node_velocity(node) + np.cross(w_lab, x - sim.state.node_x[node.index])
+    return {"velocity": v, "angular_velocity": w_lab, "d1": r[:, 0], "d2": r[:, 1], "d3": r[:, 2]}
 
 
 def _node_body_w(sim, node) -> np.ndarray:

@@ -328,3 +328,25 @@ def node_row_bounds(model: Model, jn: np.ndarray) -> np.ndarray:
     rr = np.where(has_j, rr, 0.0)
     nn = model.node_mass.shape[0]
     return np.maximum(np.bincount(nd, rt, minlength=nn), np.bincount(nd, rr, minlength=nn))
+
+
+def node_wobble(model: Model, state: State) -> tuple[float, float, int]:
+    """(angle, rate, line end): the largest turning rate |w_node - w_end element| (lab) of a
+    rotating node against the end element of a line attached to it, and that rate divided
+    by the node's highest frequency (its Gershgorin bound): the amplitude, in rad, of a
+    vibration of the node against its line end at the grid scale. Resolved motion turns a
+    node with its line ends (the angle stays far below 1e-3 rad); a node fluttering at the
+    grid scale does not."""
+    na = model.attach_node.shape[0]
+    if na == 0:
+        return 0.0, 0.0, 0
+    nd, e = model.attach_node, model.attach_element
+    free = model.node_locked[nd] == 0.0
+    w_node = qrot(cols(state.node_q[nd]), cols(np.where(free, state.node_w[nd], 0.0)))
+    w_elem = qrot(cols(state.q[e]), cols(state.w[e]))
+    rate = np.sqrt(sum((w_node[k] - w_elem[k]) ** 2 for k in range(3)))
+    w2 = node_row_bounds(model, node_min_inertia(model))[nd]
+    rotating = np.any(free, axis=1) & (w2 > 0.0)
+    angle = np.where(rotating, rate / np.sqrt(np.where(rotating, w2, 1.0)), 0.0)
+    a = int(np.argmax(angle))
+    return float(angle[a]), float(rate[a]), a

@@ -45,6 +45,7 @@ import numpy as np
 from . import materials as M
 from .limits import check_elements
 from .net import Net, frame_from_tangent
+from .record import Probe, parse_probe
 from .scaling import Scale
 from .scene_values import (Table, Units, _one_line, _show, _si, array, auto_or_positive, boolean,
                            choice, direction, floats, frame, integer, mass_value, nonnegative,
@@ -385,38 +386,11 @@ def _initial(t: Table | None, net: Net, units: Units) -> Initial:
 
 
 # ---------------------------------------------------------------------- run settings
-@dataclass
-class Probe:
-    """A point recorded at every output frame: a node's reference point or the vertex of a
-    line nearest to the arc-length fraction s ("LINE@s"; plain "LINE" is its midpoint)."""
-
-    name: str
-    node: object = None
-    line: object = None
-    vertex: int = 0
-
-    def position(self, sim) -> np.ndarray:
-        if self.node is not None:
-            return sim.node_position(self.node)
-        return sim.line_positions(self.line)[self.vertex].copy()
-
-
-def _probe(t: Table, text: str, net: Net) -> Probe:
-    names = {n.name for n in net.nodes}
-    if text in names:
-        return Probe(text, node=net.node(text))
-    lname, _, frac = text.partition("@")
+def _probe(t: Table, text, net: Net) -> Probe:
     try:
-        line = net.line(lname)
-    except KeyError:
-        raise t.err("probes", f"{text!r} names no node or line (use NODE, LINE or LINE@s)") from None
-    try:
-        s = float(frac) if frac else 0.5
-    except ValueError:
-        s = -1.0
-    if not 0.0 <= s <= 1.0:
-        raise t.err("probes", f"{text!r}: the fraction after @ must be a number in [0, 1]")
-    return Probe(text, line=line, vertex=int(round(s * line.elements)))
+        return parse_probe(text, net)
+    except ValueError as e:
+        raise t.err("probes", str(e)) from None
 
 
 @dataclass

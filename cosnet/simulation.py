@@ -35,16 +35,20 @@ STATE_NAMES = {"x": "position", "v": "velocity", "q": "orientation", "w": "angul
                "node_x": "node position", "node_v": "node velocity", "node_q": "node orientation",
                "node_w": "node angular velocity", "node_hold": "node held momentum", "clock": "time"}
 ENERGY_GROWTH = 10.0  # energy rising by this many times its scale, with nothing feeding it in
+# a node turning against its line end (measure.node_wobble) by more than WOBBLE_FLOOR rad at
+# the grid scale, grown by WOBBLE_GROWTH times at each of two checks in a row, is fluttering
+WOBBLE_FLOOR = 1e-3
+WOBBLE_GROWTH = 3.0
 
 
 class InstabilityError(RuntimeError):
     """The simulation blew up. Attributes: time, where (line/node and element), quantity,
     safe_dt; the message says all four."""
 
-    def __init__(self, time, where, quantity, dt, safe_dt):
+    def __init__(self, time, where, quantity, dt, safe_dt, advice=None):
         self.time, self.where, self.quantity, self.safe_dt = time, where, quantity, safe_dt
-        super().__init__(f"unstable at t = {time:.6g} s: {quantity} at {where}; dt = {dt:.4g} s, "
-                         f"a dt below {safe_dt:.4g} s should be stable")
+        advice = advice or f"a dt below {safe_dt:.4g} s should be stable"
+        super().__init__(f"unstable at t = {time:.6g} s: {quantity} at {where}; dt = {dt:.4g} s, {advice}")
 
 
 @lru_cache(maxsize=None)
@@ -108,6 +112,7 @@ class Simulation:
         self._e_start = None  # the energy watch's reference (None: taken at the next check)
         self._scale = 0.0
         self._watched_at = None   # step count at the last strain/energy check
+        self._wobble = []         # measure.node_wobble's angle at the last three checks
         self._seal = None         # hash of the state as the last run() or check() saw it
         self._passed = None       # hash of the last state that passed the full check
         self._advance = STEPPERS[stepper]
@@ -170,10 +175,21 @@ class Simulation:
     def time(self) -> float:
         return float(self.state.clock[0])
 
-    def run(self, until: float | None = None, steps: int | None = None):
+    def run(self, until: float | None = None, steps: int | None = None, *, out=None, every=None,
+            probes=(), callback=None):
         """Advance to time ``until`` (the last step may overshoot by less than dt) or by
-        ``steps`` steps (a non-negative integer). Even zero steps scan the state for
-        non-finite values."""
+        ``steps`` steps (a non-negative integer; even zero steps scan the state for
+        non-finite values). With ``out`` (a directory) or ``callback``, stop at every multiple
+        of ``every`` seconds after the current time (default: 50 frames) and at ``until``,
+        landing on each with a shortened step, and there write the files ``cosnet run``
+        writes (``out``: series.pvd, frames, meta.json, probes.csv of ``probes`` such as
+        ["tip", "rod@0.5:force"], checkpoint.npz) and call ``callback(self)``
+        (cosnet.record)."""
+        if out is not None or callback is not None or every is not None or probes:
+            from .record import run_with_output
+            if steps is not None:
+                raise ValueError("Simulation.run: out, every, probes and callback go with until, not steps")
+            return run_with_output(self, until, out, every, probes, callback)
         if (until is None) == (steps is None):
             raise ValueError("Simulation.run: give exactly one of until or steps")
         if steps is None:
@@ -234,6 +250,7 @@ class Simulation:
         (found by its hash) starts a new reference at the next check."""
         if self._seal is not None and self._seal != seal:
             self._e_start = None
+            self._wobble = []
         self._seal = seal
 
     def _watch_start(self):
@@ -258,9 +275,28 @@ class Simulation:
                 quantity += (" although dt is within the stable step: the loads likely exceed what "
                              "the line can bear (a physical overload, not a time-step problem)")
             self._fail(quantity, self._where("element", e))
+        self._watch_wobble()
         if self._watch_energy:
             self._watch_energy_growth()
         self._passed = self._seal
+
+    def _watch_wobble(self):
+        """Stop a node whose vibration against its line end keeps growing at the grid scale:
+        a flutter of the discrete net that no smaller dt removes (docs/rolled_cantilever.md)."""
+        angle, rate, a = measure.node_wobble(self.model, self.state)
+        h = self._wobble = (self._wobble + [angle])[-3:]
+        if len(h) < 3 or angle < WOBBLE_FLOOR or not h[2] > WOBBLE_GROWTH * h[1] > WOBBLE_GROWTH ** 2 * h[0] > 0:
+            return
+        node = self.net.nodes[int(self.model.attach_node[a])]
+        line = self.net.lines[a // 2]
+        raise InstabilityError(
+            self.time, f"node {node.name!r}",
+            f"a flutter of the discretised net (it turns at {rate:.3g} rad/s against the end "
+            f"element of line {line.name!r}, a {angle:.2g} rad vibration at the grid scale grown "
+            f"{h[1] / h[0]:.3g} and {h[2] / h[1]:.3g} times over the last two checks; a dead, "
+            f"constant-direction torque on a node without rotary inertia of its own drives such flutter)",
+            self.dt, self.dt, advice="a smaller dt does not remove it; give the node a rotary "
+            "inertia of its own (a fitting) or use another number of elements (docs/rolled_cantilever.md)")
 
     def _watch_energy_growth(self):
         p = self.energy_parts()
