@@ -68,16 +68,15 @@ def test_blown_up_ring_writes_no_frame_or_checkpoint_that_failed_the_watch(tmp_p
     assert len(rows) == 1 + len(series.times)
 
 
-def stretched(n=6):
-    """A steel cantilever whose interior vertices were pulled to 3 times their distance from
-    the root: strain 2, finite everywhere."""
+def steel_rod(n=6):
+    """A steel cantilever at rest, and its line (the tests pull its interior vertices to 3
+    times their distance from the root: strain 2 or more, finite everywhere)."""
     net, line, root, tip = cantilever(n=n)
-    sim = cosnet.Simulation(net)
-    return sim, line
+    return cosnet.Simulation(net), line
 
 
 def test_writers_refuse_a_state_that_fails_the_watch(tmp_path):
-    sim, line = stretched()
+    sim, line = steel_rod()
     ckpt = tmp_path / "c.npz"
     writer = SeriesWriter(tmp_path / "o", sim.net)
     writer.write(sim)
@@ -95,7 +94,7 @@ def test_writers_refuse_a_state_that_fails_the_watch(tmp_path):
 def test_check_runs_the_strain_test_between_chunk_checks():
     """run() checks strain every CHUNK_STEPS steps; check() does at once, and a passed state
     is not checked again (its hash is remembered)."""
-    sim, line = stretched()
+    sim, line = steel_rod()
     sim.run(steps=1)                       # the first call checks everything
     sim.check()
     assert sim._passed == sim._seal
