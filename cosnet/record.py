@@ -212,8 +212,10 @@ class Recorder:
         self.header = probe_header(self.probes)
         ckpt = self.out / CHECKPOINT
         if resume:
-            if not ckpt.exists() or not (self.out / PVD).exists():
+            if not ckpt.exists():
                 raise ValueError(f"{self.out}: nothing to resume (no {CHECKPOINT})")
+            if not (self.out / PVD).is_file():
+                raise ValueError(f"{self.out / PVD}: missing, so there is no series to resume")
             sim.load_checkpoint(ckpt)
             self.start = read_pvd(self.out / PVD)[0][0]
         else:
@@ -267,16 +269,22 @@ class Recorder:
         return self.sim
 
 
-def run_with_output(sim, until, out=None, every=None, probes=(), callback=None):
+def run_with_output(sim, until, out=None, every=None, probes=(), callback=None, overwrite=False):
     """Simulation.run(until, out=..., every=..., probes=..., callback=...): advance to
     ``until`` with a frame every ``every`` seconds (default: a 50th of the run), written into
-    ``out`` (a Recorder) and/or passed to ``callback(sim)``."""
+    ``out`` (a Recorder, holding the directory's lock as ``cosnet run`` does; a directory
+    that holds a run already is refused unless ``overwrite``) and/or passed to
+    ``callback(sim)``."""
     if until is None:
         raise ValueError("Simulation.run: out, every, probes and callback need until")
     until = float(until)
     every = (until - sim.time) / 50.0 if every is None else every
     if out is not None:
-        return Recorder(out, sim, until, every, probes, callback).run()
+        from . import outdir
+        out = Path(out)
+        with outdir.locked(out):
+            outdir.prepare(out, resume=False, overwrite=overwrite)
+            return Recorder(out, sim, until, every, probes, callback).run()
     if probes:
         raise ValueError("Simulation.run: probes are written to probes.csv in out; give out as well")
     if callback is not None and not callable(callback):

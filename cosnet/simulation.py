@@ -176,20 +176,20 @@ class Simulation:
         return float(self.state.clock[0])
 
     def run(self, until: float | None = None, steps: int | None = None, *, out=None, every=None,
-            probes=(), callback=None):
+            probes=(), callback=None, overwrite: bool = False):
         """Advance to time ``until`` (the last step may overshoot by less than dt) or by
         ``steps`` steps (a non-negative integer; even zero steps scan the state for
         non-finite values). With ``out`` (a directory) or ``callback``, stop at every multiple
         of ``every`` seconds after the current time (default: 50 frames) and at ``until``,
         landing on each with a shortened step, and there write the files ``cosnet run``
         writes (``out``: series.pvd, frames, meta.json, probes.csv of ``probes`` such as
-        ["tip", "rod@0.5:force"], checkpoint.npz) and call ``callback(self)``
-        (cosnet.record)."""
+        ["tip", "rod@0.5:force"], checkpoint.npz; a directory holding a run already is
+        refused unless ``overwrite``) and call ``callback(self)`` (cosnet.record)."""
         if out is not None or callback is not None or every is not None or probes:
             from .record import run_with_output
             if steps is not None:
                 raise ValueError("Simulation.run: out, every, probes and callback go with until, not steps")
-            return run_with_output(self, until, out, every, probes, callback)
+            return run_with_output(self, until, out, every, probes, callback, overwrite)
         if (until is None) == (steps is None):
             raise ValueError("Simulation.run: give exactly one of until or steps")
         if steps is None:

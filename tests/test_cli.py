@@ -214,7 +214,7 @@ def test_an_out_that_is_a_file_is_refused_in_one_line(tiny, tmp_path, capsys):
     f = tmp_path / "file"
     f.write_text("")
     code, err = main_err(capsys, "run", tiny, "--out", f, "--until", 0.01)
-    assert code == 2 and err.startswith(f"cosnet: error: {f}: cannot use it as the output directory")
+    assert code == 2 and err.startswith(f"cosnet: error: {f}: exists and is not a directory")
 
 
 @pytest.mark.parametrize("edit,until,message", [

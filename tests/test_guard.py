@@ -11,6 +11,7 @@ import pytest
 import cosnet
 from cosnet import cli, measure
 from cosnet.io import SeriesWriter, read_output
+from cosnet.record import CHECKPOINT, PROBES, advance_to, frame_time
 from cosnet.scene import load_scene
 from cosnet.simulation import STRAIN_LIMIT
 from nets import ROD_SCENE, STEEL, cantilever, free_net, smooth_motion
@@ -56,15 +57,17 @@ def test_blown_up_ring_writes_no_frame_or_checkpoint_that_failed_the_watch(tmp_p
     # the checkpoint is the state of the last frame, bit for bit, and it passes the watch
     scene = load_scene(scene_file)
     sim = scene.simulation()
-    sim.load_checkpoint(out / cli.CHECKPOINT)
+    sim.load_checkpoint(out / CHECKPOINT)
     assert sim.time == series.times[-1]
     assert measure.worst_strain(sim.model, sim.state)[0] <= STRAIN_LIMIT
     again = scene.simulation()
-    cli.advance_to(again, sim.steps)
+    interval = min(scene.run.interval, scene.run.until)
+    for k in range(1, len(series.times)):   # as the run went: frame by frame
+        advance_to(again, frame_time(k, 0.0, interval, scene.run.until))
     again.check()      # the line ends placed on their nodes, as before every write
     for name, a in again.state._asdict().items():
         np.testing.assert_array_equal(a, getattr(sim.state, name), err_msg=name)
-    rows = (out / cli.PROBES).read_text().splitlines()
+    rows = (out / PROBES).read_text().splitlines()
     assert len(rows) == 1 + len(series.times)
 
 
