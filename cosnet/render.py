@@ -160,7 +160,7 @@ class Picture:
         self.title = f"{field} magnitude" + (f" ({self.unit})" if self.unit else "")
         self.ref = self.series.frame(0)[1]["position"]
         self.ref_nodes = self.series.frame(0)[2]
-        lo, hi, box = math.inf, -math.inf, None
+        lo, hi, box, sample = math.inf, -math.inf, None, []
         for k in self.frames:      # one colour range and one camera for every frame drawn
             _, lines, nodes, _ = self.series.frame(k)
             v = self.values(lines)
@@ -169,6 +169,7 @@ class Picture:
             pts = np.concatenate([self.warped(lines["position"], self.ref),
                                   self.warped(nodes, self.ref_nodes)])
             if len(pts):
+                sample.append(pts[:: max(1, len(pts) * len(self.frames) // 20000)])
                 b = np.array([pts.min(0), pts.max(0)])
                 box = b if box is None else np.array([np.minimum(box[0], b[0]), np.maximum(box[1], b[1])])
         if clim is not None:
@@ -179,6 +180,7 @@ class Picture:
             lo, hi = (lo - 1.0, hi + 1.0) if math.isfinite(lo) else (0.0, 1.0)
         self.clim = (lo, hi)
         self.box = box if box is not None else np.zeros((2, 3))
+        self._sample = np.concatenate(sample) if sample else np.zeros((1, 3))  # framing the camera
         self.size = float(np.linalg.norm(self.box[1] - self.box[0])) or 1.0
         self.min_radius = 0.002 * self.size if min_radius is None else float(min_radius)
         if len(window_size) != 2 or min(window_size) < 16:
@@ -186,6 +188,11 @@ class Picture:
         self.plotter = pv.Plotter(off_screen=True, window_size=[int(v) for v in window_size])
         self._camera = None
         self._depth_cue = False
+        self._scale = min(window_size[0] / 1024, window_size[1] / 768)
+
+    def _font(self, points: int) -> int:
+        """A font size that keeps its share of a window smaller or larger than 1024 x 768."""
+        return max(6, round(points * self._scale))
 
     def warped(self, x, ref):
         return ref + self.warp * (x - ref) if self.warp != 1.0 else x
@@ -224,15 +231,16 @@ class Picture:
         if self.series.counts:
             p.add_mesh(self.tubes(k), scalars=self.title, clim=self.clim, cmap="viridis",
                        smooth_shading=True, specular=0.4, specular_power=20,
-                       scalar_bar_args=dict(title="", vertical=False, n_labels=5, fmt="%.3g",
+                       scalar_bar_args=dict(title="", vertical=False, n_labels=5 if self._scale > 0.7 else 3,
+                                            fmt="%.3g",
                                             position_x=0.3, position_y=0.02, width=0.4, height=0.09,
-                                            label_font_size=13, color="black"))
+                                            label_font_size=max(10, self._font(13)), color="black"))
             # labels under the bar and the title, as a text of its own, over it: they never
             # share a row whatever the font
             p.scalar_bar.SetTextPositionToPrecedeScalarBar()
             w, h = p.window_size
             title = p.add_text(self.title, position=(w // 2, int(0.02 * h + 0.09 * h) + 4),
-                               font_size=12, color="black")
+                               font_size=self._font(12), color="black")
             title.GetTextProperty().SetJustificationToCentered()
         x = self.warped(nodes, self.ref_nodes)
         r = 2.5 * self.min_radius
@@ -246,7 +254,8 @@ class Picture:
         text = f"t = {time:.4g} s"
         if self.warp != 1.0:
             text += f"   motion x {self.warp:g}"
-        p.add_text(text, position=(12, p.window_size[1] - 34), font_size=11, color="black")
+        p.add_text(text, position=(12, p.window_size[1] - int(34 * self._scale)), font_size=self._font(11),
+                   color="black")
         self._scale_bar()
         p.add_axes(color="black", line_width=2)
         if not self._depth_cue:
@@ -296,7 +305,14 @@ class Picture:
             up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.999 else (0.0, 1.0, 0.0)
             p.camera_position = [tuple(centre + self.size * d), tuple(centre), up]
         p.reset_camera(bounds=bounds)
-        p.camera.zoom(1.5)                # reset_camera frames the bounding sphere: too loose
+        # reset_camera frames the bounding sphere, loose for a long thin net: zoom until the
+        # points drawn over all frames span the window, less the bands of text and colour bar
+        w, h = p.window_size
+        m = p.camera.GetCompositeProjectionTransformMatrix(w / h, -1, 1)
+        m = np.array([[m.GetElement(i, j) for j in range(4)] for i in range(4)])
+        hom = np.c_[self._sample, np.ones(len(self._sample))] @ m.T
+        reach = np.abs(hom[:, :2] / hom[:, 3:]).max(axis=0)
+        p.camera.zoom(float(min(0.9 / max(reach[0], 1e-9), 0.64 / max(reach[1], 1e-9))))
         self._camera = p.camera_position
 
 
