@@ -51,7 +51,6 @@ class _RunSeries:
 
     def __init__(self, directory):
         import meshio
-        self._meshio = meshio
         self.out = read_output(directory)
         self.dir = self.out.directory
         self.times = self.out.times
@@ -59,6 +58,9 @@ class _RunSeries:
         self.node_mass = np.array([float(m) for m in meta.get("node_mass", ["0"] * len(self.out.node_names))])
         self.counts = list(self.out.vertices)
         self.fields = LINE_FIELDS
+        pd = meshio.read(self.dir / _frame_files(0)[0]).point_data if len(self.times) else {}
+        # a line's radius does not change during a run: read once
+        self.radius = np.asarray(pd["radius"], float) if "radius" in pd else np.zeros(sum(self.counts))
 
     def frame(self, k):
         fr = self.out.frame(k)
@@ -66,8 +68,7 @@ class _RunSeries:
         lines = {"position": np.concatenate([fr["lines"][n]["position"] for n in names]) if names else np.zeros((0, 3))}
         for f in self.fields:
             lines[f] = np.concatenate([fr["lines"][n][f] for n in names]) if names else np.zeros((0, 3))
-        pd = self._meshio.read(self.dir / _frame_files(k)[0]).point_data
-        lines["radius"] = np.asarray(pd["radius"], float) if "radius" in pd else np.zeros(len(lines["position"]))
+        lines["radius"] = self.radius
         nodes = fr["nodes"]
         frames = np.stack([nodes["d1"], nodes["d2"], nodes["d3"]], axis=-1)
         return fr["time"], lines, nodes["position"], frames
@@ -158,8 +159,8 @@ class Picture:
         self.frames = list(range(0, n, every))
         self.unit = UNITS.get(field, "")
         self.title = f"{field} magnitude" + (f" ({self.unit})" if self.unit else "")
-        self.ref = self.series.frame(0)[1]["position"]
-        self.ref_nodes = self.series.frame(0)[2]
+        _, first, self.ref_nodes, _ = self.series.frame(0)
+        self.ref = first["position"]
         lo, hi, box, sample = math.inf, -math.inf, None, []
         for k in self.frames:      # one colour range and one camera for every frame drawn
             _, lines, nodes, _ = self.series.frame(k)
