@@ -4,7 +4,8 @@
                                                              run a scene, writing a VTK series
     cosnet info SCENE                                        net size, mass, stable dt, effects
     cosnet modes SCENE [--count K] [--out DIR] [--analytic]  normal modes: spectrum, VTK shapes
-    cosnet render DIR [--png|--gif|--mp4] [--field NAME]     pictures of a written series
+    cosnet render DIR [--png|--gif|--mp4] [--field NAME] [--clim LO HI] [--view V] [--warp F]
+                                                             pictures of a run or of modes
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
 
 ``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
@@ -126,13 +127,8 @@ def cmd_modes(args) -> int:
     from .scene import load_scene
     scene = load_scene(scene_path(args.scene))
     out = None if args.no_output else Path(args.out)
-    res = main_modes(scene, count=args.count, out_dir=out, frames=args.frames, sigma=args.sigma)
-    if args.analytic:
-        from .lincos import analytic_modes
-        exact = analytic_modes(scene.net, count=len(res))
-        print("mode  discrete (rad/s)  analytic (rad/s)  relative difference")
-        for j, (w, we) in enumerate(zip(res.omega, exact.omega)):
-            print(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
+    main_modes(scene, count=args.count, out_dir=out, frames=args.frames, sigma=args.sigma,
+               analytic=args.analytic)
     return 0
 
 
@@ -140,9 +136,18 @@ def cmd_render(args) -> int:
     from .render import render
     kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
     path = render(args.dir, kind=kind, field=args.field, output=args.output, frame=args.frame,
-                  every=args.every)
+                  every=args.every, clim=args.clim, view=args.view, warp=args.warp,
+                  min_radius=args.min_radius, window_size=args.size, mode=args.mode)
     print(path)
     return 0
+
+
+def package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("cosnet")
+    except PackageNotFoundError:    # a source tree that was never installed
+        return "unknown (not installed)"
 
 
 def cmd_accuracy(args) -> int:
@@ -178,6 +183,7 @@ def _positive_int(text: str) -> int:
 
 def parser() -> argparse.ArgumentParser:
     p = _Parser(prog="cosnet", description="Dynamics of Cosserat nets.")
+    p.add_argument("--version", action="version", version=f"cosnet {package_version()}")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene and write a VTK time series")
     r.add_argument("scene", nargs="?", help="scene file or ready case name (default: bridge)")
@@ -200,16 +206,28 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--sigma", type=float, default=0.0, help="find the modes nearest this angular frequency")
     m.add_argument("--analytic", action="store_true",
                    help="also the exact modes of the continuous net (straight uniform lines)")
-    v = sub.add_parser("render", help="render a written series off screen")
-    v.add_argument("dir")
+    v = sub.add_parser("render", help="render a written series (a run or `cosnet modes` output) off screen")
+    v.add_argument("dir", help="output directory of `cosnet run` or `cosnet modes`, or a mode_JJ.pvd")
     g = v.add_mutually_exclusive_group()
     g.add_argument("--png", action="store_true", help="one picture (default: the last frame)")
-    g.add_argument("--gif", action="store_true", help="an animated GIF of the series")
-    g.add_argument("--mp4", action="store_true", help="an MP4 movie (needs ffmpeg)")
-    v.add_argument("--field", default="velocity", help="line field to colour by (magnitude)")
+    g.add_argument("--gif", action="store_true", help="an animated GIF (needs the movie extra)")
+    g.add_argument("--mp4", action="store_true", help="an MP4 movie (needs the movie extra)")
+    v.add_argument("--field", default="velocity",
+                   help="line field to colour by, as its magnitude (default velocity; displacement "
+                        "is from the first frame)")
     v.add_argument("--frame", type=int, default=-1, help="frame for --png (default: last)")
     v.add_argument("--every", type=_positive_int, default=1, help="use every n-th frame for --gif/--mp4")
     v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4)")
+    v.add_argument("--clim", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="colour range (default: the field's range over all frames)")
+    v.add_argument("--view", default="iso", help="iso, xy, xz, yz or AZIMUTH,ELEVATION in degrees")
+    v.add_argument("--warp", type=float, default=1.0,
+                   help="exaggerate the motion from the first frame by this factor (default 1)")
+    v.add_argument("--min-radius", type=float, help="draw thinner lines at this radius, m "
+                   "(default 0.2%% of the scene's size)")
+    v.add_argument("--size", type=int, nargs=2, default=(1024, 768), metavar=("W", "H"),
+                   help="picture size in pixels (default 1024 768)")
+    v.add_argument("--mode", type=int, help="mode J of a `cosnet modes` directory (default: 0)")
     a = sub.add_parser("accuracy", help="estimate the error and cost of refined settings")
     a.add_argument("scene", help="scene file or ready case name")
     a.add_argument("--tol", default="1e-4", help="position error to reach, m (default: 1e-4)")

@@ -175,6 +175,19 @@ def read_pvd(path) -> list[tuple[float, int]]:
     return [(out[k], k) for k in sorted(out)]
 
 
+class UnknownNameError(KeyError, ValueError):
+    """A line, node or field name that a series does not hold; the message lists those it
+    does (a KeyError for lookups, a ValueError for the command line's one-line errors)."""
+
+    def __str__(self):
+        return str(self.args[0]) if self.args else ""
+
+
+def _known(kind: str, name, valid) -> None:
+    if name not in valid:
+        raise UnknownNameError(f"unknown {kind} {name!r}; the series has {', '.join(map(str, valid)) or 'none'}")
+
+
 @dataclass
 class Output:
     """A series read back: ``times`` (nf,), names of lines and nodes, and accessors that load
@@ -189,6 +202,8 @@ class Output:
     def frame(self, k: int) -> dict:
         """Frame k: {"lines": {name: {field: (n+1, 3) array, "position": ...}},
         "nodes": {field: (nn, 3) array, "position": ...}}."""
+        if not 0 <= k < len(self.times):
+            raise IndexError(f"frame {k}: the series has frames 0..{len(self.times) - 1}")
         lf, nf = _frame_files(k)
         lm = meshio.read(self.directory / lf)
         nm = meshio.read(self.directory / nf)
@@ -202,10 +217,14 @@ class Output:
 
     def line_series(self, name: str, field: str = "position") -> np.ndarray:
         """(nf, n+1, 3) history of one field of a line."""
+        _known("line", name, self.line_names)
+        _known("line field", field, ("position",) + LINE_FIELDS)
         return np.stack([self.frame(k)["lines"][name][field] for k in range(len(self.times))])
 
     def node_series(self, name: str, field: str = "position") -> np.ndarray:
         """(nf, 3) history of one field of a node."""
+        _known("node", name, self.node_names)
+        _known("node field", field, ("position",) + NODE_FIELDS)
         i = self.node_names.index(name)
         return np.stack([self.frame(k)["nodes"][field][i] for k in range(len(self.times))])
 

@@ -458,7 +458,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
     2-point segments, one per element, plus node reference points as vertex cells; point data
     "displacement" (lab, m), "line_id" (-1 on nodes); cell data "line_id", "element" (element
     index in its line, node index on node cells), "rotation" (lab rotation vector, rad)) and the
-    collection ``mode_JJ.pvd``. amplitude: peak translation (default 5 % of the net's size)."""
+    collection ``mode_JJ.pvd``; point data "radius" (the section's, 0 on nodes) lets pictures
+    draw the lines at their size. amplitude: peak translation (default 5 % of the net's size)."""
     import meshio
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -477,6 +478,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
     rot_nd = np.einsum("nij,nj->ni", R, phi) * scale
     segs, eline, local, vline = _mode_mesh_parts(res)
     nv, nn = lin.x0.shape[0], refs.shape[0]
+    radius = np.concatenate([[l.section_at(u).radius for u in np.linspace(0, 1, l.elements + 1)]
+                             for l in res.net.lines] + [np.zeros(nn)])
     verts = (nv + np.arange(nn))[:, None].astype(np.int64)
     period = 2 * math.pi / float(res.omega[j]) if res.omega[j] > 0 else 1.0
     entries = []
@@ -484,7 +487,7 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
         t = period * f / frames
         s = math.sin(2 * math.pi * f / frames)
         mesh = meshio.Mesh(pts0 + s * disp, [("line", segs), ("vertex", verts)],
-                           point_data={"displacement": s * disp,
+                           point_data={"displacement": s * disp, "radius": radius,
                                        "line_id": np.concatenate([vline, -np.ones(nn, int)]).astype(np.int32)},
                            cell_data={"line_id": [eline.astype(np.int32), -np.ones(nn, np.int32)],
                                       "element": [local.astype(np.int32), np.arange(nn, dtype=np.int32)],
@@ -510,25 +513,43 @@ def spectrum_table(res: DiscreteModes) -> str:
 
 
 def main_modes(scene_or_net, count: int = 6, out_dir=None, frames: int = 16, sigma: float = 0.0,
-               amplitude: float | None = None) -> DiscreteModes:
+               amplitude: float | None = None, analytic: bool = False) -> DiscreteModes:
     """Compute ``count`` modes of a scene (path to a TOML file, or a Scene) or a Net, print the
     spectrum, and (if out_dir) write ``spectrum.csv`` and each mode as a VTK series
-    (``mode_JJ.pvd``, ``frames`` frames over one period). Returns the DiscreteModes."""
+    (``mode_JJ.pvd``, ``frames`` frames over one period). ``analytic``: also the exact modes
+    of the continuous net (§6, straight uniform lines), printed beside the discrete ones and
+    written as the columns analytic_omega_rad_s, analytic_frequency_hz, relative_difference
+    (mode j of each, in ascending order); they are kept as ``result.analytic``. Returns the
+    DiscreteModes."""
     net = scene_or_net
     if isinstance(net, (str, Path)):
         from .scene import load_scene
         net = load_scene(net)
     net = getattr(net, "net", net)          # a Scene carries its net
     res = modes(net, count=count, sigma=sigma)
+    res.analytic = None
+    if analytic:
+        from .lincos import analytic_modes
+        res.analytic = analytic_modes(net, count=len(res))
     print(spectrum_table(res))
+    if res.analytic is not None:
+        print("mode  discrete (rad/s)  analytic (rad/s)  relative difference")
+        for j, (w, we) in enumerate(zip(res.omega, res.analytic.omega)):
+            print(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
     if out_dir is not None:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        rows = ["mode,omega_rad_s,frequency_hz,stretch,shear,bend,twist"]
+        head = "mode,omega_rad_s,frequency_hz,stretch,shear,bend,twist"
+        rows = [head + (",analytic_omega_rad_s,analytic_frequency_hz,relative_difference"
+                        if res.analytic is not None else "")]
         for j in range(len(res)):
             sh = res.energy_shares(j)
-            rows.append(f"{j},{float(res.omega[j])!r},{float(res.frequency[j])!r}," +
-                        ",".join(f"{sh[k]:.6g}" for k in ("stretch", "shear", "bend", "twist")))
+            row = f"{j},{float(res.omega[j])!r},{float(res.frequency[j])!r}," + \
+                ",".join(f"{sh[k]:.6g}" for k in ("stretch", "shear", "bend", "twist"))
+            if res.analytic is not None:
+                we = float(res.analytic.omega[j])
+                row += f",{we!r},{we / (2 * math.pi)!r},{(float(res.omega[j]) - we) / we:.6e}"
+            rows.append(row)
         (out / "spectrum.csv").write_text("\n".join(rows) + "\n")
         for j in range(len(res)):
             write_mode_series(res, j, out, frames=frames, amplitude=amplitude)

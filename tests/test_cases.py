@@ -64,9 +64,9 @@ def test_every_case_loads_and_steps(path):
     assert all(np.all(np.isfinite(sim.line_positions(l))) for l in scene.net.lines)
 
 
-def test_default_case_is_the_bridge_of_figure_1_1():
+def test_figure_1_1_case_is_the_net_of_the_paper():
     """Its boundary is exactly the set of ordered pairs (2.2) of the paper."""
-    net = case("bridge").net
+    net = case("figure_1_1").net
     pairs = {(n.name, l.name) for n in net.nodes for l, _ in net.lines_at(n)}
     want = {("v1", "λ1"), ("v2", "λ1"), ("v2", "λ2"), ("v2", "λ6"), ("v3", "λ2"), ("v3", "λ3"),
             ("v3", "λ5"), ("v4", "λ3"), ("v4", "λ4"), ("v4", "λ7"), ("v5", "λ4"), ("v6", "λ5"),
@@ -76,11 +76,11 @@ def test_default_case_is_the_bridge_of_figure_1_1():
     assert net.line("λ6").material.name == "cable" and net.line("λ1").material.name == "steel"
 
 
-def test_bridge_sags_as_the_hand_estimate():
+def test_figure_1_1_bridge_sags_as_the_hand_estimate():
     """Clamped-clamped half deck (span 10 m) propped at midspan by the cable, in series with
     the tower's shortening; Euler-Bernoulli. The net's sag at v2 agrees within 5 % (cable
     sag and discretisation are the neglected few per cent)."""
-    scene = case("bridge")
+    scene = case("figure_1_1")
     sim = scene.simulation()
     sim.run(until=0.4)                                   # damping 30/s: transient < 0.3 %
     deck, cable, tower = (scene.net.line(n) for n in ("λ1", "λ6", "λ5"))
@@ -100,6 +100,57 @@ def test_bridge_sags_as_the_hand_estimate():
     assert abs(v6[0] - 10.0) < 1e-9 and v6[2] < 5.0      # the tower top only shortens
     for name in ("v1", "v3", "v5"):
         np.testing.assert_array_equal(sim.node_position(scene.net.node(name)), scene.net.node(name).position)
+
+
+def test_bridge_is_a_whole_suspension_bridge():
+    """Two towers of two legs, a two-girder deck of many elements, two main cables over the
+    tower tops and a row of hangers, all joined at point junctions."""
+    net = case("bridge").net
+    names = [l.name for l in net.lines]
+    kinds = {k: sum(n.startswith(k) for n in names) for k in ("girder", "cable", "hanger", "backstay")}
+    assert kinds == {"girder": 24, "cable": 24, "hanger": 22, "backstay": 4} and len(names) >= 90
+    assert sum(l.elements for l in net.lines if l.name.startswith("girder")) >= 90
+    assert all(n.mass == 0 or n.fixed_position for n in net.nodes)         # point junctions
+    assert {l.material.name for l in net.lines} == {"steel", "concrete", "strand", "rod"}
+    for side in "ns":                      # each main cable runs over both tower tops
+        at_tops = {l.name for t in ("west", "east") for l, _ in net.lines_at(net.node(f"{t}_{side}_top"))}
+        assert {f"cable_{side}01", f"cable_{side}12", f"backstay_west_{side}", f"backstay_east_{side}"} <= at_tops
+
+
+def _lorry_load(scene, t):
+    """Total vertical node load (N) of the lorry at time t, from the declared NodeLoads."""
+    total = 0.0
+    for e in scene.effects:
+        if isinstance(e, cosnet.NodeLoad):
+            times, values, _, _ = e.amp
+            total += e.force[2] * np.interp(t, times, values)
+    return total
+
+
+def test_bridge_supports_carry_weight_and_lorry():
+    """Momentum balance of the whole bridge: the force R the lines exert on the clamps
+    equals gravity plus the lorry's node loads, less dP/dt and the damping force nu P, with
+    P the momentum of everything free. Before the lorry the
+    residual motion (dP/dt + nu P) is a small fraction of the weight; while it crosses, the
+    clamps carry its 30 t as well. dP/dt by a central difference over one step."""
+    scene = case("bridge")
+    sim = scene.simulation()
+    nu = next(e.translational for e in scene.effects if isinstance(e, cosnet.Damping))
+    weight = free_weight(sim)
+    lorry = []
+    for t in (1.2, 2.1):                                  # settled, no lorry; lorry at x = 12 m
+        sim.run(until=t)
+        p0 = sim.momentum()
+        sim.run(steps=1)
+        p1, r, t1 = sim.momentum(), support_force(sim), sim.time
+        sim.run(steps=1)
+        dp = (sim.momentum() - p0) / (2 * sim.dt)
+        load = np.array([0.0, 0.0, _lorry_load(scene, t1) - weight])
+        np.testing.assert_allclose(r, load - dp - nu * p1, rtol=0, atol=1e-5 * weight)
+        lorry.append(-_lorry_load(scene, t1))
+        if t == 1.2:
+            assert np.linalg.norm(dp + nu * p1) < 0.05 * weight      # nearly settled
+    assert lorry[0] == 0.0 and lorry[1] == pytest.approx(30e3 * G, rel=1e-12)
 
 
 def test_cantilever_tip_sags_as_euler_bernoulli():

@@ -147,7 +147,7 @@ def test_default_scene_is_the_bridge(tmp_path):
     from cosnet.cli import default_scene
     scene = load_scene(default_scene())
     assert default_scene().name == "bridge.toml"
-    assert [n.name for n in scene.net.nodes] == ["v1", "v2", "v3", "v4", "v5", "v6"]
+    assert {"west_n_top", "east_s_top", "deck_n06"} <= {n.name for n in scene.net.nodes}
 
 
 def test_render_png_and_gif_off_screen(tiny, tmp_path):
@@ -161,19 +161,12 @@ def test_render_png_and_gif_off_screen(tiny, tmp_path):
     assert img.size == (1024, 768)
     pixels = np.asarray(img.convert("L"))
     assert pixels.min() < 200 < pixels.max()              # something was drawn on the background
-    r = cosnet("render", out, "--gif", "--output", tmp_path / "m.gif", env=env)
-    assert r.returncode == 0, r.stderr
-    assert Image.open(tmp_path / "m.gif").n_frames == 3
+    if __import__("importlib").util.find_spec("imageio") is not None:     # the movie extra
+        r = cosnet("render", out, "--gif", "--output", tmp_path / "m.gif", env=env)
+        assert r.returncode == 0, r.stderr
+        assert Image.open(tmp_path / "m.gif").n_frames == 3
     r = cosnet("render", out, "--png", "--field", "nonsense", env=env)
     assert r.returncode == 2 and "nonsense" in r.stderr
-
-
-@pytest.mark.skipif(__import__("shutil").which("ffmpeg") is not None, reason="ffmpeg is installed here")
-def test_mp4_without_ffmpeg_says_what_is_missing(tiny, tmp_path):
-    out = tmp_path / "out"
-    assert cosnet("run", tiny, "--out", out, "--until", 0.01).returncode == 0
-    r = cosnet("render", out, "--mp4")
-    assert r.returncode == 2 and "ffmpeg" in r.stderr and "--gif" in r.stderr
 
 
 # ---------------------------------------------------------------------- faults (docs/faults.md)

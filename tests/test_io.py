@@ -143,6 +143,22 @@ def test_read_output_returns_times_and_histories(tiny, tmp_path):
         read_output(tmp_path)
 
 
+def test_read_output_names_the_valid_lines_nodes_and_fields(tiny, tmp_path):
+    scene = load_scene(tiny)
+    SeriesWriter(tmp_path / "o", scene.net).write(scene.simulation())
+    out = read_output(tmp_path / "o")
+    for call, words in ((lambda: out.line_series("leg"), "unknown line 'leg'; the series has arm, hand"),
+                        (lambda: out.node_series("toe"), "unknown node 'toe'; the series has root, box, tip"),
+                        (lambda: out.line_series("arm", "speed"), "position, " + ", ".join(LINE_FIELDS)),
+                        (lambda: out.node_series("box", "spin"), "position, " + ", ".join(NODE_FIELDS))):
+        with pytest.raises(cio.UnknownNameError) as e:
+            call()
+        assert isinstance(e.value, KeyError) and isinstance(e.value, ValueError)
+        assert words in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(IndexError, match=r"frame 1: the series has frames 0..0"):
+        out.frame(1)
+
+
 def test_pvd_is_valid_after_every_frame_and_ignores_a_torn_write(tiny, tmp_path):
     scene = load_scene(tiny)
     sim = scene.simulation()

@@ -330,6 +330,12 @@ def test_cosnet_modes_command_prints_and_writes_the_spectrum_of_a_case(tmp_path)
     exact = modes(net, count=3, method="analytic").omega
     assert np.all(np.abs(got - exact) / exact < 0.02)
     assert "analytic (rad/s)" in r.stdout
+    head = (tmp_path / "spectrum.csv").read_text().splitlines()[0].split(",")
+    assert head[-3:] == ["analytic_omega_rad_s", "analytic_frequency_hz", "relative_difference"]
+    table = np.loadtxt(tmp_path / "spectrum.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[:, head.index("analytic_omega_rad_s")], exact, rtol=1e-9)
+    np.testing.assert_allclose(table[:, head.index("analytic_frequency_hz")], exact / (2 * math.pi), rtol=1e-9)
+    np.testing.assert_allclose(table[:, -1], (got - exact) / exact, rtol=1e-5)
     for j in range(3):
         frames = read_pvd(tmp_path / f"mode_{j:02d}.pvd")
         assert len(frames) == 4

@@ -1,0 +1,221 @@
+"""Pictures checked by their content: the colour range over all frames, the warp factor in
+the drawn geometry, tubes of the lines' radii, the quantity and unit on the colour bar,
+movie frame counts, mode series, one-line errors; the commands of docs/pictures.md."""
+
+import importlib.util
+import os
+import re
+import shlex
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosnet.cli import main
+from cosnet.io import read_output
+
+REPO = Path(__file__).resolve().parents[1]
+ROD = """# a cantilever sagging and swinging under gravity
+[materials.m]
+E = 1.0e8
+poisson = 0.3
+density = 1000.0
+[sections.s]
+kind = "circle"
+radius = 0.01
+[nodes.root]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [0.5, 0.0, 0.0]
+[lines.rod]
+start = "root"
+end = "tip"
+material = "m"
+section = "s"
+elements = 6
+[[effects]]
+kind = "gravity"
+[run]
+until = 0.02
+output_interval = 0.005
+"""
+W, H = 200, 150
+
+
+@pytest.fixture(autouse=True)
+def _no_display(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("render")
+    (d / "rod.toml").write_text(ROD)
+    assert main(["run", str(d / "rod.toml"), "--out", str(d / "out")]) == 0
+    return d / "out"
+
+
+def magnitudes(out, field, frames):
+    return [np.linalg.norm(out.frame(k)["lines"]["rod"][field], axis=-1) for k in frames]
+
+
+def picture(directory, **kw):
+    from cosnet.render import Picture
+    return Picture(directory, window_size=(W, H), **kw)
+
+
+def test_colour_range_is_that_of_all_frames_and_drawn_so(run):
+    out = read_output(run)
+    n = len(out.times)
+    assert n == 5
+    mags = magnitudes(out, "velocity", range(n))
+    pic = picture(run, field="velocity")
+    assert pic.clim == (min(m.min() for m in mags), max(m.max() for m in mags))
+    assert pic.clim[0] == 0.0 < pic.clim[1]               # frame 0 is at rest
+    pic.draw(0)                                           # drawn with the range of all frames
+    assert pic.plotter.scalar_bar.GetLookupTable().GetRange() == pytest.approx(pic.clim, rel=1e-12)
+    every2 = picture(run, field="force", every=2)
+    m2 = magnitudes(out, "force", range(0, n, 2))
+    assert every2.frames == [0, 2, 4]
+    assert every2.clim == (min(m.min() for m in m2), max(m.max() for m in m2))
+    fixed = picture(run, field="force", clim=(0.0, 2.5))
+    fixed.draw(3)
+    assert fixed.plotter.scalar_bar.GetLookupTable().GetRange() == (0.0, 2.5)
+
+
+def test_colour_bar_title_names_quantity_and_unit(run):
+    for field, unit in (("velocity", "(m/s)"), ("force", "(N)"), ("curvature", "(1/m)"),
+                        ("displacement", "(m)")):
+        pic = picture(run, field=field)
+        pic.draw(1)
+        texts = [a.GetInput() for a in pic.plotter.actors.values() if hasattr(a, "GetInput")]
+        assert pic.title == f"{field} magnitude {unit}" and pic.title in texts
+    assert picture(run, field="strain").title == "strain magnitude"       # dimensionless
+
+
+def test_warp_scales_the_motion_from_the_first_frame(run):
+    out = read_output(run)
+    x0, x4 = out.frame(0)["lines"]["rod"]["position"], out.frame(4)["lines"]["rod"]["position"]
+    for f in (0.0, 1.0, 10.0):
+        np.testing.assert_allclose(picture(run, warp=f).points(4), x0 + f * (x4 - x0), rtol=0, atol=1e-15)
+    r = 0.01                                              # the rod's radius
+    assert x0[-1, 2] - x4[-1, 2] > 0.1 * r               # it moved (the tip sags)
+    for f in (1.0, 10.0):                  # the tube's bounds: the warped rod's, and a radius more
+        pic = picture(run, warp=f, min_radius=0.0)
+        lo, hi = pic.points(4).min(0), pic.points(4).max(0)
+        b = np.array(pic.tubes(4).bounds).reshape(3, 2)
+        np.testing.assert_allclose(lo, (x0 + f * (x4 - x0)).min(0), rtol=0, atol=1e-15)
+        assert np.all(b[:, 0] <= lo + 1e-12) and np.all(b[:, 0] >= lo - 1.1 * r)
+        assert np.all(b[:, 1] >= hi - 1e-12) and np.all(b[:, 1] <= hi + 1.1 * r)
+
+
+def test_tubes_have_the_lines_radii_or_the_visible_minimum(run):
+    b = picture(run, min_radius=0.0).tubes(0).bounds
+    assert b[3] - b[2] == pytest.approx(2 * 0.01, rel=0.02)           # polygon of 16 sides
+    b = picture(run, min_radius=0.03).tubes(0).bounds
+    assert b[3] - b[2] == pytest.approx(2 * 0.03, rel=0.02)
+    pic = picture(run)
+    assert pic.min_radius == pytest.approx(0.002 * pic.size)
+
+
+def test_png_of_each_view_is_drawn(run, tmp_path):
+    from PIL import Image
+
+    from cosnet.render import render
+    for view in ("iso", "xy", "xz", "yz", "-60,20"):
+        path = render(run, field="force", view=view, output=tmp_path / "v.png", window_size=(W, H))
+        img = np.asarray(Image.open(path).convert("L"))
+        assert img.shape == (H, W) and img.min() < 100 and img.max() > 240
+
+
+@pytest.mark.parametrize("kind", ["gif", "mp4"])
+def test_movie_has_one_frame_per_frame_drawn(run, tmp_path, kind):
+    pytest.importorskip("imageio")
+    if kind == "mp4":
+        pytest.importorskip("imageio_ffmpeg")
+    import imageio.v3 as iio
+
+    from cosnet.render import render
+    path = render(run, kind=kind, every=2, output=tmp_path / f"m.{kind}", window_size=(160, 128))
+    assert len(list(iio.imiter(path))) == 3
+
+
+def test_movie_without_the_extra_names_it(run, tmp_path, monkeypatch, capsys):
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name.startswith("imageio") else real(name, *a))
+    assert main(["render", str(run), "--mp4"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "cosnet[movie]" in err and "imageio-ffmpeg" in err
+
+
+def test_movie_extra_is_declared():
+    extras = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert {re.split(r"[<>=]", d)[0] for d in extras["movie"]} == {"imageio", "imageio-ffmpeg"}
+
+
+def test_mode_series_render_with_displacement_and_radius(tmp_path):
+    from cosnet.modes import main_modes
+    from cosnet.render import render
+    from cosnet.scene import load_scene
+    res = main_modes(load_scene(REPO / "cases" / "cantilever.toml"), 2, tmp_path, frames=8, amplitude=0.02)
+    import meshio
+    pic = picture(tmp_path, field="displacement", mode=1)
+    files = [meshio.read(tmp_path / f"mode_01_{k:03d}.vtu") for k in range(8)]
+    mags = [np.linalg.norm(m.point_data["displacement"][m.point_data["line_id"] >= 0], axis=1) for m in files]
+    assert pic.frames == list(range(8))
+    assert pic.clim == (min(m.min() for m in mags), max(m.max() for m in mags))
+    assert pic.clim[0] == 0.0 and pic.clim[1] == pytest.approx(0.02, rel=0.05)   # peak 2 cm
+    rod = load_scene(REPO / "cases" / "cantilever.toml").net.lines[0]
+    b = picture(tmp_path, mode=0, field="displacement", min_radius=0.0).tubes(0).bounds
+    assert b[3] - b[2] == pytest.approx(2 * rod.section.radius, rel=0.02)
+    path = render(tmp_path, field="displacement", mode=1, window_size=(W, H))
+    assert path == tmp_path / "mode_01.png" and path.exists()
+    assert main(["render", str(tmp_path), "--mode", "7"]) == 2
+    assert len(res) == 2
+
+
+def test_bad_options_give_one_line(run, capsys):
+    for args, words in ((["--view", "sideways"], "AZIMUTH,ELEVATION"),
+                        (["--view=10,95"], "elevation"),
+                        (["--clim", "2", "1"], "LO < HI"),
+                        (["--warp", "-1"], "--warp"),
+                        (["--field", "nonsense"], "velocity"),
+                        (["--frame", "9"], "0..4")):
+        assert main(["render", str(run), *args]) == 2, args
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and words in err, (args, err)
+
+
+def _blocks(lang):
+    text = (REPO / "docs" / "pictures.md").read_text()
+    return re.findall(rf"```{lang}\n(.*?)```", text, flags=re.S)
+
+
+def test_docs_commands_run(tmp_path, monkeypatch):
+    """Every command of docs/pictures.md, verbatim, in a fresh directory; then its Python."""
+    monkeypatch.chdir(tmp_path)
+    movies = importlib.util.find_spec("imageio") is not None
+    ran = 0
+    for block in _blocks("sh"):
+        for line in block.strip().splitlines():
+            argv = shlex.split(line)
+            assert argv[0] == "cosnet"
+            if ("--gif" in argv or "--mp4" in argv) and not movies:
+                continue
+            assert main(argv[1:]) == 0, line
+            if "--output" in argv:
+                assert (tmp_path / argv[argv.index("--output") + 1]).stat().st_size > 0
+            ran += 1
+    assert ran >= 7
+    for block in _blocks("python"):
+        exec(compile(block, "docs/pictures.md", "exec"), {})
+    assert (tmp_path / "sag_fixed.png").exists()
+
+
+def test_version_is_the_package_metadata(capsys):
+    from importlib.metadata import version
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"cosnet {version('cosnet')}"
