@@ -1,7 +1,8 @@
-"""The README and every page of docs/ say only what runs: each page's Python blocks run in
-order as one script, each TOML block that is a whole scene loads and builds its simulation,
-and each `cosnet ...` line of a shell block runs and exits 0. The two set-up lines'
-`pip install` and `pytest` halves are what .ci/run itself runs."""
+"""The README and every page of docs/ say only what runs: a page's blocks run in its order
+(Python as one script, each `cosnet ...` line of a shell block through the command, each TOML
+block that is a whole scene loaded and built), or a test module named on the page runs them
+and checks what they print. The two set-up lines' `pip install` and `pytest` halves are what
+.ci/run itself runs."""
 
 import os
 import re
@@ -20,61 +21,77 @@ FENCE = re.compile(r"^( *)```(\w*)\n(.*?)^\1```", re.S | re.M)
 SETUP = ("pip install", "pytest")   # run by .ci/run on a clean clone, not from here
 
 
-def blocks(page: Path, lang: str) -> list[str]:
+OWN_TEST = re.compile(r"<!-- code blocks run by (tests/[\w/]+\.py) -->")
+SHELL = ("bash", "sh")
+
+
+def fences(page: Path) -> list[tuple[str, str]]:
+    """(language, code) of each fenced block of a page, in order, dedented."""
     out = []
     for m in FENCE.finditer(page.read_text(encoding="utf-8")):
-        if m.group(2) == lang:
-            indent = len(m.group(1))
-            out.append("\n".join(line[indent:] for line in m.group(3).splitlines()))
+        indent = len(m.group(1))
+        out.append((m.group(2), "\n".join(line[indent:] for line in m.group(3).splitlines())))
     return out
 
 
-def commands(page: Path) -> list[list[str]]:
-    """The `cosnet` commands of a page's shell blocks (each `&&` part of a line separately;
-    comments dropped)."""
+def blocks(page: Path, lang: str) -> list[str]:
+    return [code for kind, code in fences(page) if kind == lang]
+
+
+def own_test(page: Path) -> str | None:
+    """The test module that runs this page's blocks itself (it says so in a comment)."""
+    m = OWN_TEST.search(page.read_text(encoding="utf-8"))
+    return m.group(1) if m else None
+
+
+def commands(code: str, page: Path) -> list[list[str]]:
+    """The `cosnet` commands of a shell block (each `&&` part of a line separately; comments
+    dropped)."""
     out = []
-    for block in blocks(page, "bash"):
-        for line in block.splitlines():
-            for part in line.split("#", 1)[0].split("&&"):
-                words = shlex.split(part)
-                if not words or part.strip().startswith(SETUP):
-                    continue
-                assert words[0] == "cosnet", f"{page.name}: a shell line the tests cannot run: {line!r}"
-                out.append(words[1:])
+    for line in code.splitlines():
+        for part in line.split("#", 1)[0].split("&&"):
+            words = shlex.split(part)
+            if not words or part.strip().startswith(SETUP):
+                continue
+            assert words[0] == "cosnet", f"{page.name}: a shell line the tests cannot run: {line!r}"
+            out.append(words[1:])
     return out
 
 
 def test_every_fence_is_a_known_kind():
     """A block of another language would escape the checks below."""
     for page in PAGES:
-        for m in FENCE.finditer(page.read_text(encoding="utf-8")):
-            assert m.group(2) in ("python", "toml", "bash", "text"), f"{page.name}: ```{m.group(2)} block"
+        for kind, _ in fences(page):
+            assert kind in ("python", "toml", "text", *SHELL), f"{page.name}: ```{kind} block"
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES if blocks(p, "python")], ids=lambda p: p.name)
-def test_python_blocks_run(page, tmp_path, monkeypatch):
+@pytest.mark.parametrize("page", [p for p in PAGES if own_test(p)], ids=lambda p: p.name)
+def test_pages_with_a_test_of_their_own_name_it(page):
+    test = REPO / own_test(page)
+    assert test.is_file() and f"docs/{page.name}" in test.read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES if not own_test(p) and fences(p)], ids=lambda p: p.name)
+def test_blocks_run_in_order(page, tmp_path, monkeypatch):
+    """Python blocks run as one script, shell blocks' cosnet commands through the command's
+    main, both in the page's order in a fresh directory beside the ready cases (as in a
+    checkout); a TOML block that is a whole scene loads and builds its simulation."""
+    (tmp_path / "cases").symlink_to(REPO / "cases")
     monkeypatch.chdir(tmp_path)
     namespace = {"__name__": f"docs_{page.stem}"}
-    for k, code in enumerate(blocks(page, "python")):
-        exec(compile(code, f"{page.name} python block {k + 1}", "exec"), namespace)
-
-
-@pytest.mark.parametrize("page", [p for p in PAGES if blocks(p, "toml")], ids=lambda p: p.name)
-def test_scene_blocks_load_and_build(page, tmp_path):
-    for k, text in enumerate(blocks(page, "toml")):
-        tomllib.loads(text)   # a fragment must at least be TOML
-        if "[lines." in text:
-            path = tmp_path / f"{page.stem}_{k + 1}.toml"
-            path.write_text(text, encoding="utf-8")
-            scene = load_scene(path)
-            assert scene.simulation().dt > 0
-
-
-@pytest.mark.parametrize("page", [p for p in PAGES if commands(p)], ids=lambda p: p.name)
-def test_commands_run(page, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    for words in commands(page):
-        assert main(words) == 0, f"{page.name}: cosnet {' '.join(words)} failed"
+    for k, (kind, code) in enumerate(fences(page)):
+        where = f"{page.name} block {k + 1}"
+        if kind == "python":
+            exec(compile(code, where, "exec"), namespace)
+        elif kind in SHELL:
+            for words in commands(code, page):
+                assert main(words) == 0, f"{where}: cosnet {' '.join(words)} failed"
+        elif kind == "toml":
+            tomllib.loads(code)   # a fragment must at least be TOML
+            if "[lines." in code:
+                path = tmp_path / f"{page.stem}_{k + 1}.toml"
+                path.write_text(code, encoding="utf-8")
+                assert load_scene(path).simulation().dt > 0, where
 
 
 def test_pages_link_only_to_files_that_exist():
