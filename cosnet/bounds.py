@@ -25,10 +25,11 @@ ROW_PREFIXES = (("vertex_", 1), ("voronoi_", 1), ("bend_", 1), ("element_", 2), 
 
 
 def _rows(name):
-    """Return which count the rows of a model, state or loads array run over (see ROWS)."""
+    """Return which count the rows of a model, state or loads array run over (see ROWS), or
+    None for a name of unknown meaning (not checked)."""
     if name in ROWS:
         return ROWS[name]
-    return next(n for prefix, n in ROW_PREFIXES if name.startswith(prefix))
+    return next((n for prefix, n in ROW_PREFIXES if name.startswith(prefix)), None)
 
 
 def _shape_error(what, record, counts):
@@ -36,7 +37,10 @@ def _shape_error(what, record, counts):
     of rows, or of columns (3, or 4 for quaternions). A wrong number of dimensions or dtype
     cannot reach the memory: the kernels would not compile for it."""
     for name, a in zip(record._fields, record):
-        rows = counts[_rows(name)]
+        which = _rows(name)
+        if which is None:
+            continue
+        rows = counts[which]
         if a.shape[0] != rows or (a.ndim == 2 and a.shape[1] != (4 if name in QUATERNIONS else 3)):
             return f"{what}.{name} has shape {a.shape}, the net needs {rows} rows"
     return None
