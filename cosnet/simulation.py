@@ -17,6 +17,7 @@ from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
+from .bounds import table_error
 from .kernels.checksum import scan_state
 from .kernels.layout import empty_loads
 from .kernels.motion import place_line_ends
@@ -205,6 +206,9 @@ class Simulation:
         steps = int(steps)
         self._watch_start()
         self._check_locked_axes()
+        problem = table_error(self.model, self.state, self.loads, self._params)
+        if problem:  # the kernels index by these tables unchecked
+            raise ValueError(f"Simulation.run: {problem}")
         place_line_ends(self.model, self.state)
         while steps > 0:
             n = min(steps, CHUNK_STEPS)

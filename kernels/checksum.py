@@ -4,12 +4,14 @@ from outside between run() calls) and the first non-finite value."""
 import numpy as np
 from numba import njit
 
+from .rotations import CACHED
+
 FNV_OFFSET = np.uint64(0xCBF29CE484222325)
 FNV_PRIME = np.uint64(0x100000001B3)
 EXPONENT = np.uint64(0x7FF0000000000000)   # all exponent bits set: inf or NaN
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def mix(h, w):
     """Return h after taking in the word w: an FNV-1a step (xor, multiply), whose multiply
     carries differences only upwards, then a shift that carries them down."""
@@ -17,7 +19,7 @@ def mix(h, w):
     return h ^ (h >> np.uint64(29))
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def scan_words(words, h):
     """Return (a hash of words (n,) uint64 continued from h: ``mix`` on four interleaved
     lanes, so that four multiplies are in flight; the index of the first word that is a

@@ -37,9 +37,13 @@ import numpy as np
 from numba import njit
 
 from .compose import load_kernel
+from .rotations import CACHED
 
 HASH_X, HASH_Y, HASH_Z = 73856093, 19349663, 83492791
-COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away or non-finite points)
+COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away points)
+# the cell of a segment whose midpoint is not finite: no other cell neighbours it, so the
+# segment meets nothing (the instability watch reports the non-finite state)
+PARKED = -(2 ** 41)
 
 
 class ContactParams(NamedTuple):
@@ -66,12 +70,12 @@ class ContactParams(NamedTuple):
     sorted_reach: np.ndarray  # (m,) their reaches
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def _clamp01(a):
     return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def segment_closest(px, py, pz, qx, qy, qz, ax, ay, az, bx, by, bz):
     """Return (s, t): parameters of the closest points p + s (q - p), a + t (b - a) of two
     segments, clamped to [0, 1] (Ericson, Real-Time Collision Detection, 5.1.9). Parallel
@@ -109,7 +113,7 @@ def segment_closest(px, py, pz, qx, qy, qz, ax, ay, az, bx, by, bz):
     return s, t
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def closest_points(p, q, a, b):
     """Return (s, t, distance) of the closest points of segments [p, q] and [a, b] ((3,) arrays)."""
     s, t = segment_closest(p[0], p[1], p[2], q[0], q[1], q[2], a[0], a[1], a[2], b[0], b[1], b[2])
@@ -120,22 +124,22 @@ def closest_points(p, q, a, b):
     return s, t, math.sqrt(d)
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def _hash(cx, cy, cz, mask):
     return ((cx * HASH_X) ^ (cy * HASH_Y) ^ (cz * HASH_Z)) & mask
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def _cell(x, x0, h):
     y = (x - x0) / h
-    if not y >= -COORD_LIMIT:  # also catches NaN
+    if not y >= -COORD_LIMIT:  # also catches NaN (build_grid parks those segments first)
         y = -COORD_LIMIT
     elif y > COORD_LIMIT:
         y = COORD_LIMIT
     return np.int64(math.floor(y))
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def _bucket(cx, cy, cz, nx, ny, nz, mask):
     """Bucket of cell (cx, cy, cz): its raster index in a dense grid (nx > 0; -1 outside the
     grid), else its hash."""
@@ -146,7 +150,7 @@ def _bucket(cx, cy, cz, nx, ny, nz, mask):
     return _hash(cx, cy, cz, mask)
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def build_grid(p, x):
     """Update the grid scratch of p given the vertex positions x: bin the segments by their
     midpoints into cells of size h >= max(length + 2 r) and counting-sort them by bucket into
@@ -181,12 +185,17 @@ def build_grid(p, x):
     start, cursor, bucket = p.bucket_start, p.cursor, p.slot_bucket
     start[:] = 0
     for i in range(m):
-        cx, cy, cz = _cell(mid[i, 0], x0, h), _cell(mid[i, 1], y0, h), _cell(mid[i, 2], z0, h)
-        if nx > 0:  # round-off at the upper faces of the box
-            cx, cy, cz = min(cx, nx - 1), min(cy, ny - 1), min(cz, nz - 1)
+        if abs(mid[i, 0]) + abs(mid[i, 1]) + abs(mid[i, 2]) < np.inf:
+            cx, cy, cz = _cell(mid[i, 0], x0, h), _cell(mid[i, 1], y0, h), _cell(mid[i, 2], z0, h)
+            if nx > 0:  # round-off at the faces of the box: every bucket index stays in range
+                cx, cy, cz = min(max(cx, 0), nx - 1), min(max(cy, 0), ny - 1), min(max(cz, 0), nz - 1)
+            b = _bucket(cx, cy, cz, nx, ny, nz, size - 1)
+        else:  # NaN or infinite: parked in bucket 0, in a cell no other segment can share
+            cx = cy = cz = PARKED
+            b = 0
         cell[i, 0], cell[i, 1], cell[i, 2] = cx, cy, cz
-        bucket[i] = _bucket(cx, cy, cz, nx, ny, nz, size - 1)
-        start[bucket[i] + 1] += 1
+        bucket[i] = b
+        start[b + 1] += 1
     for b in range(size):
         start[b + 1] += start[b]
         cursor[b] = start[b]
@@ -201,7 +210,7 @@ def build_grid(p, x):
     return nx, ny, nz
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def excluded(eidx, egeom, attach_node, attach_offset, node_gap, self_contact, self_gap, e1, e2, r_sum):
     """True if elements e1, e2 are neighbours along a line or through a junction node."""
     l1, l2 = eidx[e1, 1], eidx[e2, 1]
@@ -227,7 +236,7 @@ def excluded(eidx, egeom, attach_node, attach_offset, node_gap, self_contact, se
     return False
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def _spread(f, a, wa, wb, gx, gy, gz):
     """Add the force g (lab) to vertices a, a + 1 with weights wa, wb."""
     f[a, 0] += wa * gx
@@ -238,7 +247,7 @@ def _spread(f, a, wa, wb, gx, gy, gz):
     f[a + 1, 2] += wb * gz
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def pair_load(x, v, f, a, b, r_sum, k, gamma, dx, dy, dz, apply):
     """Narrow phase of the segments starting at vertices a and b (radii summing to r_sum,
     midpoints dx, dy, dz apart): return the energy k eps^2 / 2 (0 when apart) and, if apply,
@@ -277,7 +286,7 @@ FORWARD = np.array([(dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for d
                     if (dz, dy, dx) > (0, 0, 0)], dtype=np.int64)
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def sweep(p, model, state, f, apply):
     """Visit every candidate pair once (grid broad phase, bounding spheres, exclusions, then
     the narrow phase); return the contact energy and, if apply, add the contact forces to f
@@ -293,6 +302,8 @@ def sweep(p, model, state, f, apply):
     energy, tests, active = 0.0, 0, 0
     for i in range(elem.shape[0]):
         cx, cy, cz = cell[i, 0], cell[i, 1], cell[i, 2]
+        if cx == PARKED:
+            continue
         for o in range(-1, forward.shape[0]):  # -1: own cell (the later segments of the bucket)
             if o < 0:
                 ox, oy, oz = cx, cy, cz
@@ -326,7 +337,7 @@ def sweep(p, model, state, f, apply):
 
 
 @load_kernel(ContactParams)
-@njit(cache=True)
+@njit(**CACHED)
 def add_contact(p, model, state, loads):
     """Update loads.f (nv, 3) given the vertex positions and velocities: the penalty contact
     forces of every overlapping pair of capsules (see the module docstring); p.narrow_tests
@@ -334,7 +345,7 @@ def add_contact(p, model, state, loads):
     sweep(p, model, state, loads.f, True)
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def contact_energy(p, model, state):
     """Return the contact potential: the sum of k eps^2 / 2 over overlapping pairs."""
     return sweep(p, model, state, state.x, False)

@@ -12,7 +12,7 @@ from numba import njit
 
 from .backend import STEP
 from .compose import flow_kernel, load_kernel
-from .rotations import cross, quat_rotate, quat_rotate_inv
+from .rotations import CACHED, cross, quat_rotate, quat_rotate_inv
 
 
 class GravityParams(NamedTuple):
@@ -44,7 +44,7 @@ class DampingParams(NamedTuple):
     rotational: float     # decay rate of angular velocities
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def interp_table(t, times, values):
     """Return the piecewise-linear interpolation of (times, values) at t, held constant
     outside the table (as np.interp, which needs an allocation numba's step kernels avoid)."""
@@ -64,7 +64,7 @@ def interp_table(t, times, values):
     return values[lo] + w * (values[hi] - values[lo])
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def load_amplitude(p, t):
     """Return the time factor of a load: table interpolation times sin(omega t + phase)."""
     a = 1.0
@@ -93,7 +93,7 @@ def add_gravity(p, model, state, loads):
         add_node_force(model, state, loads, nd, m * g[0], m * g[1], m * g[2])
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED, inline="always")
 def add_node_force(model, state, loads, nd, fx, fy, fz):
     """Update loads.node_f, loads.node_tau with a force applied at node nd's reference point
     (its torque about the composite centre of mass included, (4.5))."""

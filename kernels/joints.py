@@ -36,9 +36,9 @@ from numba import njit
 
 from .compose import load_kernel
 from .elastic import end_frame
-from .rotations import cross, quat_mul, quat_rotate, relative_rotation
+from .rotations import CACHED, cross, quat_mul, quat_rotate, relative_rotation
 
-OPTS = dict(cache=True, inline="always")
+OPTS = dict(CACHED, inline="always")
 
 
 class SphericalJointParams(NamedTuple):
@@ -151,7 +151,7 @@ def fixed_deviation(p, j, model, state):
 
 
 @load_kernel(SphericalJointParams)
-@njit(cache=True)
+@njit(**CACHED)
 def add_spherical_joints(p, model, state, loads):
     """Update loads.f at the joined end vertices given the end positions and velocities:
     f = k (eps - eps0) + nu (v_b - v_a) (spherical joint, seed page 004)."""
@@ -160,7 +160,7 @@ def add_spherical_joints(p, model, state, loads):
 
 
 @load_kernel(HingeJointParams)
-@njit(cache=True)
+@njit(**CACHED)
 def add_hinge_joints(p, model, state, loads):
     """Update loads.f at the joined end vertices and loads.node_tau at their nodes given the
     end positions, frames and velocities: the spherical force plus tau = -kt s (t_b x n) on
@@ -174,7 +174,7 @@ def add_hinge_joints(p, model, state, loads):
 
 
 @load_kernel(FixedJointParams)
-@njit(cache=True)
+@njit(**CACHED)
 def add_fixed_joints(p, model, state, loads):
     """Update loads.f at the joined end vertices and loads.node_tau at their nodes given the
     end positions, frames and velocities: the spherical force plus tau = -kt E_b theta on end
@@ -193,7 +193,7 @@ def spring_energy(p, j, model, state):
     return 0.5 * p.k[j] * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def spherical_energy(p, model, state):
     """Return sum k |eps - eps0|^2 / 2 over the joints."""
     total = 0.0
@@ -202,7 +202,7 @@ def spherical_energy(p, model, state):
     return total
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def hinge_energy(p, model, state):
     """Return sum k |eps - eps0|^2 / 2 + kt (t_b . n)^2 / 2 over the joints."""
     total = 0.0
@@ -212,7 +212,7 @@ def hinge_energy(p, model, state):
     return total
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def fixed_energy(p, model, state):
     """Return sum k |eps - eps0|^2 / 2 + kt |theta|^2 / 2 over the joints."""
     total = 0.0

@@ -5,16 +5,49 @@ d1 d2 d3 (2.16)-(2.19). A body-frame rotation vector phi updates q <- q * exp(ph
 body-frame angular velocity w obeys q' = q * (0, w) / 2, i.e. Lambda(w^d) = D^T D' (2.26).
 """
 
+import hashlib
 import math
+import os
 
+import numba
 from numba import njit
 
+
+def _cache_options() -> dict:
+    """Return the options every kernel starts from, and point numba's on-disk cache at a
+    directory of this exact kernel source: "cosnet-<digest of kernels/*.py>" under
+    NUMBA_CACHE_DIR, else under numba's user cache. Numba checks a cached function against
+    its own file only, so a step kernel cached before a kernel it calls (in another file)
+    changed would go on running the old code; a new source digest starts a fresh directory.
+
+    Debug mode: with COSNET_BOUNDSCHECK=1 in the environment every kernel checks its indices
+    (numba's boundscheck: an IndexError instead of a read or write out of bounds). Numba's
+    cache keys ignore such options, so the checked builds get a directory of their own
+    ("...-boundscheck"): a normal run never loads a checked kernel, nor a debug run an
+    unchecked one."""
+    from numba.misc.appdirs import AppDirs
+    here = os.path.dirname(os.path.abspath(__file__))
+    digest = hashlib.sha256()
+    for name in sorted(os.listdir(here)):
+        if name.endswith(".py"):
+            with open(os.path.join(here, name), "rb") as f:
+                digest.update(name.encode() + b"\0" + f.read())
+    check = os.environ.get("COSNET_BOUNDSCHECK", "0") not in ("", "0")
+    base = numba.config.CACHE_DIR or AppDirs("numba", appauthor=False).user_cache_dir
+    numba.config.CACHE_DIR = os.path.join(base, f"cosnet-{digest.hexdigest()[:16]}"
+                                          + ("-boundscheck" if check else ""))
+    return dict(cache=True, boundscheck=True) if check else dict(cache=True)
+
+
+# Options every kernel starts from (the contact, joint and checksum kernels use them as they
+# are: without fast-math)
+CACHED = _cache_options()
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}
 # Division by zero gives inf/NaN (numpy's error model) rather than raising: the zero test
 # python's model puts before every division is an early exit, which stops vectorisation.
-KERNEL = dict(cache=True, fastmath=FAST, error_model="numpy")
+KERNEL = dict(CACHED, fastmath=FAST, error_model="numpy")
 # Kernels called only from other kernels: no Python entry wrapper. Numba otherwise builds and
 # compiles, for every function, a wrapper unboxing its arguments from Python objects; for a
 # function taking the model, state and loads records (47 arrays) that alone is most of a

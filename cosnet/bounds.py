@@ -1,0 +1,147 @@
+"""Range and shape checks of the tables the kernels index by.
+
+The kernels index the state by integers read from the model (CSR offsets, line ends, node
+attachments) and from the effects' records (joined line ends, loaded nodes and lines, contact
+segments); they do not check those on every access. These tables are built valid, but they
+are writable arrays a user can reach (``sim.model``, ``sim.effect_params``), so ``table_error``
+checks them, and every array's shape, before a run hands them to the kernels: a few vectorised
+passes over the integer tables, nothing per step. Indices computed from coordinates (the
+contact grid) are clamped in their kernel instead.
+"""
+
+import numpy as np
+
+from .kernels.contact import ContactParams
+from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
+from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
+
+QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
+# what the rows of a model, state or loads array run over (by name or name prefix):
+# 0 lines + 1, 1 vertices, 2 elements, 3 line ends, 4 nodes, 5 nodes + 1, 6 one row
+ROWS = {"line_vertex_offsets": 0, "line_element_offsets": 0, "node_attach_offsets": 5, "clock": 6,
+        "node_attach_list": 3, "x": 1, "v": 1, "f": 1, "q": 2, "w": 2, "tau": 2}
+ROW_PREFIXES = (("vertex_", 1), ("voronoi_", 1), ("bend_", 1), ("element_", 2), ("elem_", 2),
+                ("attach_", 3), ("end_", 3), ("node_", 4))
+
+
+def _rows(name):
+    """Return which count the rows of a model, state or loads array run over (see ROWS), or
+    None for a name of unknown meaning (not checked)."""
+    if name in ROWS:
+        return ROWS[name]
+    return next((n for prefix, n in ROW_PREFIXES if name.startswith(prefix)), None)
+
+
+def _shape_error(what, record, counts):
+    """Return a message if an array of record (model, state or loads) has the wrong number
+    of rows, or of columns (3, or 4 for quaternions). A wrong number of dimensions or dtype
+    cannot reach the memory: the kernels would not compile for it."""
+    for name, a in zip(record._fields, record):
+        which = _rows(name)
+        if which is None:
+            continue
+        rows = counts[which]
+        if a.shape[0] != rows or (a.ndim == 2 and a.shape[1] != (4 if name in QUATERNIONS else 3)):
+            return f"{what}.{name} has shape {a.shape}, the net needs {rows} rows"
+    return None
+
+
+def _index_error(where, a, n):
+    """Return a message if some entry of the integer array a lies outside [0, n)."""
+    if a.size and (a.min() < 0 or a.max() >= n):
+        bad = a[(a < 0) | (a >= n)].flat[0]
+        return f"{where} holds {bad}, outside [0, {n})"
+    return None
+
+
+def _offsets_error(where, o, total):
+    if o[0] != 0 or o[-1] != total or np.any(np.diff(o) < 0):
+        return f"{where} is not an offset table from 0 to {total}"
+    return None
+
+
+def model_error(model, state, loads):
+    """Return what is wrong with the model's index tables or the shapes of the model, state
+    and loads arrays, or None."""
+    voff, eoff = model.line_vertex_offsets, model.line_element_offsets
+    nl, nv, ne = voff.shape[0] - 1, model.vertex_mass.shape[0], model.element_rest_length.shape[0]
+    na, nn = model.attach_node.shape[0], model.node_mass.shape[0]
+    counts = (nl + 1, nv, ne, na, nn, nn + 1, 1)
+    for what, record in (("model", model), ("state", state), ("loads", loads)):
+        problem = _shape_error(what, record, counts)
+        if problem:
+            return problem
+    problem = (_offsets_error("model.line_vertex_offsets", voff, nv)
+               or _offsets_error("model.line_element_offsets", eoff, ne)
+               or _offsets_error("model.node_attach_offsets", model.node_attach_offsets, na))
+    if problem:
+        return problem
+    if na != 2 * nl or np.any(np.diff(voff) != np.diff(eoff) + 1) or np.any(np.diff(eoff) < 1):
+        return "model: every line needs one element or more and one vertex more than elements"
+    if (np.any(model.attach_vertex[0::2] != voff[:-1]) or np.any(model.attach_vertex[1::2] != voff[1:] - 1)
+            or np.any(model.attach_element[0::2] != eoff[:-1]) or np.any(model.attach_element[1::2] != eoff[1:] - 1)):
+        return "model: attach_vertex / attach_element do not name the lines' end vertices / elements"
+    return (_index_error("model.attach_node", model.attach_node, nn)
+            or _index_error("model.node_attach_list", model.node_attach_list, na))
+
+
+def _joint_error(what, p, model):
+    k = p.k.shape[0]
+    for name, a in zip(p._fields, p):
+        if a.shape[0] != k:
+            return f"{what}.{name} has {a.shape[0]} rows for {k} joints"
+    na = model.attach_node.shape[0]
+    return _index_error(f"{what}.attach_a", p.attach_a, na) or _index_error(f"{what}.attach_b", p.attach_b, na)
+
+
+def _load_error(what, p, field, table, size):
+    if p.force.shape != (table.shape[0], 3) or p.torque.shape != (table.shape[0], 3):
+        return f"{what}: force and torque need one row of 3 per entry"
+    if p.values.shape != p.times.shape:
+        return f"{what}: the amplitude table's times and values differ in length"
+    return _index_error(f"{what}.{field}", table, size)
+
+
+def _contact_error(p, model):
+    ne, nl, nn = model.element_rest_length.shape[0], model.line_vertex_offsets.shape[0] - 1, model.node_mass.shape[0]
+    m, size = p.elements.shape[0], p.cursor.shape[0]
+    if size < 1 or size & (size - 1) or p.bucket_start.shape != (size + 1,):
+        return "contact: bucket tables must hold a power of two of buckets (and one offset more)"
+    for name in ("slot_bucket", "slot_mid", "slot_reach", "slot_cell", "sorted_elem", "sorted_cell",
+                 "sorted_mid", "sorted_reach"):
+        if getattr(p, name).shape[0] != m:
+            return f"contact.{name} has {getattr(p, name).shape[0]} rows for {m} segments"
+    if p.elem_index.shape != (ne, 2) or p.elem_geom.shape != (ne, 4) or p.node_gap.shape != (nn,):
+        return "contact: elem_index, elem_geom or node_gap do not match the net"
+    first = np.repeat(model.line_vertex_offsets[:-1] - model.line_element_offsets[:-1],
+                      np.diff(model.line_element_offsets)) + np.arange(ne)
+    if np.any(p.elem_index[:, 0] != first):
+        return "contact.elem_index does not name the elements' first vertices"
+    return (_index_error("contact.elements", p.elements, ne)
+            or _index_error("contact.elem_index (line)", p.elem_index[:, 1], nl))
+
+
+def params_error(params, model):
+    """Return what is wrong with the tables of the built-in effects' records, or None
+    (records of other effects are their own kernels' business)."""
+    nl, nn = model.line_vertex_offsets.shape[0] - 1, model.node_mass.shape[0]
+    for p in params:
+        problem = None
+        if isinstance(p, (SphericalJointParams, HingeJointParams, FixedJointParams)):
+            problem = _joint_error(type(p).__name__, p, model)
+        elif isinstance(p, NodeLoadParams):
+            problem = _load_error("node load", p, "nodes", p.nodes, nn)
+        elif isinstance(p, LineLoadParams):
+            problem = _load_error("line load", p, "lines", p.lines, nl)
+        elif isinstance(p, GravityParams) and p.g.shape != (3,):
+            problem = "gravity: g needs 3 components"
+        elif isinstance(p, ContactParams):
+            problem = _contact_error(p, model)
+        if problem:
+            return problem
+    return None
+
+
+def table_error(model, state, loads, params):
+    """Return the first problem of model_error and params_error, or None."""
+    return model_error(model, state, loads) or params_error(params, model)
