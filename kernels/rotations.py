@@ -7,8 +7,39 @@ body-frame angular velocity w obeys q' = q * (0, w) / 2, i.e. Lambda(w^d) = D^T 
 
 import math
 
+from llvmlite import binding as llvm
 from numba import njit
+from numba.core import codegen
 
+
+def _use_own_copies():
+    """Make every compiled library call its own copies of the functions it links in.
+
+    Numba links a callee into each caller's module as a ``linkonce_odr`` copy, and the copy is
+    optimised again with its caller (inlined, or re-vectorised with fast-math: other
+    instructions, other rounding). The JIT then resolves such a weak symbol to the first
+    definition it has seen: in a process that compiled the callee first, that is the callee's
+    own library; in one that loads the caller from the cache, the caller's copy. The same step
+    thus ran different code cold and warm (and in a run resumed after a kill mid-compilation),
+    and its results differed in the last bits. Internal copies are never shared, so a
+    library's code is the same whether it was compiled here or loaded. (Numba's runtime
+    helpers NRT_* keep their linkage: its reference-count pruning finds them by name.)"""
+    cls = codegen.CPUCodeLibrary
+    optimize = cls._optimize_final_module
+    if getattr(optimize, "own_copies", False):
+        return
+
+    def optimize_own_copies(self):
+        for fn in self._final_module.functions:
+            if (not fn.is_declaration and fn.linkage == llvm.Linkage.linkonce_odr
+                    and not fn.name.startswith("NRT_")):
+                fn.linkage = llvm.Linkage.internal
+        optimize(self)
+    optimize_own_copies.own_copies = True
+    cls._optimize_final_module = optimize_own_copies
+
+
+_use_own_copies()
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}
