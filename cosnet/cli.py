@@ -114,6 +114,18 @@ def _keep_probe_rows(path: Path, header: str, last_frame: int):
     os.replace(tmp, path)
 
 
+def _threads_option(text) -> dict:
+    """The Simulation keyword of --threads (none when not given: the scene's, else automatic)."""
+    if text is None:
+        return {}
+    from .simulation import check_threads
+    try:
+        return {"threads": check_threads(int(text))}
+    except ValueError as e:
+        raise ValueError(f"--threads {e}" if text.strip().lstrip("+-").isdigit()
+                         else f"--threads must be an integer, got {text!r}") from None
+
+
 def cmd_run(args) -> int:
     from .io import SeriesWriter
     from .scene import load_scene
@@ -122,7 +134,7 @@ def cmd_run(args) -> int:
     until = scene.run.until if args.until is None else float(args.until)
     if not until > 0:
         raise ValueError(f"--until must be positive, got {args.until}")
-    sim = scene.simulation()
+    sim = scene.simulation(**_threads_option(args.threads))
     ckpt = out / CHECKPOINT
     probes = scene.run.probes
     header = _probe_header(probes)
@@ -237,6 +249,8 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="out", help="output directory (default: ./out)")
     r.add_argument("--until", type=float, help="end time in s (default: the scene's [run] until)")
     r.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    r.add_argument("--threads", help="threads for the step (default: the scene's [run] threads, else "
+                   "chosen by net size and machine load; see docs/threads.md)")
     i = sub.add_parser("info", help="describe a scene")
     i.add_argument("scene", help="scene file or ready case name")
     m = sub.add_parser("modes", help="normal modes of a scene's net (§6): spectrum and VTK mode shapes")

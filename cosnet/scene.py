@@ -42,7 +42,7 @@ import numpy as np
 from . import materials as M
 from .net import Net
 from .scaling import Scale
-from .scene_values import (Table, Units, _one_line, _si, array, auto_or_positive, boolean,
+from .scene_values import (Table, Units, _Bad, _one_line, _si, array, auto_or_positive, boolean,
                            choice, floats, frame, integer, mass_value, nonnegative, number, positive,
                            seed, string, string_list, vec3)
 
@@ -371,7 +371,8 @@ def _probe(t: Table, text: str, net: Net) -> Probe:
 @dataclass
 class RunSettings:
     """[run] (SI): end time ``until``, ``dt`` (None = the estimated stable step), ``stepper``,
-    ``output_interval`` (default until / 50), ``probes`` and ``force_dt``."""
+    ``output_interval`` (default until / 50), ``probes``, ``force_dt`` and ``threads`` (None:
+    chosen by the simulation, see Simulation)."""
 
     until: float
     dt: float | None = None
@@ -379,14 +380,23 @@ class RunSettings:
     output_interval: float | None = None
     probes: list = field(default_factory=list)
     force_dt: bool = False
+    threads: int | None = None
 
     @property
     def interval(self) -> float:
         return self.until / 50.0 if self.output_interval is None else self.output_interval
 
 
+def thread_count(v) -> int:
+    from .simulation import check_threads
+    try:
+        return check_threads(v)
+    except ValueError as e:
+        raise _Bad(str(e)) from None
+
+
 def _run(t: Table, net: Net, units: Units) -> RunSettings:
-    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt")
+    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "threads")
     sec = units.factor(0, 0, 1)
     until = t.get("until", positive) * sec
     dt = t.get("dt", auto_or_positive, default="auto")
@@ -395,7 +405,8 @@ def _run(t: Table, net: Net, units: Units) -> RunSettings:
                       t.get("stepper", choice("verlet", "pefrl"), default="verlet"),
                       None if out is None else out * sec,
                       [_probe(t, p, net) for p in t.get("probes", string_list, default=[])],
-                      t.get("force_dt", boolean, default=False))
+                      t.get("force_dt", boolean, default=False),
+                      t.get("threads", thread_count, default=None))
     if run.output_interval is not None and run.output_interval > until:
         raise t.err("output_interval", f"must not exceed until = {until:g} s")
     t.done()
@@ -421,7 +432,7 @@ class Scene:
         initial conditions; keyword overrides go to the Simulation (e.g. ``dt=...``)."""
         from .simulation import Simulation
         kw = dict(effects=self.effects, stepper=self.run.stepper, dt=self.run.dt,
-                  force_dt=self.run.force_dt)
+                  force_dt=self.run.force_dt, threads=self.run.threads)
         kw.update(overrides)
         try:
             sim = Simulation(self.net, **kw)
