@@ -4,8 +4,6 @@ state with a compiled symplectic stepper (no Python loop over lines or elements 
 from __future__ import annotations
 
 import math
-import os
-import time
 from functools import lru_cache
 
 import numba
@@ -44,34 +42,6 @@ def check_threads(threads) -> int:
             or not 1 <= threads <= available:
         raise ValueError(f"must be an integer from 1 to {available}, got {threads!r}")
     return int(threads)
-
-
-def busy_cores() -> int:
-    """Return how many cores other processes keep busy: the fewest runnable tasks besides this
-    one seen in five looks at /proc/loadavg 10 ms apart (a passing task is not a busy core);
-    where there is no /proc/loadavg, the one-minute load average less this process."""
-    try:
-        seen = []
-        for k in range(5):
-            with open("/proc/loadavg") as f:
-                seen.append(int(f.read().split()[3].split("/")[0]) - 1)
-            if k < 4:
-                time.sleep(0.01)
-        return max(0, min(seen))
-    except (OSError, ValueError, IndexError):
-        try:
-            return max(0, round(os.getloadavg()[0] - 1.0))
-        except OSError:
-            return 0
-
-
-def idle_threads() -> int:
-    """Return the threads a large net gets by default: one per core left idle by other
-    processes, at least one, at most numba's thread count. A thread on a busy core is late at
-    every parallel loop's end, and the step has several loops: two threads sharing a core
-    with another process ran several times slower than one thread (docs/threads.md)."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(numba.config.NUMBA_NUM_THREADS, cores - busy_cores()))
 
 
 class InstabilityError(RuntimeError):
@@ -115,10 +85,9 @@ class Simulation:
     stepper: "verlet" (position Verlet, order 2) or "pefrl" (order 4).
     dt: time step; None uses the estimated stable step ``stable_dt()``. A dt above the estimate
         is refused unless ``force_dt=True``.
-    threads: None picks one thread for nets under 20,000 elements, and above one per core
-        that other processes leave idle (idle_threads); an integer from 1 to numba's thread
-        count forces that many (1 = serial loops). Results are bit-identical run to run for a
-        given thread count; fix it for runs that must match across machines and loads.
+    threads: None picks one thread for nets under 20,000 elements and numba's thread count
+        above; an integer from 1 to that count forces that many (1 = serial loops). Results
+        are bit-identical run to run for a given thread count (docs/threads.md).
     """
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
@@ -167,7 +136,7 @@ class Simulation:
     def _choose_threads(self, threads):
         if threads is None:
             big = self.model.element_rest_length.shape[0] >= PARALLEL_MIN_ELEMENTS
-            return idle_threads() if big else 1
+            return numba.config.NUMBA_NUM_THREADS if big else 1
         try:
             return check_threads(threads)
         except ValueError as e:
