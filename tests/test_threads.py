@@ -1,6 +1,7 @@
 """The thread count of a run: the Simulation argument, the scene's [run] threads, the
 --threads flag (each validated in one line), and the automatic choice for large nets."""
 
+import os
 import re
 import shlex
 import subprocess
@@ -49,14 +50,29 @@ def test_a_bad_flag_is_one_line_with_exit_code_2(bad, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def test_the_simulation_argument_is_validated():
+def rod(elements):
     net = cosnet.Net()
     a, b = net.add_node((0, 0, 0), fixed=True), net.add_node((1, 0, 0))
     net.add_line(a, b, material=cosnet.Material(E=2e9, G=8e8, density=1000.0), section=cosnet.Circle(0.01),
-                 elements=4)
+                 elements=elements)
+    return net
+
+
+def test_the_simulation_argument_is_validated_and_the_default_follows_the_net_size():
     with pytest.raises(ValueError, match=rf"^Simulation: threads must be an integer from 1 to {AVAILABLE}, got 0$"):
-        cosnet.Simulation(net, threads=0)
-    assert cosnet.Simulation(net).threads == 1    # small nets: one thread, whatever the machine
+        cosnet.Simulation(rod(4), threads=0)
+    assert cosnet.Simulation(rod(4)).threads == 1
+    assert cosnet.Simulation(rod(simulation.PARALLEL_MIN_ELEMENTS)).threads == AVAILABLE
+
+
+@pytest.mark.parametrize("given, seen", [(None, "PASSIVE"), ("ACTIVE", "ACTIVE")])
+def test_waiting_threads_sleep_unless_the_user_says_otherwise(given, seen):
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    if given:
+        env["OMP_WAIT_POLICY"] = given
+    r = subprocess.run([sys.executable, "-c", "import os, cosnet; print(os.environ['OMP_WAIT_POLICY'])"],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0 and r.stdout.strip() == seen, r.stderr
 
 
 def blocks(kind):
