@@ -250,7 +250,7 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--until", type=float, help="end time in s (default: the scene's [run] until)")
     r.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     r.add_argument("--threads", help="threads for the step (default: the scene's [run] threads, else "
-                   "chosen by net size and machine load; see docs/threads.md)")
+                   "by net size; see docs/threads.md)")
     i = sub.add_parser("info", help="describe a scene")
     i.add_argument("scene", help="scene file or ready case name")
     m = sub.add_parser("modes", help="normal modes of a scene's net (§6): spectrum and VTK mode shapes")

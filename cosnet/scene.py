@@ -388,6 +388,7 @@ class RunSettings:
 
 
 def thread_count(v) -> int:
+    """[run] threads: an integer from 1 to numba's thread count."""
     from .simulation import check_threads
     try:
         return check_threads(v)
