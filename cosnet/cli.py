@@ -55,6 +55,18 @@ def scene_path(arg: str | None) -> Path:
     raise ValueError(f"{arg}: no such scene file, nor a ready case; cases are {', '.join(names)}")
 
 
+def _threads_option(text) -> dict:
+    """The Simulation keyword of --threads (none when not given: the scene's, else automatic)."""
+    if text is None:
+        return {}
+    from .simulation import check_threads
+    try:
+        return {"threads": check_threads(int(text))}
+    except ValueError as e:
+        raise ValueError(f"--threads {e}" if text.strip().lstrip("+-").isdigit()
+                         else f"--threads must be an integer, got {text!r}") from None
+
+
 def cmd_run(args) -> int:
     from . import outdir
     from .limits import check_run
@@ -64,7 +76,7 @@ def cmd_run(args) -> int:
     until = scene.run.until if args.until is None else float(args.until)
     if not (math.isfinite(until) and until > 0):
         raise ValueError(f"--until must be a positive number of seconds, got {args.until}")
-    sim = scene.simulation()
+    sim = scene.simulation(**_threads_option(args.threads))
     interval = min(scene.run.interval, until)
     if interval < sim.dt:
         what = "until" if interval == until else "output_interval"
@@ -195,6 +207,8 @@ def parser() -> argparse.ArgumentParser:
                       help="replace the run already in --out (its frames, probes and checkpoint)")
     r.add_argument("--no-limits", action="store_true",
                    help="lift the limits on elements, memory, steps and frames (see docs/faults.md)")
+    r.add_argument("--threads", help="threads for the step (default: the scene's [run] threads, else "
+                   "by net size; see docs/threads.md)")
     i = sub.add_parser("info", help="describe a scene")
     i.add_argument("scene", help="scene file or ready case name")
     m = sub.add_parser("modes", help="normal modes of a scene's net (§6): spectrum and VTK mode shapes")

@@ -47,7 +47,7 @@ from .limits import check_elements
 from .net import Net, frame_from_tangent
 from .record import Probe, parse_probe
 from .scaling import Scale
-from .scene_values import (Table, Units, _one_line, _show, _si, array, auto_or_positive, boolean,
+from .scene_values import (Table, Units, _Bad, _one_line, _show, _si, array, auto_or_positive, boolean,
                            choice, direction, floats, frame, integer, mass_value, nonnegative,
                            number, positive, quote_key, seed, string, string_list, vec3)
 
@@ -396,8 +396,9 @@ def _probe(t: Table, text, net: Net) -> Probe:
 @dataclass
 class RunSettings:
     """[run] (SI): end time ``until``, ``dt`` (None = the estimated stable step), ``stepper``,
-    ``output_interval`` (default until / 50), ``probes``, ``force_dt`` and ``limits`` (False:
-    skip the resource limits of cosnet.limits)."""
+    ``output_interval`` (default until / 50), ``probes``, ``force_dt``, ``limits`` (False:
+    skip the resource limits of cosnet.limits) and ``threads`` (None: chosen by the
+    simulation, see Simulation)."""
 
     until: float
     dt: float | None = None
@@ -406,14 +407,24 @@ class RunSettings:
     probes: list = field(default_factory=list)
     force_dt: bool = False
     limits: bool = True
+    threads: int | None = None
 
     @property
     def interval(self) -> float:
         return self.until / 50.0 if self.output_interval is None else self.output_interval
 
 
+def thread_count(v) -> int:
+    """[run] threads: an integer from 1 to numba's thread count."""
+    from .simulation import check_threads
+    try:
+        return check_threads(v)
+    except ValueError as e:
+        raise _Bad(str(e)) from None
+
+
 def _run(t: Table, net: Net, units: Units) -> RunSettings:
-    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "limits")
+    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "limits", "threads")
     sec = units.factor(0, 0, 1)
     until = t.get("until", positive) * sec
     dt = t.get("dt", auto_or_positive, default="auto")
@@ -422,7 +433,8 @@ def _run(t: Table, net: Net, units: Units) -> RunSettings:
                       t.get("stepper", choice("verlet", "pefrl"), default="verlet"),
                       None if out is None else out * sec,
                       [_probe(t, p, net) for p in t.get("probes", string_list, default=[])],
-                      t.get("force_dt", boolean, default=False), t.get("limits", boolean, default=True))
+                      t.get("force_dt", boolean, default=False), t.get("limits", boolean, default=True),
+                      t.get("threads", thread_count, default=None))
     if run.output_interval is not None and run.output_interval > until:
         raise t.err("output_interval", f"must not exceed until = {until:g} s")
     if run.output_interval is not None and run.dt is not None and run.output_interval < run.dt:
@@ -451,7 +463,7 @@ class Scene:
         initial conditions; keyword overrides go to the Simulation (e.g. ``dt=...``)."""
         from .simulation import Simulation
         kw = dict(effects=self.effects, stepper=self.run.stepper, dt=self.run.dt,
-                  force_dt=self.run.force_dt)
+                  force_dt=self.run.force_dt, threads=self.run.threads)
         kw.update(overrides)
         try:
             with np.errstate(all="ignore"):   # a net that overflows is refused below, in one line

@@ -42,6 +42,16 @@ WOBBLE_FLOOR = 1e-3
 WOBBLE_GROWTH = 3.0
 
 
+def check_threads(threads) -> int:
+    """Return threads if it is an integer from 1 to the number of threads numba may use
+    (NUMBA_NUM_THREADS), else raise ValueError saying so."""
+    available = numba.config.NUMBA_NUM_THREADS
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) \
+            or not 1 <= threads <= available:
+        raise ValueError(f"must be an integer from 1 to {available}, got {threads!r}")
+    return int(threads)
+
+
 class InstabilityError(RuntimeError):
     """The simulation blew up. Attributes: time, where (line/node and element), quantity,
     safe_dt; the message says all four."""
@@ -85,7 +95,8 @@ class Simulation:
         is refused unless ``force_dt=True``.
     safety: the fraction of the estimated stability limit taken as the automatic step, in (0, 1].
     threads: None picks one thread for nets under 20,000 elements and numba's thread count
-        above; an integer forces that many (1 = serial loops).
+        above; an integer from 1 to that count forces that many (1 = serial loops). Results
+        are bit-identical run to run for a given thread count (docs/threads.md).
     """
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
@@ -138,13 +149,13 @@ class Simulation:
 
     # ------------------------------------------------------------------ stepping
     def _choose_threads(self, threads):
-        available = numba.config.NUMBA_NUM_THREADS
         if threads is None:
             big = self.model.element_rest_length.shape[0] >= PARALLEL_MIN_ELEMENTS
-            return available if big else 1
-        if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= available:
-            raise ValueError(f"Simulation: threads must be an integer in [1, {available}], got {threads!r}")
-        return threads
+            return numba.config.NUMBA_NUM_THREADS if big else 1
+        try:
+            return check_threads(threads)
+        except ValueError as e:
+            raise ValueError(f"Simulation: threads {e}") from None
 
     def stable_dt(self) -> float:
         """Estimated largest stable step: safety * (scheme interval) / omega_max, with omega_max

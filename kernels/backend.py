@@ -9,6 +9,7 @@ Per-item bodies called inside a ``prange`` loop must not be ``inline="always"``:
 LLVM inlines anyway, is correct; tests/test_conservation.py checks 1 vs 2 threads).
 """
 
+import os
 from typing import NamedTuple
 
 from numba import njit, prange
@@ -16,6 +17,14 @@ from numba.core import cgutils, types
 from numba.extending import intrinsic
 
 from .rotations import INNER, KERNEL
+
+# Threads waiting for work sleep instead of spinning. GNU OpenMP, numba's usual threading
+# layer, spins between parallel loops by default; a thread spinning on a core shared with
+# another busy process uses up its share of that core, so the scheduler runs it late when
+# the next loop's work arrives, and every loop of the step waits for it: a 30,000-element
+# rod stepped 10-17 times slower on two threads than on one (docs/threads.md). The pool
+# reads this when it starts, at the first parallel loop; a value the user set is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 # Options of the serial step kernels. They allocate nothing, so they run without numba's
 # reference counting: a call passing the Model/State/Loads records would otherwise cost an

@@ -10,7 +10,40 @@ import math
 import os
 
 import numba
+from llvmlite import binding as llvm
 from numba import njit
+from numba.core import codegen
+
+
+def _use_own_copies():
+    """Make every compiled library call its own copies of the functions it links in.
+
+    Numba links a callee into each caller's module as a ``linkonce_odr`` copy, and the copy is
+    optimised again with its caller (inlined, or re-vectorised with fast-math: other
+    instructions, other rounding). The JIT then resolves such a weak symbol to the first
+    definition it has seen: in a process that compiled the callee first, that is the callee's
+    own library; in one that loads the caller from the cache, the caller's copy. The same step
+    thus ran different code cold and warm (and in a run resumed after a kill mid-compilation),
+    and its results differed in the last bits. Internal copies are never shared, so a
+    library's code is the same whether it was compiled here or loaded. (Numba's runtime
+    helpers NRT_* keep their linkage: its reference-count pruning finds them by name.)"""
+    cls = getattr(codegen, "CPUCodeLibrary", None)
+    optimize = getattr(cls, "_optimize_final_module", None)
+    if optimize is None or getattr(optimize, "own_copies", False):
+        return   # already done, or a numba built otherwise: results stay correct, only not
+                 # bit-identical between a cold and a warm cache (tests/test_reproducible.py)
+
+    def optimize_own_copies(self):
+        for fn in self._final_module.functions:
+            if (not fn.is_declaration and fn.linkage == llvm.Linkage.linkonce_odr
+                    and not fn.name.startswith("NRT_")):
+                fn.linkage = llvm.Linkage.internal
+        optimize(self)
+    optimize_own_copies.own_copies = True
+    cls._optimize_final_module = optimize_own_copies
+
+
+_use_own_copies()
 
 
 def _cache_options() -> dict:
