@@ -150,6 +150,7 @@ def cmd_run(args) -> int:
         sim.save_checkpoint(ckpt)
     print(f"{scene.title}: {len(scene.net.lines)} lines, {scene.net.element_count} elements, "
           f"dt = {sim.dt:.4g} s, {end - sim.steps} steps to t = {until:g} s -> {out}", file=sys.stderr)
+    print(f"fast_modes {fast_modes_line(sim)}", file=sys.stderr)
     progress = Progress(until, sim.dt)
     progress(sim)
     with open(out / PROBES, "a") as pf:
@@ -163,6 +164,14 @@ def cmd_run(args) -> int:
     progress(sim, force=True)
     sys.stderr.write(f"\ndone: {writer.frames} frames in {out}\n")
     return 0
+
+
+def fast_modes_line(sim) -> str:
+    """The fast-modes setting in force, the stable step it gives and the gain "auto" offers."""
+    from .fast_modes import auto_dt, summary
+    est, auto = sim.stable_dt(), auto_dt(sim)
+    return (f"{summary(sim)}: stable dt {est:.4g} s; \"auto\" gives {auto:.4g} s "
+            f"({auto / est:.3g}x)")
 
 
 def cmd_info(args) -> int:
@@ -181,6 +190,7 @@ def cmd_info(args) -> int:
     print(f"mass       {net.total_mass():.6g} kg (nodes of finite mass and lines)")
     print(f"stable dt  {est:.4g} s (estimate, {sim.stepper}; stiffest at {sim.stiffest()})")
     print(f"dt         {sim.dt:.4g} s ({'auto' if scene.run.dt is None else 'from the scene'})")
+    print(f"fast_modes {fast_modes_line(sim)}")
     print(f"run        until {scene.run.until:g} s = {math.ceil(scene.run.until / sim.dt):,} steps, "
           f"output every {scene.run.interval:g} s")
     print(f"effects    {'; '.join(scene.describe_effects()) or 'none'}")

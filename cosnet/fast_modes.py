@@ -199,3 +199,13 @@ def summary(sim) -> str:
     extra = f"; rotary inertia x{rot:.3g}" if rot != 1.0 else ""
     extra += f"; stretch/shear stiffness down to x{soft:.3g}" if soft < 1.0 else ""
     return f"{sim.fast_modes} (lines: {', '.join(parts) or 'none'}{extra})"
+
+
+def auto_dt(sim) -> float:
+    """The stable step sim's net would have with fast_modes = "auto" (its own if already)."""
+    if sim.fast_modes == "auto":
+        return sim.stable_dt()
+    from .simulation import Simulation
+    other = Simulation(sim.net, effects=sim.effects, stepper=sim.stepper, safety=sim.safety,
+                       threads=sim.threads, fast_modes="auto")
+    return other.stable_dt()
