@@ -16,7 +16,7 @@ itself, its symplecticity, exact junctions and momenta are untouched.
 Each treatment is bounded by what it may change: on the line's lowest ``MODES_KEPT`` bending
 modes, the rotary inertia term alpha k^2 rho I / (rho A) and the shear term k^2 E I / (beta_s k G A)
 of Timoshenko's frequency (k = MODES_KEPT pi / L) each stay below MODE_TOLERANCE / 2 of omega^2;
-a softened stretch under the net's load scale stays below STRAIN_TARGET, and a softened line
+a softened stretch or shear under the net's load scale stays below STRAIN_TARGET, and a softened line
 whose strain passes STRAIN_GUARD during a run stops the run (``check_strain``).
 """
 
@@ -123,7 +123,8 @@ def line_factors(line, grid, setting: str, load: float) -> Factors:
     alpha_max = max(1.0, 0.5 * MODE_TOLERANCE / (k2 * float(np.max(rows.jmax / rows.m))))
     if setting == "rotary":
         return Factors("rotary", max(base, min(rows.alpha_for(rows.translation()), alpha_max)))
-    shear_min = min(1.0, k2 * float(np.max(rows.bb / rows.ks)) / (0.5 * MODE_TOLERANCE))
+    shear_min = min(1.0, max(k2 * float(np.max(rows.bb / rows.ks)) / (0.5 * MODE_TOLERANCE),
+                             load / (float(np.min(rows.ks)) * STRAIN_TARGET)))
     axial_min = min(1.0, load / (float(np.min(rows.ka)) * STRAIN_TARGET))
     limit = rows.bending_limit()
     top = float(np.max(limit))
@@ -201,11 +202,12 @@ def summary(sim) -> str:
     return f"{sim.fast_modes} (lines: {', '.join(parts) or 'none'}{extra})"
 
 
-def auto_dt(sim) -> float:
-    """The stable step sim's net would have with fast_modes = "auto" (its own if already)."""
-    if sim.fast_modes == "auto":
+def dt_with(sim, setting: str) -> float:
+    """The stable step sim's net would have with another fast_modes setting (lines' own
+    settings still win)."""
+    if sim.fast_modes == setting:
         return sim.stable_dt()
     from .simulation import Simulation
     other = Simulation(sim.net, effects=sim.effects, stepper=sim.stepper, safety=sim.safety,
-                       threads=sim.threads, fast_modes="auto")
+                       threads=sim.threads, fast_modes=setting)
     return other.stable_dt()
