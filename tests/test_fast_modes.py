@@ -274,3 +274,18 @@ def test_docs_blocks_run():
             out = subprocess.run([sys.executable, "-m", "cosnet.cli", *args[1:]], capture_output=True,
                                  text=True, cwd=REPO, timeout=300)
             assert out.returncode == 0, out.stderr
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "cases" / "hard").glob("*.toml")), ids=lambda p: p.stem)
+def test_hard_cases_run_under_auto_never_slower(path):
+    from cosnet.scene import load_scene
+    scene = load_scene(path)
+    full = scene.simulation(fast_modes="resolve")
+    sim = scene.simulation(fast_modes="auto")
+    assert sim.stable_dt() >= full.stable_dt() * (1 - 1e-12)
+    sim.run(steps=50)
+    for line, f in zip(scene.net.lines, sim.line_factors):
+        assert np.all(np.isfinite(sim.line_positions(line)))
+        if f.treatment == "resolve":      # untreated lines are exactly today's
+            np.testing.assert_array_equal(sim.model.element_inertia[sim._erange(line)],
+                                          full.model.element_inertia[full._erange(line)])
