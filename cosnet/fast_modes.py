@@ -152,16 +152,14 @@ def apply_factors(grid, f: Factors):
 def load_scale(net, effects) -> float:
     """A force scale (N) the net's lines carry: its weight under gravity plus the largest
     declared node and line loads (an estimate; check_strain guards it)."""
+    from .effects import Gravity, LineLoad, NodeLoad
     total = 0.0
     for e in effects:
-        g = getattr(e, "g", None)
-        if g is not None:
-            total += net.total_mass() * float(np.linalg.norm(g))
-        force = getattr(e, "force", None)
-        if force is not None:
-            per_length = hasattr(e, "line")
-            size = e.line.length if per_length else 1.0
-            total += float(np.linalg.norm(force)) * size * _amplitude_max(e)
+        if isinstance(e, Gravity):
+            total += net.total_mass() * float(np.linalg.norm(e.g))
+        elif isinstance(e, (NodeLoad, LineLoad)):
+            size = e.line.length if isinstance(e, LineLoad) else 1.0
+            total += float(np.linalg.norm(e.force)) * size * _amplitude_max(e)
     return total
 
 
