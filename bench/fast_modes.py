@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cosnet  # noqa: E402
-from cosnet.modes import modes  # noqa: E402
+from cosnet.modes import bending_omegas  # noqa: E402
 from harness import STEEL, table, write_json  # noqa: E402
 
 SETTINGS = ("resolve", "rotary", "soften", "auto")
@@ -68,18 +68,7 @@ def bending_errors(net, fm, exact, dt=None):
     """Largest relative error of the lowest bending frequencies (pairs of equal frequencies of
     the round section counted once; torsion and stretch modes skipped) against exact, with
     Verlet's frequency 2 asin(omega dt / 2) / dt at step dt."""
-    sim = cosnet.Simulation(net, fast_modes=fm)
-    res = modes(sim, count=4 * len(exact) + 6)
-    m, J = sim.model.vertex_mass, sim.model.element_inertia
-    bend = []
-    for j, w in enumerate(res.omega):
-        dx, alpha, _, _ = res.lin.split(res.lin.T @ res.vectors[:, j])
-        side = float(np.sum(m[:, None] * dx[:, 1:] ** 2))
-        total = float(np.sum(m[:, None] * dx ** 2) + np.sum(J * alpha ** 2))
-        if side < 0.5 * total or (bend and abs(w - bend[-1]) < 1e-5 * w):
-            continue        # stretch or twist, or the second of a pair of a round section
-        bend.append(w)
-    bend = np.array(bend[:len(exact)])
+    bend = bending_omegas(cosnet.Simulation(net, fast_modes=fm), len(exact))
     if dt is not None:
         bend = 2.0 * np.arcsin(np.minimum(1.0, 0.5 * bend * dt)) / dt
     return float(np.max(np.abs(bend / exact - 1.0))), (bend / exact - 1.0).tolist()

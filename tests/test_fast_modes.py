@@ -17,7 +17,7 @@ import pytest
 import cosnet
 from cosnet.fast_modes import FastModesError, MODE_TOLERANCE, STRAIN_GUARD, _Rows, auto_rotary_scale
 from cosnet.flatten import build_line_grid, flatten
-from cosnet.modes import modes
+from cosnet.modes import bending_omegas
 from cosnet.scene import build_scene
 from nets import STEEL
 
@@ -36,20 +36,6 @@ def rod(n=20, r=1e-3, L=1.0, **line):
 def euler_bernoulli(betas, L, r):
     c = math.sqrt(STEEL.E * r * r / 4.0 / STEEL.density)
     return np.array([(b / L) ** 2 * c for b in betas])
-
-
-def bending(sim, count):
-    """The lowest ``count`` bending frequencies of sim's line along x (one of each pair)."""
-    res = modes(sim, count=4 * count + 4)
-    m, J = sim.model.vertex_mass, sim.model.element_inertia
-    out = []
-    for j, w in enumerate(res.omega):
-        dx, alpha, _, _ = res.lin.split(res.lin.T @ res.vectors[:, j])
-        side = np.sum(m[:, None] * dx[:, 1:] ** 2)
-        if side > 0.5 * (np.sum(m[:, None] * dx ** 2) + np.sum(J * alpha ** 2)) and \
-                not (out and abs(w - out[-1]) < 1e-5 * w):
-            out.append(w)
-    return np.array(out[:count])
 
 
 # ------------------------------------------------------------------ rotary inertia
@@ -99,7 +85,7 @@ def test_treated_rod_keeps_its_bending_frequencies(fm):
     plain = cosnet.Simulation(rod(n=40))
     sim = cosnet.Simulation(rod(n=40), fast_modes=fm)
     assert sim.dt > 5 * plain.dt
-    w0, w = bending(plain, 3), bending(sim, 3)
+    w0, w = bending_omegas(plain, 3), bending_omegas(sim, 3)
     # the treatment's own share of the error stays within its stated tolerance on omega^2
     assert np.all(np.abs(w ** 2 / w0 ** 2 - 1.0) < MODE_TOLERANCE)
     assert np.all(np.abs(w / exact - 1.0) < 0.01)
@@ -112,7 +98,7 @@ def test_scaled_line_bending_frequencies_converge_as_n_minus_2():
     alpha, k = 100.0, np.array(CLAMPED_FREE)
     exact = euler_bernoulli(CLAMPED_FREE, 1.0, 1e-3)
     timoshenko = exact / np.sqrt(1.0 + k ** 2 * 2.5e-7 * (alpha + STEEL.E / STEEL.G))
-    w = [bending(cosnet.Simulation(rod(n=n, rotary_inertia_scale=alpha)), 3) for n in (20, 40, 80)]
+    w = [bending_omegas(cosnet.Simulation(rod(n=n, rotary_inertia_scale=alpha)), 3) for n in (20, 40, 80)]
     ratio = (w[0] - w[1]) / (w[1] - w[2])
     assert np.all((3.7 < ratio) & (ratio < 4.3)), ratio
     limit = w[2] + (w[2] - w[1]) / 3.0            # Richardson: the n -> infinity value
