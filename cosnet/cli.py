@@ -103,11 +103,24 @@ def _write_run(args, scene, sim, out: Path, until: float) -> int:
         print(f"resuming {scene.path} from frame {rec.k} at t = {sim.time:.6g} s", file=sys.stderr)
     print(f"{scene.title}: {len(scene.net.lines)} lines, {scene.net.element_count} elements, "
           f"dt = {sim.dt:.4g} s, {rec.steps_left()} steps to t = {until:g} s -> {out}", file=sys.stderr)
+    print(f"fast_modes {fast_modes_line(sim)}", file=sys.stderr)
     progress = Progress(until, sim.dt)
     rec.run(progress)
     progress(sim, force=True)
     sys.stderr.write(f"\ndone: {rec.writer.frames} frames in {out}\n")
     return 0
+
+
+def fast_modes_line(sim) -> str:
+    """The fast-modes setting in force, the stable step it gives (against "resolve") and the
+    step "auto" would give."""
+    from .fast_modes import dt_with, summary
+    est, auto = sim.stable_dt(), dt_with(sim, "auto")
+    text = f"{summary(sim)}: stable dt {est:.4g} s"
+    if sim.fast_modes != "resolve":
+        full = dt_with(sim, "resolve")
+        text += f" ({est / full:.3g}x the {full:.4g} s of \"resolve\")"
+    return text + f"; \"auto\" gives {auto:.4g} s ({auto / est:.3g}x)"
 
 
 def cmd_info(args) -> int:
@@ -126,6 +139,7 @@ def cmd_info(args) -> int:
     print(f"mass       {net.total_mass():.6g} kg (nodes of finite mass and lines)")
     print(f"stable dt  {est:.4g} s (estimate, {sim.stepper}; stiffest at {sim.stiffest()})")
     print(f"dt         {sim.dt:.4g} s ({'auto' if scene.run.dt is None else 'from the scene'})")
+    print(f"fast_modes {fast_modes_line(sim)}")
     print(f"run        until {scene.run.until:g} s = {math.ceil(scene.run.until / sim.dt):,} steps, "
           f"output every {scene.run.interval:g} s")
     print(f"effects    {'; '.join(scene.describe_effects()) or 'none'}")

@@ -9,9 +9,10 @@ rotary inertia of each end element (the dual cell [0, l/4] of the node's rotatio
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from .fast_modes import Factors, apply_factors, line_factors
 from .kernels.layout import Model, State, column_major
 from .net import Line, Net, frame_from_tangent
 from .rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix
@@ -39,6 +40,8 @@ class LineGrid:
     bend: np.ndarray       # (n+1, 3)
     curvature: np.ndarray  # (n+1, 3) rest curvature, principal frame
     end_frames: tuple      # (D_start, D_end): line-end director frames in the lab (principal)
+    element_mass: np.ndarray  # (n,) rho A l
+    factors: Factors = field(default_factory=Factors)  # the line's fast-modes treatment
 
 
 def _sections_at(line: Line, s: np.ndarray) -> tuple[list, np.ndarray]:
@@ -98,7 +101,7 @@ def build_line_grid(line: Line) -> LineGrid:
     area = np.array([sc.A for sc in secs])
     kappa = np.array([sc.shear_coefficient for sc in secs])
     stiffness = np.column_stack([kappa * mat.G * area, kappa * mat.G * area, mat.E * area])
-    inertia = mat.density * seg[:, None] * np.column_stack([p_mid[:, 0], p_mid[:, 1], p_mid[:, 0] + p_mid[:, 1]])
+    inertia = seg[:, None] * _rotary_per_length(line, secs, p_mid)
     # rotations live at the element centres and at the nodes (s = 0, L): the dual cell of a
     # node is [0, l/4], so a node takes a quarter of its end element's rotary inertia
     inertia[0] *= 1.0 - NODE_ROTARY_SHARE
@@ -126,7 +129,20 @@ def build_line_grid(line: Line) -> LineGrid:
             rel = np.einsum("kji,kjl->kil", frames[:-1], frames[1:])
             curvature[1:n] = rotvec_from_matrix(rel) / vor[1:n, None]
     return LineGrid(line.points.copy(), frames, seg, stiffness, inertia, mass, vor, bend,
-                    curvature, tuple(ends))
+                    curvature, tuple(ends), emass)
+
+
+def _rotary_per_length(line: Line, secs: list, principal: np.ndarray) -> np.ndarray:
+    """(n, 3) rotary inertia per length about the principal axes: the line's own, else each
+    section's own, else density times (I1, I2, I1 + I2) (3.4)."""
+    rho = line.material.density
+    derived = rho * np.column_stack([principal[:, 0], principal[:, 1], principal[:, 0] + principal[:, 1]])
+    if line.rotary_inertia is not None:
+        return np.tile(np.array(line.rotary_inertia), (len(secs), 1))
+    own = [sc.rotary_inertia for sc in secs]
+    if all(o is None for o in own):
+        return derived
+    return np.array([d if o is None else o for d, o in zip(derived, own)])
 
 
 def _composite_body(node, ends):
@@ -192,10 +208,15 @@ def _principal_frame(I, locked):
     return P, diag
 
 
-def flatten(net: Net) -> tuple[Model, State, list[LineGrid]]:
-    """Return the static Model, the initial State (at rest) and each line's grid."""
+def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0) -> tuple[Model, State, list[LineGrid]]:
+    """Return the static Model, the initial State (at rest) and each line's grid, each line
+    treated by its fast-modes setting (else ``fast_modes``) given the net's load scale (N);
+    see cosnet.fast_modes."""
     net.validate()
     grids = [build_line_grid(l) for l in net.lines]
+    for line, g in zip(net.lines, grids):
+        g.factors = line_factors(line, g, fast_modes, load)
+        apply_factors(g, g.factors)
     nl, nn = len(net.lines), len(net.nodes)
     nverts = np.array([g.x.shape[0] for g in grids], dtype=np.int64)
     vo = np.concatenate([[0], np.cumsum(nverts)]).astype(np.int64)

@@ -5,7 +5,8 @@ the stretch and shear stiffnesses ``K = diag(k G A, k G A, E A)``, the bend and 
 stiffnesses ``B = [[E I11, E I12, 0], [E I12, E I22, 0], [0, 0, G J]]`` and the mass and
 rotary inertia ``rho A`` and ``rho [[I11, I12, 0], [I12, I22, 0], [0, 0, I11 + I22]]`` (3.4).
 Second moments are taken in the director frame (d1, d2); ``I11 = int x2^2 dA`` resists
-bending about d1.
+bending about d1. A section may carry its rotary inertia per length ``rho I`` on its own (as
+published benchmarks give it), independently of the second moments that set its stiffness.
 """
 
 from __future__ import annotations
@@ -55,11 +56,40 @@ class Material:
             object.__setattr__(self, "G", _check_positive(who, "G", self.G))
 
 
+def rotary_inertia_triple(owner: str, value) -> tuple[float, float, float]:
+    """Return value as three positive rotary inertias per length (kg m), or raise naming owner."""
+    try:
+        vals = [float(v) for v in value]
+    except (TypeError, ValueError):
+        raise ValueError(f"{owner}: rotary_inertia must be three numbers (kg m), got {value!r}") from None
+    if len(vals) != 3:
+        raise ValueError(f"{owner}: rotary_inertia must be three numbers (kg m), got {len(vals)}")
+    return tuple(_check_positive(owner, "rotary_inertia", v) for v in vals)
+
+
+def rotary_inertia_scale_value(owner: str, value) -> float | str:
+    """Return value as a rotary-inertia scale (a finite float >= 1, or "auto"), or raise
+    naming owner."""
+    if isinstance(value, str):
+        if value == "auto":
+            return value
+        raise ValueError(f"{owner}: rotary_inertia_scale must be a number >= 1 or \"auto\", got {value!r}")
+    if isinstance(value, bool):
+        raise ValueError(f"{owner}: rotary_inertia_scale must be a number >= 1 or \"auto\", got {value!r}")
+    v = _check_positive(owner, "rotary_inertia_scale", value)
+    if v < 1.0:
+        raise ValueError(f"{owner}: rotary_inertia_scale must be >= 1 (a smaller rotary inertia "
+                         f"only shortens the stable step), got {v}")
+    return v
+
+
 @dataclass(frozen=True)
 class Section:
     """Explicit cross-section: area A, second moments I11, I22, product I12 (3.4), torsion
     constant J, and the shear correction factor applied to G A (1 in the paper's (3.23)).
-    ``radius`` is the contact radius (used by rod-rod contact and rendering)."""
+    ``radius`` is the contact radius (used by rod-rod contact and rendering).
+    ``rotary_inertia``: None (derived: density times (I1, I2, I1 + I2)) or the rotary inertia
+    per length (kg m) about the section's first and second principal axes and its axis."""
 
     A: float
     I11: float
@@ -69,6 +99,7 @@ class Section:
     shear_coefficient: float = 1.0
     radius: float | None = None
     kind: str = "section"
+    rotary_inertia: tuple | None = None
 
     def __post_init__(self):
         who = f"{self.kind} section"
@@ -83,6 +114,8 @@ class Section:
         object.__setattr__(self, "I12", i12)
         r = math.sqrt(self.A / math.pi) if self.radius is None else _check_positive(who, "radius", self.radius)
         object.__setattr__(self, "radius", r)
+        if self.rotary_inertia is not None:
+            object.__setattr__(self, "rotary_inertia", rotary_inertia_triple(who, self.rotary_inertia))
 
     def principal(self) -> tuple[float, float, float]:
         """Return (I1, I2, phi): principal second moments and the angle phi (about d3) from d1

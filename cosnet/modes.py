@@ -555,3 +555,19 @@ def main_modes(scene_or_net, count: int = 6, out_dir=None, frames: int = 16, sig
             write_mode_series(res, j, out, frames=frames, amplitude=amplitude)
         print(f"wrote {len(res)} mode series to {out}")
     return res
+
+
+def bending_omegas(sim, count: int) -> np.ndarray:
+    """The lowest ``count`` bending frequencies (rad/s) of sim's nets of straight lines along
+    the lab x axis: the modes whose kinetic energy is mostly sideways vertex motion (stretch
+    and twist left out), one of each equal pair of a round section."""
+    res = modes(sim, count=4 * count + 6)
+    m, J = sim.model.vertex_mass, sim.model.element_inertia
+    out = []
+    for j, w in enumerate(res.omega):
+        dx, alpha, _, _ = res.lin.split(res.lin.T @ res.vectors[:, j])
+        side = float(np.sum(m[:, None] * dx[:, 1:] ** 2))
+        total = float(np.sum(m[:, None] * dx ** 2) + np.sum(J * alpha ** 2))
+        if side > 0.5 * total and not (out and abs(w - out[-1]) < 1e-5 * w):
+            out.append(w)
+    return np.array(out[:count])

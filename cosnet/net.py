@@ -17,7 +17,8 @@ from typing import Callable
 
 import numpy as np
 
-from .materials import Material, Section
+from .fast_modes import fast_modes_value
+from .materials import Material, Section, rotary_inertia_scale_value, rotary_inertia_triple
 
 
 def _vector(owner: str, name: str, value, shape=(3,)) -> np.ndarray:
@@ -100,6 +101,9 @@ class Line:
     points: np.ndarray
     d1: np.ndarray | None
     name: str
+    rotary_inertia: tuple | None = None     # per length (kg m), principal axes; None: the section's
+    rotary_inertia_scale: float | str = 1.0  # >= 1 or "auto"
+    fast_modes: str | None = None           # None: the simulation's setting
 
     def section_at(self, s: float) -> Section:
         """The cross-section at the fraction s in [0, 1] of the line's arc length."""
@@ -209,7 +213,8 @@ class Net:
     def add_line(self, start: Node, end: Node, *, material: Material, section,
                  elements: int, start_offset=(0.0, 0.0, 0.0), end_offset=(0.0, 0.0, 0.0),
                  start_frame=None, end_frame=None, rest_curvature=None, points=None,
-                 d1=None, name: str | None = None) -> Line:
+                 d1=None, name: str | None = None, rotary_inertia=None,
+                 rotary_inertia_scale=1.0, fast_modes: str | None = None) -> Line:
         """Add a line from ``start`` to ``end`` (Omega = -1 at start, +1 at end).
 
         material, section: a Material and a Section (or a callable s -> Section, s in [0, 1],
@@ -225,6 +230,13 @@ class Net:
         points: (k, 3) polyline through which the line is built (its rest shape too); its ends
             must coincide with the node end points. Resampled to ``elements`` if k != n + 1.
         d1: hint for the first director (lab frame); matters for non-circular sections.
+        rotary_inertia: rotary inertia per length (kg m) about the principal axes (I1, I2,
+            axis), overriding the section's (default: density times (I1, I2, I1 + I2)).
+        rotary_inertia_scale: a factor >= 1 on the rotary inertia (all three axes), or "auto":
+            the smallest factor that keeps the rotational modes from binding the stable step
+            (see docs/fast_modes.md).
+        fast_modes: this line's treatment of its fast modes, overriding the simulation's
+            (one of cosnet.fast_modes.FAST_MODES; None: the simulation's).
         """
         idx = len(self.lines)
         name = f"line{idx}" if name is None else str(name)
@@ -250,6 +262,9 @@ class Net:
         Xs = None if start_frame is None else _rotation(who, "start_frame", start_frame)
         Xe = None if end_frame is None else _rotation(who, "end_frame", end_frame)
         d1v = None if d1 is None else _vector(who, "d1", d1)
+        rot = None if rotary_inertia is None else rotary_inertia_triple(who, rotary_inertia)
+        rot_scale = rotary_inertia_scale_value(who, rotary_inertia_scale)
+        fast = None if fast_modes is None else fast_modes_value(who, fast_modes)
         if rest_curvature is not None and not callable(rest_curvature):
             rest_curvature = _vector(who, "rest_curvature", rest_curvature)
         p0 = start.position + start.frame @ xs
@@ -262,7 +277,7 @@ class Net:
         else:
             pts = self._polyline(who, points, p0, p1, elements)
         line = Line(idx, start, end, material, section, elements, xs, xe, Xs, Xe,
-                    rest_curvature, pts, d1v, name)
+                    rest_curvature, pts, d1v, name, rot, rot_scale, fast)
         self._check_sections(line)
         for k in range(elements):
             t = pts[k + 1] - pts[k]

@@ -76,10 +76,13 @@ def _convert(net: Net, L: float, M: float, T: float, inverse: bool) -> Net:
     u = lambda dim_l, dim_m, dim_t: (L**dim_l * M**dim_m * T**dim_t) ** (-p)
     length, mass, inertia = u(1, 0, 0), u(0, 1, 0), u(2, 1, 0)
     modulus, density = u(-1, 1, -2), u(-3, 1, 0)
+    rotary = u(1, 1, 0)   # rotary inertia per length
+    per_length = lambda r: None if r is None else tuple(x * rotary for x in r)
 
     def section(s: Section) -> Section:
         return replace(s, A=s.A * length**2, I11=s.I11 * length**4, I22=s.I22 * length**4,
-                       I12=s.I12 * length**4, J=s.J * length**4, radius=s.radius * length)
+                       I12=s.I12 * length**4, J=s.J * length**4, radius=s.radius * length,
+                       rotary_inertia=per_length(s.rotary_inertia))
 
     def material(m: Material) -> Material:
         return Material(E=m.E * modulus, G=m.G * modulus, density=m.density * density, name=m.name)
@@ -101,5 +104,6 @@ def _convert(net: Net, L: float, M: float, T: float, inverse: bool) -> Net:
                      elements=l.elements, start_offset=l.start_offset * length,
                      end_offset=l.end_offset * length, start_frame=l.start_frame,
                      end_frame=l.end_frame, rest_curvature=u0, points=l.points * length,
-                     d1=l.d1, name=l.name)
+                     d1=l.d1, name=l.name, rotary_inertia=per_length(l.rotary_inertia),
+                     rotary_inertia_scale=l.rotary_inertia_scale, fast_modes=l.fast_modes)
     return out

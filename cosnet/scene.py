@@ -12,14 +12,16 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
     [sections.NAME]                 kind = circle | tube | rectangle | ellipse | explicit
     [nodes.NAME]                    position, frame, mass ("inf" allowed), inertia, fixed
     [lines.NAME]                    start, end, material, section, elements, start_offset,
-                                    end_offset, start_frame, end_frame, rest_curvature, points, d1
+                                    end_offset, start_frame, end_frame, rest_curvature, points, d1,
+                                    rotary_inertia, rotary_inertia_scale, fast_modes
     [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping |
                                     spherical_joint | hinge_joint | fixed_joint |
                                     contact
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
-                                    force_dt, limits (false lifts cosnet.limits)
+                                    force_dt, limits (false lifts cosnet.limits), threads,
+                                    fast_modes (docs/fast_modes.md)
 
 A frame (node ``frame``, line ``start_frame`` / ``end_frame``) is the 3x3 matrix written as
 its three rows (its columns are d1 d2 d3) or an inline table with two or three of d1, d2, d3
@@ -37,12 +39,13 @@ from __future__ import annotations
 
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from . import materials as M
+from .fast_modes import FAST_MODES
 from .limits import check_elements
 from .net import Net, frame_from_tangent
 from .record import Probe, parse_probe
@@ -89,17 +92,23 @@ SECTIONS = {  # kind -> (constructor, required keys)
 def _section(t: Table) -> M.Section:
     kind = t.get("kind", choice(*SECTIONS))
     make, keys = SECTIONS[kind]
-    t.expect("kind", "shear_coefficient", *keys, *(("I12", "radius") if kind == "explicit" else ()))
+    t.expect("kind", "shear_coefficient", "rotary_inertia", *keys,
+             *(("I12", "radius") if kind == "explicit" else ()))
     kw = {k: t.get(k, positive) for k in keys}
     kw["shear_coefficient"] = t.get("shear_coefficient", positive, default=1.0)
+    rot = t.get("rotary_inertia", vec3, default=None)
     if kind == "explicit":
         kw["I12"] = t.get("I12", number, default=0.0)
         kw["radius"] = t.get("radius", positive, default=None)
     t.done()
     try:
-        return make(**kw)
+        sec = make(**kw)
     except REFUSED as e:
         raise t.err(keys[-1], _why(e)) from None
+    try:
+        return sec if rot is None else replace(sec, rotary_inertia=tuple(rot))
+    except ValueError as e:
+        raise t.err("rotary_inertia", e) from None
 
 
 def _node(t: Table, net: Net, name: str):
@@ -122,7 +131,8 @@ def _inertia(v):
 
 def _line(t: Table, net: Net, name: str, materials, sections):
     t.expect("start", "end", "material", "section", "elements", "start_offset", "end_offset",
-             "rest_curvature", "d1", "start_frame", "end_frame", "points")
+             "rest_curvature", "d1", "start_frame", "end_frame", "points", "rotary_inertia",
+             "rotary_inertia_scale", "fast_modes")
     ends = []
     for role in ("start", "end"):
         ref = t.get(role, string)
@@ -148,6 +158,9 @@ def _line(t: Table, net: Net, name: str, materials, sections):
     for key in ("start_frame", "end_frame"):
         kw[key] = t.get(key, frame, default=None)
     kw["points"] = t.get("points", array((-1, 3)), default=None)
+    kw["rotary_inertia"] = t.get("rotary_inertia", vec3, default=None)
+    kw["rotary_inertia_scale"] = t.get("rotary_inertia_scale", _auto_or_number, default=1.0)
+    kw["fast_modes"] = t.get("fast_modes", choice(*FAST_MODES), default=None)
     t.done()
     for key in ("start_offset", "end_offset"):
         if kw[key] is None:
@@ -170,6 +183,10 @@ def _check_first_frame(t: Table, line):
         frame_from_tangent(line.points[1] - line.points[0], hint)
     except ValueError as e:
         raise t.err("d1" if line.d1 is not None else "start_frame", e) from None
+
+
+def _auto_or_number(v):
+    return "auto" if v == "auto" else number(v)
 
 
 def _wrap(t: Table, fallback_key, build):
@@ -408,6 +425,7 @@ class RunSettings:
     force_dt: bool = False
     limits: bool = True
     threads: int | None = None
+    fast_modes: str = "resolve"
 
     @property
     def interval(self) -> float:
@@ -424,7 +442,8 @@ def thread_count(v) -> int:
 
 
 def _run(t: Table, net: Net, units: Units) -> RunSettings:
-    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "limits", "threads")
+    t.expect("until", "dt", "stepper", "output_interval", "probes", "force_dt", "limits", "threads",
+             "fast_modes")
     sec = units.factor(0, 0, 1)
     until = t.get("until", positive) * sec
     dt = t.get("dt", auto_or_positive, default="auto")
@@ -434,7 +453,8 @@ def _run(t: Table, net: Net, units: Units) -> RunSettings:
                       None if out is None else out * sec,
                       [_probe(t, p, net) for p in t.get("probes", string_list, default=[])],
                       t.get("force_dt", boolean, default=False), t.get("limits", boolean, default=True),
-                      t.get("threads", thread_count, default=None))
+                      t.get("threads", thread_count, default=None),
+                      t.get("fast_modes", choice(*FAST_MODES), default="resolve"))
     if run.output_interval is not None and run.output_interval > until:
         raise t.err("output_interval", f"must not exceed until = {until:g} s")
     if run.output_interval is not None and run.dt is not None and run.output_interval < run.dt:
@@ -463,14 +483,15 @@ class Scene:
         initial conditions; keyword overrides go to the Simulation (e.g. ``dt=...``)."""
         from .simulation import Simulation
         kw = dict(effects=self.effects, stepper=self.run.stepper, dt=self.run.dt,
-                  force_dt=self.run.force_dt, threads=self.run.threads)
+                  force_dt=self.run.force_dt, threads=self.run.threads,
+                  fast_modes=self.run.fast_modes)
         kw.update(overrides)
         try:
             with np.errstate(all="ignore"):   # a net that overflows is refused below, in one line
                 sim = Simulation(self.net, **kw)
         except REFUSED as e:
             msg = _one_line(_why(e))
-            key = next((k for k in ("dt", "stepper") if re.search(rf"\b{k}\b", msg)), None)
+            key = next((k for k in ("dt", "stepper", "fast_modes") if re.search(rf"\b{k}\b", msg)), None)
             where = f"[run] {key}: " if key else ""
             raise ValueError(f"{self.path}: {where}{msg}") from None
         self.initial.apply(sim, f"{self.path}: [initial]")

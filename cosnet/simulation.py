@@ -12,6 +12,7 @@ import numpy as np
 
 from . import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
+from . import fast_modes as _fast
 from .checkpoint import fingerprint
 from .effects import Effect
 from .flatten import flatten, matrix_from_quat
@@ -97,10 +98,14 @@ class Simulation:
     threads: None picks one thread for nets under 20,000 elements and numba's thread count
         above; an integer from 1 to that count forces that many (1 = serial loops). Results
         are bit-identical run to run for a given thread count (docs/threads.md).
+    fast_modes: how lines treat their fast modes (rotary inertia, stretch and shear waves):
+        "resolve" (as built), "rotary", "soften" or "auto"; a line's own setting overrides it
+        (docs/fast_modes.md).
     """
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
-                 force_dt: bool = False, safety: float = 0.9, threads: int | None = None):
+                 force_dt: bool = False, safety: float = 0.9, threads: int | None = None,
+                 fast_modes: str = "resolve"):
         if not isinstance(net, Net):
             raise ValueError(f"Simulation: net must be a cosnet.Net, got {net!r}")
         if stepper not in STEPPERS:
@@ -111,7 +116,9 @@ class Simulation:
         self.net = net
         self.stepper = stepper
         self.safety = float(safety)
-        self.model, self.state, self.grids = flatten(net)
+        self.fast_modes = _fast.fast_modes_value("Simulation", fast_modes)
+        self.model, self.state, self.grids = flatten(net, fast_modes, _fast.load_scale(net, effects))
+        self.line_factors = [g.factors for g in self.grids]
         self.loads = empty_loads(self.model)
         self.effects = list(effects)
         for e in self.effects:
@@ -283,6 +290,7 @@ class Simulation:
     def _full_check(self):
         """The strain and energy tests on the state sealed in self._seal."""
         self._watched_at = self.steps
+        _fast.check_strain(self)
         worst, e = measure.worst_strain(self.model, self.state)
         if worst > STRAIN_LIMIT:
             quantity = f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})"

@@ -1,0 +1,166 @@
+"""Fast modes: what each ``fast_modes`` setting gains in step and costs in accuracy, side by
+side in one process (docs/fast_modes.md quotes bench/fast_modes.json).
+
+Cases:
+  cable   steel cable L = 10 m, r = 1 mm, 100 elements, pinned at both ends 9 m apart,
+          released at rest in a plane turned 40 degrees sideways from the vertical: wall time
+          per simulated second of each setting against "resolve" (measured in alternation),
+          the midpoint path over three swing periods against "resolve" at the same mesh
+          (largest distance over the swing amplitude), and the lowest five bending
+          frequencies of the same line straight and pinned against Euler-Bernoulli
+  rod     steel rod L = 1 m, r = 1 mm, 100 elements, clamped-free: stable step (steps per
+          simulated second) and the lowest five bending frequencies (discrete modes of the
+          treated mass and stiffness, Verlet's frequency error at that step included) against
+          Euler-Bernoulli
+  stubby  the same rod with r = 10 mm (l = r): the step must not shrink
+
+    python bench/fast_modes.py [--quick]      (--quick: one swing period, fewer rounds)
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import cosnet  # noqa: E402
+from cosnet.modes import bending_omegas  # noqa: E402
+from harness import STEEL, table, write_json  # noqa: E402
+
+SETTINGS = ("resolve", "rotary", "soften", "auto")
+CLAMPED_FREE = (1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349, 14.1371683910)
+
+
+def cable_points(L=10.0, span=9.0, tilt=math.radians(40.0), samples=4001):
+    """A sine-shaped sag of arc length L over the span, in the plane turned by tilt."""
+    x = np.linspace(0.0, span, samples)
+    lo, hi = 0.0, span
+    for _ in range(80):
+        d = 0.5 * (lo + hi)
+        z = d * np.sin(np.pi * x / span)
+        lo, hi = (d, hi) if np.sum(np.hypot(np.diff(x), np.diff(z))) < L else (lo, d)
+    z = d * np.sin(np.pi * x / span)
+    return np.column_stack([x, z * math.sin(tilt), -z * math.cos(tilt)])
+
+
+def cable(n=100):
+    net = cosnet.Net()
+    a = net.add_node((0, 0, 0), mass=math.inf, name="a")
+    b = net.add_node((9, 0, 0), mass=math.inf, name="b")
+    net.add_line(a, b, material=STEEL, section=cosnet.Circle(1e-3), elements=n,
+                 points=cable_points(), rest_curvature=(0, 0, 0), name="cable")
+    return net
+
+
+def straight(L, r, n, clamped):
+    net = cosnet.Net()
+    a = net.add_node((0, 0, 0), fixed=True) if clamped else net.add_node((0, 0, 0), mass=math.inf)
+    b = net.add_node((L, 0, 0)) if clamped else net.add_node((L, 0, 0), mass=math.inf)
+    net.add_line(a, b, material=STEEL, section=cosnet.Circle(r), elements=n, name="line")
+    return net
+
+
+def bending_errors(net, fm, exact, dt=None):
+    """Largest relative error of the lowest bending frequencies (pairs of equal frequencies of
+    the round section counted once; torsion and stretch modes skipped) against exact, with
+    Verlet's frequency 2 asin(omega dt / 2) / dt at step dt."""
+    bend = bending_omegas(cosnet.Simulation(net, fast_modes=fm), len(exact))
+    if dt is not None:
+        bend = 2.0 * np.arcsin(np.minimum(1.0, 0.5 * bend * dt)) / dt
+    return float(np.max(np.abs(bend / exact - 1.0))), (bend / exact - 1.0).tolist()
+
+
+def eb(betas, L, r):
+    c = math.sqrt(STEEL.E * r * r / 4.0 / STEEL.density)
+    return np.array([(b / L) ** 2 * c for b in betas])
+
+
+def midpoint_path(fm, until, samples):
+    sim = cosnet.Simulation(cable(), effects=[cosnet.Gravity()], fast_modes=fm)
+    mid = cable().lines[0].elements // 2
+    out = np.zeros((samples + 1, 3))
+    out[0] = sim.line_positions(sim.net.lines[0])[mid]
+    t0 = time.perf_counter()
+    for k in range(1, samples + 1):
+        sim.run(until=until * k / samples)
+        out[k] = sim.line_positions(sim.net.lines[0])[mid]
+    return out, time.perf_counter() - t0, sim
+
+
+def swing_period(fm, probe_time=6.0, samples=600):
+    path, _, _ = midpoint_path(fm, probe_time, samples)
+    y = path[:, 1]
+    t = np.linspace(0.0, probe_time, samples + 1)
+    cross = [t[k] - y[k] * (t[k + 1] - t[k]) / (y[k + 1] - y[k])
+             for k in range(samples) if y[k] > 0 >= y[k + 1] or y[k] < 0 <= y[k + 1]]
+    return 2.0 * float(np.mean(np.diff(cross))) if len(cross) > 2 else 2.0 * cross[0]
+
+
+def wall_ratio(fm, rounds, steps):
+    """Wall time per simulated second of "resolve" over that of fm, per round (alternating)."""
+    sims = {s: cosnet.Simulation(cable(), effects=[cosnet.Gravity()], fast_modes=s) for s in ("resolve", fm)}
+    for s in sims.values():
+        s.run(steps=100)
+    ratios = []
+    for _ in range(rounds):
+        per = {}
+        for name, s in sims.items():
+            t0 = time.perf_counter()
+            s.run(steps=steps)
+            per[name] = (time.perf_counter() - t0) / (steps * s.dt)
+        ratios.append(per["resolve"] / per[fm])
+    return ratios
+
+
+def main(quick=False):
+    periods = 1 if quick else 3
+    rounds, steps = (2, 2000) if quick else (5, 5000)
+    result = {"periods": periods, "under_load": True}
+
+    # cable: steps, wall time, midpoint path
+    T = swing_period("soften")
+    until = periods * T
+    samples = 60 * periods
+    ref, ref_wall, ref_sim = midpoint_path("resolve", until, samples)
+    amp = float(np.max(np.abs(ref[:, 1])))
+    rows, cab = [], {"swing_period_s": T, "simulated_s": until, "swing_amplitude_m": amp}
+    exact_pp = eb([math.pi * k for k in range(1, 6)], 10.0, 1e-3)
+    for fm in SETTINGS:
+        path, wall, sim = (ref, ref_wall, ref_sim) if fm == "resolve" else midpoint_path(fm, until, samples)
+        dev = float(np.max(np.linalg.norm(path - ref, axis=1))) / amp
+        ratios = [1.0] if fm == "resolve" else wall_ratio(fm, rounds, steps)
+        freq, _ = bending_errors(straight(10.0, 1e-3, 100, clamped=False), fm, exact_pp, sim.dt)
+        f = sim.line_factors[0]
+        cab[fm] = {"dt": sim.dt, "dt_gain": sim.dt / ref_sim.dt, "wall_ratio_rounds": ratios,
+                   "wall_ratio": float(np.median(ratios)), "path_error_over_amplitude": dev,
+                   "bending_freq_error": freq, "factors": vars(f) if hasattr(f, "__dict__") else str(f),
+                   "wall_s": wall}
+        rows.append([fm, sim.dt, sim.dt / ref_sim.dt, float(np.median(ratios)), dev, freq])
+    table(f"cable L = 10 m, r = 1 mm, 100 elements, {periods} swing period(s) of {T:.3g} s (under load)",
+          ["setting", "dt (s)", "dt gain", "wall ratio", "path err / amp", "freq err (5 modes)"], rows)
+    result["cable"] = cab
+
+    # rods: steps per simulated second at the accuracy of the five lowest bending frequencies
+    for name, r in (("rod", 1e-3), ("stubby", 1e-2)):
+        exact = eb(CLAMPED_FREE, 1.0, r)
+        rows, out = [], {}
+        base = None
+        for fm in SETTINGS:
+            sim = cosnet.Simulation(straight(1.0, r, 100, clamped=True), fast_modes=fm)
+            base = base or sim.dt
+            err, each = bending_errors(straight(1.0, r, 100, clamped=True), fm, exact, sim.dt)
+            out[fm] = {"dt": sim.dt, "steps_per_s": 1.0 / sim.dt, "fewer_steps": sim.dt / base,
+                       "bending_freq_error": err, "errors": each}
+            rows.append([fm, sim.dt, sim.dt / base, err])
+        table(f"{name}: L = 1 m, r = {r * 1e3:g} mm, 100 elements, clamped-free",
+              ["setting", "dt (s)", "fewer steps", "freq err (5 modes)"], rows)
+        result[name] = out
+    write_json(__file__, result)
+
+
+if __name__ == "__main__":
+    main(quick="--quick" in sys.argv)
