@@ -15,28 +15,26 @@ import pytest
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-# Runs one of the nets (argv[3]) and saves every state array (and, for the contact net, how
-# many contacts it ended with) to the .npz file named by argv[1].
+# Runs one of the nets (argv[3]) and saves every state array (and, for the contact net, the
+# most contacts seen at its checks) to the .npz file named by argv[1].
 WORKER = r"""
 import sys
 import numpy as np
 import cosnet
-from cosnet.scene import build_scene, read_toml
 
 out, cases, case = sys.argv[1:4]
 extra = {}
 if case == "contact":
-    # the sticks start 4 mm above the web and land on it within the run
-    data = read_toml(cases + "/contact.toml")
-    for nd in ("s1a", "s1b"):
-        data["nodes"][nd]["position"][2] = 0.012
-    for nd in ("s2a", "s2b"):
-        data["nodes"][nd]["position"][2] = 0.03
-    scene = build_scene(data, "contact.toml")
+    # on past the first impacts, where cold and warm runs used to part (a run stopped soon
+    # after the first touch showed no difference)
+    scene = cosnet.load_scene(cases + "/contact.toml")
     sim = scene.simulation()
-    sim.run(steps=6000)
     contact = next(e for e in scene.effects if isinstance(e, cosnet.Contact))
-    extra["contacts"] = np.array([contact.active_contacts(sim)])
+    most = 0
+    for k in range(1, 8):
+        sim.run(until=0.005 * k)
+        most = max(most, contact.active_contacts(sim))
+    extra["contacts"] = np.array([most])
 elif case == "joints":
     sim = cosnet.load_scene(cases + "/elastica_joints.toml").simulation()
     sim.run(steps=3000)
