@@ -126,6 +126,20 @@ def run_batch(items: list, until: float | None) -> list:
     return out
 
 
+def warm_up(doc: dict, path: str) -> int:
+    """Update numba's on-disk cache given a variant: build and take one step, so its kernels
+    are compiled (and saved) by one process, not by every worker at once -- two processes
+    saving one function's cache together can drop each other's entries. Returns the number
+    of compilations it needed."""
+    from numba.core import event
+
+    from .runner import _CompileCounter
+    counter = _CompileCounter()
+    with event.install_listener("numba:compile", counter):
+        build_scene(doc, path).simulation(threads=1).run(steps=1)
+    return counter.count
+
+
 # ---------------------------------------------------------------------- the store
 def _store_vars(variants, frames, probes):
     n, nt = len(variants), frames + 1
@@ -234,7 +248,6 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     as the sweep goes.
     """
     import xarray as xr
-    from distributed import as_completed
 
     from .cli import scene_path
     spec = read_spec(scene_path(str(scene)), vary, zip if zip else None, ensemble, until)
@@ -272,6 +285,10 @@ def _run_all(store, template, spec, todo, client, scheduler, workers, batch, ret
         nthreads = sum(w["nthreads"] for w in info["workers"].values()) or 1
         dash = getattr(client, "dashboard_link", None) if _has_dashboard(info) else None
         groups = _batches(todo, batch, nthreads)
+        try:
+            client.submit(warm_up, todo[0].doc, str(spec.path), pure=False).result()
+        except Exception:  # the variant fails in its own task, with its message recorded
+            pass
         futures = {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
                                  spec.until, pure=False, retries=retries): g for g in groups}
         track = _Tracker(len(todo), len(groups[0]), dash, progress)
