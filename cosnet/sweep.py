@@ -217,13 +217,10 @@ def _client(client, scheduler, workers):
         except (OSError, TimeoutError) as e:
             raise ValueError(f"--scheduler {scheduler}: cannot reach it ({' '.join(str(e).split())})") from None
     n = workers or os.cpu_count() or 1
-    try:
-        import bokeh  # noqa: F401  (the dashboard needs it)
-        dash = "127.0.0.1:0"
-    except ImportError:
-        dash = None
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"--workers must be a positive integer, got {workers!r}")
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=dash, silence_logs=logging.ERROR)
+                           dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
 
@@ -312,7 +309,9 @@ def _run_all(store, template, spec, todo, client, scheduler, workers, batch, ret
 
 
 def _has_dashboard(info) -> bool:
-    return bool(info.get("services", {}).get("dashboard"))
+    """Whether the scheduler serves the dashboard (its pages need bokeh, here as there)."""
+    from importlib.util import find_spec
+    return bool(info.get("services", {}).get("dashboard")) and find_spec("bokeh") is not None
 
 
 def _poll(ac, tick, every=0.5):

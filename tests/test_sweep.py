@@ -5,6 +5,9 @@ Clusters here are real: a LocalCluster of two worker processes, and a `dask sche
 few hundred steps) so that the whole file stays short.
 """
 
+import os
+import re
+import shlex
 import signal
 import socket
 import subprocess
@@ -64,7 +67,7 @@ def write_scene(path, E="2.1e11", V="0.0", T="0.012"):
 def client():
     from distributed import Client, LocalCluster
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster, Client(cluster) as c:
+                      dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as c:
         yield c
 
 
@@ -229,11 +232,12 @@ def scheduler(tmp_path_factory):
     addr = f"tcp://127.0.0.1:{port}"
     log = tmp_path_factory.mktemp("dask")
     procs = [subprocess.Popen([dask_exe(), "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                               "--no-dashboard"], stdout=subprocess.DEVNULL,
+                               "--dashboard-address", "127.0.0.1:0"], stdout=subprocess.DEVNULL,
                               stderr=open(log / "scheduler.log", "w"))]
     try:
         workers = [subprocess.Popen([dask_exe(), "worker", addr, "--nthreads", "1", "--no-nanny",
-                                     "--host", "127.0.0.1", "--no-dashboard", "--name", f"w{i}"],
+                                     "--host", "127.0.0.1", "--dashboard-address", "127.0.0.1:0",
+                                     "--name", f"w{i}"],
                                     stdout=subprocess.DEVNULL, stderr=open(log / f"w{i}.log", "w"))
                    for i in range(2)]
         procs += workers
@@ -261,6 +265,31 @@ def test_scheduler_address_from_the_command_line(tmp_path, scheduler, capsys):
     assert np.array_equal(ds["tip"].values[1], cols[:, 0:3])
     png = tmp_path / "s.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+DOCS = Path(__file__).resolve().parent.parent / "docs" / "sweeps.md"
+
+
+def doc_blocks(lang):
+    return re.findall(rf"```{lang}\n(.*?)```", DOCS.read_text(), re.S)
+
+
+def test_docs_commands_and_python_run_as_written(tmp_path, scheduler, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SCHEDULER", scheduler[0])
+    lines = [ln for b in doc_blocks("sh") for ln in b.splitlines() if ln.strip()]
+    assert len(lines) == 2
+    for line in lines:
+        argv = [os.path.expandvars(a) for a in shlex.split(line)]
+        assert argv[0] == "cosnet" and cli.main(argv[1:]) == 0, line
+    assert (tmp_path / "out" / "bridge_stiffness.png").stat().st_size > 0
+    ens = xr.open_zarr(tmp_path / "out" / "cantilever.zarr")
+    assert ens.sizes["variant"] == 6 and list(ens["initial.perturbation.seed"].values) == [0, 1, 2] * 2
+    (code,) = doc_blocks("python")
+    exec(compile(code, str(DOCS), "exec"), {})
+    sag = xr.open_zarr(tmp_path / "out" / "cantilever.zarr")["tip"].values[:, -1, 2]
+    assert sag.shape == (2,) and np.all(sag < 0)   # under gravity, the tip has gone down
+    capsys.readouterr()
 
 
 def test_a_killed_workers_tasks_complete_elsewhere(tmp_path, scheduler):
