@@ -186,23 +186,33 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
     return ds
 
 
-def _write_result(store: Path, ds_template, index: int, rec: dict):
-    """Write one finished variant into its region of the store."""
-    row = ds_template[[k for k in ds_template.data_vars if k != "key"]].isel(
-        variant=slice(index, index + 1)).copy(deep=True)
-    row = row.drop_vars([c for c in row.coords if c not in ("variant",)])
-    nt = row.sizes["time"]
-    if "times" in rec:
-        row["frame_time"][0, :len(rec["times"])] = rec["times"][:nt]
-        for name, arr in rec["probes"].items():
-            row[name][0, :len(arr)] = arr[:nt]
-        row["steps"][0] = rec["steps"]
-        row["dt"][0] = rec["dt"]
-        row["wall_time"][0] = rec["wall"]
-        row["compiled"][0] = rec["compiled"]
-    row["status"][0] = rec["status"]
-    row["worker"][0] = rec.get("worker", "")
-    row.to_zarr(store, region={"variant": slice(index, index + 1)}, zarr_format=2)
+def _write_results(store: Path, ds_template, results: list):
+    """Write finished variants [(index, record)] into their regions of the store: one write
+    per run of consecutive indices (a task's variants are consecutive)."""
+    results = sorted(results, key=lambda r: r[0])
+    runs = []
+    for index, rec in results:
+        if runs and runs[-1][-1][0] == index - 1:
+            runs[-1].append((index, rec))
+        else:
+            runs.append([(index, rec)])
+    for run in runs:
+        i0, i1 = run[0][0], run[-1][0] + 1
+        rows = ds_template[[k for k in ds_template.data_vars if k != "key"]].isel(
+            variant=slice(i0, i1)).copy(deep=True)
+        rows = rows.drop_vars([c for c in rows.coords if c != "variant"])
+        nt = rows.sizes["time"]
+        for j, (_, rec) in enumerate(run):
+            if "times" in rec:
+                rows["frame_time"][j, :len(rec["times"])] = rec["times"][:nt]
+                for name, arr in rec["probes"].items():
+                    rows[name][j, :len(arr)] = arr[:nt]
+                for var, key in (("steps", "steps"), ("dt", "dt"), ("wall_time", "wall"),
+                                 ("compiled", "compiled")):
+                    rows[var][j] = rec[key]
+            rows["status"][j] = rec["status"]
+            rows["worker"][j] = rec.get("worker", "")
+        rows.to_zarr(store, region={"variant": slice(i0, i1)}, zarr_format=2)
 
 
 # ---------------------------------------------------------------------- driving the cluster
@@ -298,8 +308,8 @@ def _run_all(store, template, spec, todo, client, scheduler, workers, batch, ret
                 msg = " ".join(str(e).split())
                 results = [(v.index, dict(status=f"lost: {type(e).__name__}: {msg}"))
                            for v in futures[fut]]
-            for index, rec in results:
-                _write_result(store, template, index, rec)
+            _write_results(store, template, results)
+            for _, rec in results:
                 track.finished(rec["status"] == "ok")
             track.update(client, force=True)
     finally:
