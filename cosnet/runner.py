@@ -14,8 +14,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.core import event
 
-from .cli import advance_to, frame_steps
-
 
 @dataclass
 class ProbeSeries:
@@ -48,6 +46,7 @@ def run_probes(scene, until: float | None = None, threads: int | None = None) ->
     """Update a ProbeSeries given a Scene run to ``until`` (default: the scene's). A failure
     (instability, a refused dt, ...) ends the record early with its message as the status;
     frames not reached stay NaN."""
+    from .cli import advance_to, frame_steps  # not at import: `python -m cosnet.cli` imports cosnet first
     until, interval, frames = schedule(scene, until)
     probes = scene.run.probes
     times = np.full(frames + 1, np.nan)

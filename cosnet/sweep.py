@@ -254,7 +254,13 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     existing store; progress: called with a dict (done, failed, running, total, eta, dashboard)
     as the sweep goes.
     """
-    import xarray as xr
+    try:
+        import distributed  # noqa: F401
+        import xarray as xr
+        import zarr  # noqa: F401
+    except ImportError as e:
+        raise ValueError(f"sweeps need the 'sweep' extra: pip install 'cosnet[sweep]' "
+                         f"({e.name} is missing)") from None
 
     from .cli import scene_path
     spec = read_spec(scene_path(str(scene)), vary, zip if zip else None, ensemble, until)

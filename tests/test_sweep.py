@@ -138,6 +138,13 @@ def test_bad_key_gets_the_scene_loaders_own_message(tmp_path, capsys):
     assert capsys.readouterr().err == f"cosnet: error: {e.value}\n".replace(str(bad), str(path))
 
 
+def test_missing_extra_is_named_in_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "zarr", None)   # as if not installed
+    assert cli.main(["sweep", str(write_scene(tmp_path / "s.toml")), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err == ("cosnet: error: sweeps need the 'sweep' extra: "
+                                       "pip install 'cosnet[sweep]' (zarr is missing)\n")
+
+
 # ---------------------------------------------------------------------- on a LocalCluster
 def test_local_cluster_equals_cosnet_run_bit_for_bit(tmp_path, client, capsys):
     path = write_scene(tmp_path / "s.toml")
