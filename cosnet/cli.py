@@ -7,6 +7,7 @@
     cosnet render DIR [--png|--gif|--mp4] [--field NAME] [--clim LO HI] [--view V] [--warp F]
                                                              pictures of a run or of modes
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
+    cosnet sweep SCENE [--vary KEY=VALUES] [--ensemble N]    variants as Dask tasks, one Zarr store
 
 ``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
 interval (cosnet.record, which ``Simulation.run(out=...)`` uses too), each only after the
@@ -190,21 +191,40 @@ def cmd_accuracy(args) -> int:
     return 0 if best is not None else 1
 
 
-class _Parser(argparse.ArgumentParser):
-    """Usage mistakes end in one line (like every other error), exit code 2."""
+def cmd_sweep(args) -> int:
+    """Exit code 0 when every variant ran to the end, 1 when some failed."""
+    from .sweep import sweep
+    from .sweep_report import plot, summary
+    if args.plot is not None:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise ValueError("--plot needs matplotlib: pip install 'cosnet[sweep]'") from None
+    shown = {"counts": None, "at": -math.inf}
 
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
+    def progress(p):
+        if p["dashboard"] and "dash" not in shown:
+            shown["dash"] = print(f"dashboard: {p['dashboard']}", file=sys.stderr)
+        counts = (p["done"], p["failed"], p["running"])
+        if counts == shown["counts"] and p["elapsed"] - shown["at"] < 5:
+            return   # a new line only when the counts change, else every 5 s
+        shown.update(counts=counts, at=p["elapsed"])
+        eta = f"ETA {p['eta']:.0f} s" if math.isfinite(p["eta"]) else "ETA -"
+        sys.stderr.write(f"\r  variants: {p['done']}/{p['total']} done, {p['failed']} failed, "
+                         f"{p['running']} running  {eta}   ")
+        sys.stderr.flush()
 
-
-def _positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
-    return n
+    ds = sweep(args.scene or str(default_scene()), vary=args.vary, zip=args.zip,
+               ensemble=args.ensemble, until=args.until, out=args.out, name=args.name,
+               scheduler=args.scheduler, workers=args.workers, batch=args.batch,
+               resume=args.resume, progress=progress)
+    sys.stderr.write("\n")
+    store = ds.encoding.get("source", "")
+    print(summary(ds, args.plot or None))
+    print(f"results: {store}")
+    if args.plot is not None:
+        print(f"plot: {plot(ds, Path(store).with_suffix('.png'), args.plot or None)}")
+    return 0 if all(str(s) == "ok" for s in ds["status"].values) else 1
 
 
 def parser() -> argparse.ArgumentParser:
@@ -263,6 +283,25 @@ def parser() -> argparse.ArgumentParser:
     a.add_argument("--probe", action="append", metavar="NODE|LINE@s",
                    help="probe point (repeatable; default: every node)")
     a.add_argument("--verbose", action="store_true", help="list the runs on stderr")
+    s = sub.add_parser("sweep", help="run variants of a scene as Dask tasks into one Zarr store")
+    s.add_argument("scene", nargs="?", help="scene file, sweep file ([sweep] table) or ready case name")
+    s.add_argument("--vary", action="append", default=[], metavar="KEY=VALUES",
+                   help="a dotted scene key and its values: V1,V2,... or linspace(a,b,n), "
+                        "logspace(a,b,n), geomspace(a,b,n) (repeatable)")
+    s.add_argument("--zip", action="store_true", help="combine the variations element by element "
+                                                     "(default: the full product)")
+    s.add_argument("--ensemble", type=int, metavar="N",
+                   help="N seeds of the scene's [initial.perturbation] per variant")
+    s.add_argument("--until", type=float, help="end time in s (default: the scene's [run] until)")
+    s.add_argument("--out", default="out", help="directory of the store OUT/NAME.zarr (default ./out)")
+    s.add_argument("--name", help="store name (default: the sweep or scene file's name)")
+    s.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="use this Dask scheduler (default: a local cluster, one worker per core)")
+    s.add_argument("--workers", type=int, help="local cluster size (default: one per core)")
+    s.add_argument("--batch", type=int, help="variants per task (default: about 4 tasks per worker)")
+    s.add_argument("--resume", action="store_true", help="keep the finished variants of the store")
+    s.add_argument("--plot", nargs="?", const="", metavar="PROBE[:x|y|z|norm]",
+                   help="PNG of a probe's displacement against the first varied key")
     return p
 
 
@@ -270,7 +309,7 @@ def main(argv=None) -> int:
     args = parser().parse_args(argv)
     try:
         return {"run": cmd_run, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
-                "accuracy": cmd_accuracy}[args.command](args)
+                "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
     except ValueError as e:
         print(f"cosnet: error: {_one_line(e)}", file=sys.stderr)
         return 2

@@ -1,0 +1,123 @@
+"""Sweeps on Dask: speed-up from worker processes, task overhead and scheduler cost per task.
+
+1. 64 small variants (a 4-element cantilever, a different stiffness each) on a LocalCluster of
+   2 single-threaded worker processes against 1; both clusters warm (kernels loaded), the two
+   sweeps timed in alternation, best of the rounds.
+2. Task overhead for variants of about 1 s: 1 - (sum of the variants' own wall times) /
+   (workers x sweep wall time), i.e. the share of worker time not spent simulating.
+3. Scheduler overhead per task: the round trip of trivial tasks through the same cluster.
+
+Run: python bench/sweep.py  (writes bench/sweep.json). The machine's load average is recorded
+beside the figures: on a shared machine the speed-up is bounded by the cores actually free.
+"""
+
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from harness import table, write_json
+
+from cosnet.sweep import sweep
+
+SCENE = """title = "bench cantilever"
+[materials.steel]
+E = 2.1e11
+G = 8.1e10
+density = 7850.0
+[sections.rod]
+kind = "circle"
+radius = 0.01
+[nodes.root]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [0.5, 0.0, 0.0]
+[lines.rod]
+start = "root"
+end = "tip"
+material = "steel"
+section = "rod"
+elements = 4
+[[effects]]
+kind = "gravity"
+g = [0.0, 0.0, -9.81]
+[run]
+until = {until}
+probes = ["tip"]
+"""
+
+
+def noop(x):
+    return x
+
+
+def timed_sweep(path, n, client, out, until):
+    t = time.perf_counter()
+    ds = sweep(path, vary=[f"materials.steel.E=linspace(1e11, 3e11, {n})"], until=until, out=out,
+               client=client, name=f"b{n}")
+    wall = time.perf_counter() - t
+    assert all(str(s) == "ok" for s in ds.status.values)
+    return wall, ds
+
+
+def main(rounds=3):
+    from distributed import Client, LocalCluster
+    tmp = Path(tempfile.mkdtemp())
+    path = tmp / "scene.toml"
+    path.write_text(SCENE.format(until=0.1))
+    load0 = os.getloadavg()
+    clusters = {k: LocalCluster(n_workers=k, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                dashboard_address="127.0.0.1:0") for k in (1, 2)}
+    clients = {k: Client(c) for k, c in clusters.items()}
+    try:
+        for k in (1, 2):   # load the kernels in every worker
+            timed_sweep(path, 4 * k, clients[k], tmp, 0.01)
+        best = {1: np.inf, 2: np.inf}
+        median = {}   # a variant's own wall time with k workers busy: contention shows here
+        for _ in range(rounds):
+            for k in (1, 2):
+                wall, ds = timed_sweep(path, 64, clients[k], tmp, None)
+                if wall < best[k]:
+                    best[k], median[k] = wall, float(np.median(ds.wall_time.values))
+        per_variant = median[1]
+        speedup = best[1] / best[2]
+        # about 1 s per variant: until scaled from the measured cost of the small ones
+        long_until = min(5.0, 0.1 * 1.0 / max(per_variant, 1e-3))
+        path.write_text(SCENE.format(until=long_until))
+        wall, ds = timed_sweep(path, 8, clients[2], tmp, None)
+        busy = float(ds.wall_time.values.sum())
+        overhead = 1.0 - busy / (2 * wall)
+        n = 400
+        t = time.perf_counter()
+        clients[2].gather(clients[2].map(noop, range(n), pure=False))
+        per_task = (time.perf_counter() - t) / n
+    finally:
+        for k in (1, 2):
+            clients[k].close()
+            clusters[k].close()
+    res = {
+        "variants": 64, "variant_wall_s_median": per_variant,
+        "variant_wall_s_median_2_workers": median[2],
+        "sweep_1_worker_s": best[1], "sweep_2_workers_s": best[2], "speedup_2_vs_1": speedup,
+        "long_variant_wall_s_mean": busy / 8, "long_sweep_2_workers_s": wall,
+        "task_overhead_fraction": overhead, "scheduler_s_per_task": per_task,
+        "load_average_before": load0, "load_average_after": os.getloadavg(),
+    }
+    table("sweep on a LocalCluster (measured under the load shown)",
+                ["figure", "value"],
+                [["64 variants, 1 worker (s)", f"{best[1]:.2f}"],
+                 ["64 variants, 2 workers (s)", f"{best[2]:.2f}"],
+                 ["speed-up 2 vs 1", f"{speedup:.2f}x"],
+                 ["median variant, 1 / 2 workers busy (s)", f"{median[1]:.3f} / {median[2]:.3f}"],
+                 [f"task overhead, 8 variants of {busy / 8:.2f} s", f"{100 * overhead:.1f} %"],
+                 ["scheduler round trip per task (ms)", f"{1e3 * per_task:.2f}"],
+                 ["load average before / after", f"{load0[0]:.1f} / {os.getloadavg()[0]:.1f}"]])
+    write_json(__file__, {"sweep": res})
+    return res
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)

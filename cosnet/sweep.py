@@ -1,0 +1,370 @@
+"""Sweeps and ensembles: many variants of one scene run as Dask tasks, results in one Zarr store.
+
+``sweep(scene, vary=[...])`` plans the variants (cosnet.variants: every one validated by the
+scene loader before anything runs), runs each with ``run_probes`` -- the frames and probes of
+``cosnet run`` -- on a Dask cluster (a LocalCluster of one single-threaded worker process per
+core unless a scheduler address or a Client is given) and writes each finished variant into
+``OUT/<name>.zarr`` as it arrives, an xarray Dataset:
+
+    dims        variant, time (the output frames), component (x, y, z)
+    coords      variant; one per varied key, named by its dotted path; time (the nominal frame
+                times k * interval, when every variant shares them); component
+    per probe   float64 (variant, time, component): the probe's position at each frame
+    per variant status ("ok", "pending", or the failure's message), steps, dt, wall_time,
+                compiled (kernels compiled rather than loaded from the on-disk cache), worker,
+                key (hash of the variant's scene document and end time: what --resume matches)
+    frame_time  (variant, time): the exact simulated time of each frame (steps * dt)
+
+A failing variant (instability, refused dt, any exception) is recorded and the others go on;
+a dead worker's tasks are rescheduled by Dask; ``resume=True`` reruns only the variants whose
+status is still "pending" (or "lost:" to a cluster failure).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .runner import run_probes, schedule
+from .scene import build_scene, read_toml
+from .variants import parse_values, parse_vary, plan, split_path
+
+PENDING = "pending"
+SPEC_KEYS = ("scene", "vary", "zip", "ensemble", "until", "plot", "name")
+
+
+@dataclass
+class SweepSpec:
+    """What to sweep: the base scene ``path`` and its parsed TOML ``doc``, the variation
+    ``axes`` [(key, values)], ``zipped``, ``ensemble`` size, ``until`` override, default
+    ``plot`` quantity and the store's ``name``."""
+
+    path: Path
+    doc: dict
+    axes: list
+    zipped: bool = False
+    ensemble: int = 0
+    until: float | None = None
+    plot: str | None = None
+    name: str | None = None
+    title: str | None = None
+
+
+def read_spec(path, vary=(), zipped=None, ensemble=None, until=None) -> SweepSpec:
+    """A sweep from a scene file (variations given here) or a sweep file ([sweep] with scene,
+    vary, zip, ensemble, until, plot, name); the arguments add to or override the file's."""
+    from .cli import scene_path
+    path = Path(path)
+    data = read_toml(path)
+    spec = SweepSpec(path, data, [])
+    if "sweep" in data:
+        extra = sorted(set(data) - {"sweep", "title", "description"})
+        if extra:
+            raise ValueError(f"{path}: [sweep] files hold only [sweep] (and title); found {extra[0]!r}")
+        s = data["sweep"]
+        if not isinstance(s, dict):
+            raise ValueError(f"{path}: [sweep] must be a table")
+        bad = sorted(set(s) - set(SPEC_KEYS))
+        if bad:
+            raise ValueError(f"{path}: [sweep] {bad[0]}: unknown key; keys are {', '.join(SPEC_KEYS)}")
+        if not isinstance(s.get("scene"), str):
+            raise ValueError(f"{path}: [sweep] scene: is required: a scene file (relative to "
+                             f"this file) or a ready case name")
+        rel = path.parent / s["scene"]
+        base = rel if rel.is_file() else scene_path(s["scene"])
+        vary_t = s.get("vary", {})
+        if not isinstance(vary_t, dict):
+            raise ValueError(f"{path}: [sweep] vary: must be a table of KEY = [values] or "
+                             f"\"linspace(a, b, n)\"")
+        spec = SweepSpec(Path(base), read_toml(base), [], bool(s.get("zip", False)),
+                         s.get("ensemble", 0), s.get("until"), s.get("plot"),
+                         s.get("name", path.stem), data.get("title"))
+        for key, v in vary_t.items():
+            split_path(key, str(path))
+            vals = parse_values(v, key, str(path)) if isinstance(v, str) else (
+                v if isinstance(v, list) else [v])
+            if not vals:
+                raise ValueError(f"{path}: [sweep.vary] {key}: no values")
+            spec.axes.append((key, vals))
+    for text in vary:
+        key, vals = parse_vary(text, str(spec.path))
+        spec.axes = [a for a in spec.axes if a[0] != key] + [(key, vals)]
+    if zipped is not None:
+        spec.zipped = zipped
+    if ensemble is not None:
+        spec.ensemble = ensemble
+    if until is not None:
+        spec.until = until
+    return spec
+
+
+# ---------------------------------------------------------------------- on the workers
+def run_batch(items: list, until: float | None) -> list:
+    """Update [(index, result dict)] given [(index, scene document, path)]: each variant
+    built and run single-threaded; anything a variant raises becomes its status."""
+    from distributed import get_worker
+    try:
+        who = get_worker().address
+    except ValueError:
+        who = ""
+    out = []
+    for index, doc, path in items:
+        try:
+            res = run_probes(build_scene(doc, path), until, threads=1)
+            rec = dict(times=res.times, probes=res.probes, status=res.status, steps=res.steps,
+                       dt=res.dt, wall=res.wall, compiled=res.compiled)
+        except Exception as e:  # recorded, never lost: the sweep goes on
+            rec = dict(status=f"{type(e).__name__}: {' '.join(str(e).split())}")
+        rec["worker"] = who
+        out.append((index, rec))
+    return out
+
+
+def warm_up(doc: dict, path: str) -> int:
+    """Update numba's on-disk cache given a variant: build and take one step, so its kernels
+    are compiled (and saved) by one process, not by every worker at once -- two processes
+    saving one function's cache together can drop each other's entries. Returns the number
+    of compilations it needed."""
+    from numba.core import event
+
+    from .runner import _CompileCounter
+    counter = _CompileCounter()
+    with event.install_listener("numba:compile", counter):
+        build_scene(doc, path).simulation(threads=1).run(steps=1)
+    return counter.count
+
+
+# ---------------------------------------------------------------------- the store
+def _store_vars(variants, frames, probes):
+    n, nt = len(variants), frames + 1
+    return {
+        **{p: (("variant", "time", "component"), np.full((n, nt, 3), np.nan)) for p in probes},
+        "frame_time": (("variant", "time"), np.full((n, nt), np.nan)),
+        "status": (("variant",), np.array([PENDING] * n, dtype=object)),
+        "steps": (("variant",), np.zeros(n, dtype=np.int64)),
+        "dt": (("variant",), np.full(n, np.nan)),
+        "wall_time": (("variant",), np.full(n, np.nan)),
+        "compiled": (("variant",), np.full(n, -1, dtype=np.int64)),
+        "worker": (("variant",), np.array([""] * n, dtype=object)),
+        "key": (("variant",), np.array([v.key for v in variants], dtype=object)),
+    }
+
+
+def _coord(values):
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=np.int64 if all(isinstance(v, int) for v in values) else float)
+    if all(isinstance(v, bool) for v in values):
+        return np.array(values, dtype=bool)
+    return np.array([v if isinstance(v, str) else repr(v) for v in values], dtype=object)
+
+
+def _new_store(store: Path, spec: SweepSpec, variants, until):
+    import xarray as xr
+    scheds = {schedule(v.scene, until)[1:] for v in variants}
+    frames = max(f for _, f in scheds)
+    probes = list(dict.fromkeys(p.name for v in variants for p in v.scene.run.probes))
+    coords = {"variant": np.arange(len(variants)),
+              "component": np.array(["x", "y", "z"], dtype=object)}
+    for key in variants[0].values:
+        coords[key] = ("variant", _coord([v.values[key] for v in variants]))
+    if len(scheds) == 1:
+        interval, _ = next(iter(scheds))
+        end = schedule(variants[0].scene, until)[0]
+        coords["time"] = np.minimum(np.arange(frames + 1) * interval, end)
+    ds = xr.Dataset(_store_vars(variants, frames, probes), coords=coords,
+                    attrs=dict(scene=str(spec.path), title=spec.title or variants[0].scene.title,
+                               varied=list(variants[0].values), zip=int(spec.zipped),
+                               ensemble=int(spec.ensemble or 0), plot=spec.plot or ""))
+    enc = {k: {"chunks": (1,) + ds[k].shape[1:]} for k in ds.data_vars}
+    ds.to_zarr(store, mode="w", encoding=enc, zarr_format=2, consolidated=True)
+    return ds
+
+
+def _write_results(store: Path, ds_template, results: list):
+    """Write finished variants [(index, record)] into their regions of the store: one write
+    per run of consecutive indices (a task's variants are consecutive)."""
+    results = sorted(results, key=lambda r: r[0])
+    runs = []
+    for index, rec in results:
+        if runs and runs[-1][-1][0] == index - 1:
+            runs[-1].append((index, rec))
+        else:
+            runs.append([(index, rec)])
+    for run in runs:
+        i0, i1 = run[0][0], run[-1][0] + 1
+        rows = ds_template[[k for k in ds_template.data_vars if k != "key"]].isel(
+            variant=slice(i0, i1)).copy(deep=True)
+        rows = rows.drop_vars([c for c in rows.coords if c != "variant"])
+        nt = rows.sizes["time"]
+        for j, (_, rec) in enumerate(run):
+            if "times" in rec:
+                rows["frame_time"][j, :len(rec["times"])] = rec["times"][:nt]
+                for name, arr in rec["probes"].items():
+                    rows[name][j, :len(arr)] = arr[:nt]
+                for var, key in (("steps", "steps"), ("dt", "dt"), ("wall_time", "wall"),
+                                 ("compiled", "compiled")):
+                    rows[var][j] = rec[key]
+            rows["status"][j] = rec["status"]
+            rows["worker"][j] = rec.get("worker", "")
+        rows.to_zarr(store, region={"variant": slice(i0, i1)}, zarr_format=2)
+
+
+# ---------------------------------------------------------------------- driving the cluster
+def _client(client, scheduler, workers):
+    """(client, cluster to close or None)."""
+    from distributed import Client, LocalCluster
+    if client is not None:
+        return client, None
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError) as e:
+            raise ValueError(f"--scheduler {scheduler}: cannot reach it ({' '.join(str(e).split())})") from None
+    n = workers or os.cpu_count() or 1
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"--workers must be a positive integer, got {workers!r}")
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
+    """Groups of variants per task: a few tasks per worker, so per-task overhead stays
+    small while the load still balances."""
+    size = batch or max(1, len(todo) // (4 * max(nworkers, 1)))
+    return [todo[i:i + size] for i in range(0, len(todo), size)]
+
+
+def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=None,
+          client=None, scheduler=None, workers=None, batch=None, resume=False, retries=1,
+          progress=None):
+    """Run a sweep and return its Dataset (opened from ``OUT/<name>.zarr``).
+
+    scene: a scene file or sweep file (or ready case name); vary: ["KEY=VALUES", ...];
+    zip: combine the variations element by element instead of as a product; ensemble: N
+    seeds of [initial.perturbation]; until: end time for every variant; client / scheduler
+    ("tcp://HOST:PORT") / workers (LocalCluster size, default one per core); batch: variants
+    per task (default: about four tasks per worker); resume: keep the finished variants of an
+    existing store; progress: called with a dict (done, failed, running, total, eta, dashboard)
+    as the sweep goes.
+    """
+    try:
+        import distributed  # noqa: F401
+        import xarray as xr
+        import zarr  # noqa: F401
+    except ImportError as e:
+        raise ValueError(f"sweeps need the 'sweep' extra: pip install 'cosnet[sweep]' "
+                         f"({e.name} is missing)") from None
+
+    from .cli import scene_path
+    spec = read_spec(scene_path(str(scene)), vary, zip if zip else None, ensemble, until)
+    variants = plan(spec.doc, spec.path, spec.axes, spec.zipped, spec.ensemble or 0, spec.until)
+    store = Path(out) / f"{name or spec.name or spec.path.stem}.zarr"
+    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
+        raise ValueError(f"--batch must be a positive integer, got {batch!r}")
+    if resume and store.exists():
+        old = xr.open_zarr(store)
+        keys = [str(k) for k in old["key"].values]
+        if keys != [v.key for v in variants]:
+            raise ValueError(f"{store}: holds another sweep (its variants' scenes differ from "
+                             f"these); use another --out or --name, or drop --resume")
+        status = [str(s) for s in old["status"].values]
+        template = old.load()
+        old.close()
+    else:
+        store.parent.mkdir(parents=True, exist_ok=True)
+        template = _new_store(store, spec, variants, spec.until)
+        status = [PENDING] * len(variants)
+    todo = [v for v, s in zip_(variants, status) if s == PENDING or s.startswith("lost:")]
+    if todo:
+        _run_all(store, template, spec, todo, client, scheduler, workers, batch, retries, progress)
+    return xr.open_zarr(store)
+
+
+zip_ = zip  # the builtin, as ``sweep`` takes a ``zip`` flag
+
+
+def _run_all(store, template, spec, todo, client, scheduler, workers, batch, retries, progress):
+    from distributed import as_completed
+    client, cluster = _client(client, scheduler, workers)
+    try:
+        info = client.scheduler_info()
+        nthreads = sum(w["nthreads"] for w in info["workers"].values()) or 1
+        dash = getattr(client, "dashboard_link", None) if _has_dashboard(info) else None
+        groups = _batches(todo, batch, nthreads)
+        try:
+            client.submit(warm_up, todo[0].doc, str(spec.path), pure=False).result()
+        except Exception:  # the variant fails in its own task, with its message recorded
+            pass
+        futures = {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
+                                 spec.until, pure=False, retries=retries): g for g in groups}
+        track = _Tracker(len(todo), len(groups[0]), dash, progress)
+        track.update(client)
+        ac = as_completed(futures)
+        for fut in _poll(ac, lambda: track.update(client)):
+            try:
+                results = fut.result()
+            except Exception as e:  # the cluster gave up on this task (e.g. KilledWorker)
+                msg = " ".join(str(e).split())
+                results = [(v.index, dict(status=f"lost: {type(e).__name__}: {msg}"))
+                           for v in futures[fut]]
+            _write_results(store, template, results)
+            for _, rec in results:
+                track.finished(rec["status"] == "ok")
+            track.update(client, force=True)
+    finally:
+        if cluster is not None:
+            client.close()
+            cluster.close()
+
+
+def _has_dashboard(info) -> bool:
+    """Whether the scheduler serves the dashboard (its pages need bokeh, here as there)."""
+    from importlib.util import find_spec
+    return bool(info.get("services", {}).get("dashboard")) and find_spec("bokeh") is not None
+
+
+def _poll(ac, tick, every=0.5):
+    """The futures of ``ac`` as they finish, calling ``tick`` at least every ``every`` s."""
+    while not ac.is_empty():
+        ready = ac.next_batch(block=False)
+        if not ready:
+            tick()
+            time.sleep(0.05)
+            continue
+        yield from ready
+
+
+class _Tracker:
+    """Counts of done / failed / running variants and an ETA, reported through a callback."""
+
+    def __init__(self, total, per_task, dashboard, callback):
+        self.total, self.per_task, self.dashboard, self.cb = total, per_task, dashboard, callback
+        self.done = self.failed = self.running = 0
+        self.t0 = time.perf_counter()
+        self.last = -math.inf
+
+    def finished(self, ok: bool):
+        self.done += 1
+        self.failed += not ok
+
+    def update(self, client, force=False):
+        now = time.perf_counter()
+        if self.cb is None or (not force and now - self.last < 0.5):
+            return
+        self.last = now
+        try:
+            busy = sum(min(1, len(keys)) for keys in client.processing().values())
+        except Exception:  # the scheduler is busy or gone: the counts stay as they were
+            busy = 0
+        self.running = min(busy * self.per_task, self.total - self.done)
+        rate = self.done / max(now - self.t0, 1e-9)
+        eta = (self.total - self.done) / rate if rate > 0 else math.inf
+        self.cb(dict(done=self.done, failed=self.failed, running=self.running, total=self.total,
+                     eta=eta, elapsed=now - self.t0, dashboard=self.dashboard))
