@@ -320,3 +320,6 @@ def test_a_killed_workers_tasks_complete_elsewhere(tmp_path, scheduler):
     for i, E in enumerate(values):
         set_path(doc, "materials.steel.E", E, str(path))
         assert np.array_equal(run_probes(build_scene(doc, path)).probes["tip"], ds["tip"].values[i])
+
+
+# the code blocks of docs/sweeps.md run above, as written

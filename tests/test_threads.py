@@ -95,3 +95,6 @@ def test_the_documented_command_and_table_work(tmp_path):
     else:
         with pytest.raises(ValueError, match=r"\[run\] threads: must be an integer from 1 to 1, got 2"):
             build_scene(data, "cantilever.toml")
+
+
+# the code blocks of docs/threads.md run above, as written
