@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .record import parse_probe
 from .scene import Probe, Scene, build_scene, load_scene, read_toml
 
 STEPPERS = ("verlet", "pefrl")
@@ -62,31 +63,23 @@ def scaled_scene(path, factor: int) -> Scene:
 
 
 def resolve_probes(scene: Scene, names) -> list[Probe]:
-    """Probes named NODE, LINE or LINE@s (s in [0, 1]); default: every node."""
+    """Probes named NODE, LINE or LINE@s (s in [0, 1]; the nearest vertex, which is the same
+    material point at every element factor when s * elements is an integer), whose positions
+    are compared; default: every node."""
     net = scene.net
     if not names:
         return [Probe(n.name, node=n) for n in net.nodes]
     out = []
-    nodes = {n.name for n in net.nodes}
     for text in names:
-        if text in nodes:
-            out.append(Probe(text, node=net.node(text)))
-            continue
-        lname, _, frac = text.partition("@")
         try:
-            line = net.line(lname)
-        except KeyError:
-            raise ValueError(f"--probe {text!r} names no node or line; nodes are "
-                             f"{sorted(nodes)}, lines {[l.name for l in net.lines]}") from None
-        try:
-            s = float(frac) if frac else 0.5
-        except ValueError:
-            s = -1.0
-        if not 0.0 <= s <= 1.0:
-            raise ValueError(f"--probe {text!r}: the fraction after @ must be a number in [0, 1]")
-        # the nearest vertex; with s * elements an integer it is the same material point
-        # at every element factor
-        out.append(Probe(text, line=line, vertex=int(round(s * line.elements))))
+            probe = parse_probe(text, net)
+        except ValueError as e:
+            raise ValueError(f"--probe {e}; nodes are {sorted(n.name for n in net.nodes)}, "
+                             f"lines {[l.name for l in net.lines]}") from None
+        if probe.field != "position":
+            raise ValueError(f"--probe {text!r}: the accuracy study compares positions; give the "
+                             f"point without :{probe.field}")
+        out.append(probe)
     return out
 
 
