@@ -227,6 +227,23 @@ def cmd_sweep(args) -> int:
     return 0 if all(str(s) == "ok" for s in ds["status"].values) else 1
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage mistakes end in one line (like every other error), exit code 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return n
+
+
 def parser() -> argparse.ArgumentParser:
     p = _Parser(prog="cosnet", description="Dynamics of Cosserat nets.")
     p.add_argument("--version", action="version", version=f"cosnet {package_version()}")
