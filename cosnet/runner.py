@@ -1,8 +1,8 @@
 """A scene run to its probe series: the frames and probes of ``cosnet run`` as arrays.
 
-``run_probes`` steps a scene exactly as ``cosnet run`` does (frame k at step
-``frame_steps(k, ...)``, steps taken by ``advance_to`` in chunks aligned on absolute step
-counts), so its series equal the run's probes.csv bit for bit; it writes nothing.
+``run_probes`` steps a scene exactly as ``cosnet run`` does (frame k at t_k = k * interval,
+reached by cosnet.record's ``advance_to``, each frame passed by the watch before it is
+recorded), so its series equal the run's probes.csv bit for bit; it writes nothing.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from numba.core import event
 @dataclass
 class ProbeSeries:
     """One run's record: ``times`` (frames,) at which the frames were taken (NaN after a
-    failure), ``probes`` name -> (frames, 3) positions, ``status`` "ok" or the failure's
+    failure), ``probes`` name -> (frames, 3) values (positions, or the probe's field), ``status`` "ok" or the failure's
     one-line message, ``steps`` taken, ``dt``, ``wall`` seconds and ``compiled`` (how many
     kernels had to be compiled, not loaded from the on-disk cache, during the run)."""
 
@@ -46,7 +46,7 @@ def run_probes(scene, until: float | None = None, threads: int | None = None) ->
     """Update a ProbeSeries given a Scene run to ``until`` (default: the scene's). A failure
     (instability, a refused dt, ...) ends the record early with its message as the status;
     frames not reached stay NaN."""
-    from .cli import advance_to, frame_steps  # not at import: `python -m cosnet.cli` imports cosnet first
+    from .record import advance_to, frame_time
     until, interval, frames = schedule(scene, until)
     probes = scene.run.probes
     times = np.full(frames + 1, np.nan)
@@ -58,13 +58,14 @@ def run_probes(scene, until: float | None = None, threads: int | None = None) ->
     try:
         sim = scene.simulation() if threads is None else scene.simulation(threads=threads)
         out.dt = sim.dt
-        end = int(math.ceil(until / sim.dt - 1e-9))
+        start = sim.time
         for k in range(frames + 1):
             if k:
-                advance_to(sim, frame_steps(k, interval, sim.dt, end))
+                advance_to(sim, frame_time(k, start, interval, until))
+            sim.check()
             times[k] = sim.time
             for p in probes:
-                series[p.name][k] = p.position(sim)
+                series[p.name][k] = p.value(sim)
             out.steps = sim.steps
     except (ValueError, RuntimeError, FloatingPointError) as e:
         out.status = " ".join(str(e).split()) or type(e).__name__
