@@ -4,9 +4,10 @@ The suite is mostly compilation (each combination of effects, stepper and backen
 its own step), so it runs on every core (pytest-xdist, ``-n auto``). Numba's cache is not
 safe for two processes saving overloads of one function at once (each rewrites the
 function's index from its own copy), so each extra worker keeps its own cache directory:
-the first worker, and a run without workers, use the usual cache (NUMBA_CACHE_DIR or the
-__pycache__ folders), the others a directory of their own (in NUMBA_CACHE_DIR, else in the
-temporary folder). This runs before numba is imported.
+the first worker, and a run without workers, use the usual cache (a directory per kernel
+source under NUMBA_CACHE_DIR, else under numba's user cache: kernels/rotations.py), the
+others a directory of their own (in NUMBA_CACHE_DIR, else in the temporary folder). This
+runs before numba is imported.
 """
 
 import os
