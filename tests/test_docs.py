@@ -4,6 +4,7 @@ block that is a whole scene loaded and built), or a test module named on the pag
 and checks what they print. The two set-up lines' `pip install` and `pytest` halves are what
 .ci/run itself runs."""
 
+import importlib.util
 import os
 import re
 import shlex
@@ -103,6 +104,22 @@ def test_pages_link_only_to_files_that_exist():
 def test_readme_setup_is_what_ci_runs():
     ci = (REPO / ".ci" / "run").read_text()
     setup = blocks(REPO / "README.md", "bash")[0]
-    assert 'pip install ".[test]"' in setup and 'pip install --quiet ".[test]"' in ci
+    assert 'pip install ".[test]"' in setup and re.search(r'pip install --quiet "\.\[test[,\]]', ci)
     assert "pytest -n auto" in setup and re.search(r"^pytest .*-n auto", ci, re.M)
     assert os.path.isfile(REPO / "cases" / "bridge.toml")
+
+
+def test_bench_tables_are_made_from_the_bench_json():
+    """The tables of the performance and accuracy pages are bench/tables.py's rendering of
+    the committed JSON: a figure edited by hand, or JSON rerun without the pages, fails."""
+    spec = importlib.util.spec_from_file_location("bench_tables", REPO / "bench" / "tables.py")
+    tables = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tables)
+    assert tables.stale() == [], "pages differ from bench/*.json: run python bench/tables.py"
+
+
+def test_the_site_lists_every_page():
+    """mkdocs.yml's nav names each page of docs/ once, and only pages that exist."""
+    nav = re.findall(r":\s*([\w/]+\.md)\s*$", (REPO / "mkdocs.yml").read_text(encoding="utf-8"), re.M)
+    pages = sorted(p.name for p in (REPO / "docs").glob("*.md"))
+    assert sorted(nav) == pages

@@ -1,0 +1,174 @@
+"""The tables of docs/performance.md and docs/accuracy.md, made from the benchmarks' JSON.
+
+A page holds each table between two markers:
+
+    <!-- bench table NAME -->
+    | ... generated rows ... |
+    <!-- end bench table -->
+
+`python bench/tables.py` rewrites every such table from the JSON files beside this script
+(after a benchmark has been rerun); `python bench/tables.py --check` exits 1, naming the
+tables, when a page differs from its JSON (tests/test_docs.py runs the check), so a figure
+quoted in a table cannot drift from the run that produced it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import sys
+from pathlib import Path
+
+BENCH = Path(__file__).resolve().parent
+DOCS = BENCH.parent / "docs"
+PAGES = ("performance.md", "accuracy.md")
+BLOCK = re.compile(r"(<!-- bench table (\w+) -->\n)(.*?)(<!-- end bench table -->)", re.S)
+
+
+def _json(name: str) -> dict:
+    return json.loads((BENCH / name).read_text(encoding="utf-8"))
+
+
+def _g(x: float, digits: int = 2) -> str:
+    """x to `digits` significant digits, in the e-notation of the pages below 0.01."""
+    if x == 0 or not math.isfinite(x):
+        return str(x)
+    if abs(x) < 0.01:
+        return f"{x:.{digits - 1}e}".replace("e-0", "e-")
+    return f"{x:.{max(digits - 1 - math.floor(math.log10(abs(x))), 0)}f}"
+
+
+def _count(x: float) -> str:
+    """A rate in millions (element-steps/s)."""
+    return f"{x / 1e6:.3g} M"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def throughput() -> str:
+    d = _json("throughput.json")
+    rows = [[r["case"], f"{r['elements']:,}", str(r["threads"]), _g(r["us_per_step"], 3),
+             _count(r["element_steps_per_s"])] for r in d["throughput"]]
+    return _table(["case", "elements", "threads", "µs/step", "element-steps/s"], rows)
+
+
+def pyelastica() -> str:
+    d = _json("pyelastica_compare.json")
+    rows = [[r["case"], f"{r['elements']:,}", _g(r["us_per_step_pyelastica"], 3),
+             _g(r["us_per_step_cosnet"], 3), f"{r['ratio']:.1f}×"] for r in d["speed"]]
+    return _table(["case", "elements", "PyElastica µs/step", "cosnet µs/step", "ratio"], rows)
+
+
+SPACE_CASES = {   # case in accuracy.json -> what it is, against what
+    "freq": ("first bending frequency, clamped–free steel rod, L/r = 50",
+             "exact Timoshenko frequency (`cosnet.lincos.analytic_modes`)"),
+    "static": ("end-loaded cantilever, static tip deflection (damped to rest)", "P L³/3EI + P L/kGA"),
+    "elastica": ("large-deflection cantilever, P L²/EI = 3, tip displacement",
+                 "elastica with stretch and shear (`scipy.integrate.solve_bvp`; gives Bisshopp–Drucker's "
+                 "0.30172 L at P L²/EI = 1 when inextensible)"),
+    "pendulum": ("rigid body (1 kg, I = 0.01 kg m²) on a light stiff line (5 % of its mass), released from 1 rad: period",
+                 "compound pendulum 4 √(I_p/mgl) K(sin²(θ₀/2))"),
+}
+TIME_CASES = {
+    "transient": "undamped cantilever (n = 8) under a sudden tip load, tip position after 1.5 periods, "
+                 "relative to the static deflection; reference: PEFRL at dt/16",
+    "energy": "free net (three lines, a rigid body), max \\|E − E₀\\|/E₀ over 30 periods of its slowest mode",
+}
+
+
+def _points(d: dict, case: str, stepper: str) -> list[dict]:
+    return [p for p in d["points"] if p["case"] == case and p["stepper"] == stepper]
+
+
+def accuracy_space() -> str:
+    """Error at the stable step (the largest dt of each element count), Verlet."""
+    d = _json("accuracy.json")
+    rows = []
+    for case, (what, ref) in SPACE_CASES.items():
+        best: dict[int, dict] = {}
+        for p in _points(d, case, "verlet"):
+            if p["elements"] not in best or p["dt"] > best[p["elements"]]["dt"]:
+                best[p["elements"]] = p
+        errs = [f"n = {n}: {_g(best[n]['error'])}" for n in sorted(best)]
+        order = d["orders"][f"{case}/verlet"]["space"]
+        rows.append([what, ref, ", ".join(errs), f"{order:.2f}"])
+    return _table(["case", "reference", "relative error at the stable step", "order in space"], rows)
+
+
+def accuracy_time() -> str:
+    d = _json("accuracy.json")
+    rows = []
+    for case, what in TIME_CASES.items():
+        row = [what]
+        for stepper in ("verlet", "pefrl"):
+            pts = sorted(_points(d, case, stepper), key=lambda p: -p["dt"])
+            row += [", ".join(_g(p["error"]) for p in pts), f"{d['orders'][f'{case}/{stepper}']['time']:.2f}"]
+        rows.append(row)
+    return _table(["case", "Verlet dt, dt/2, …", "order", "PEFRL dt, dt/2, …", "order"], rows)
+
+
+EXPERIMENTS = {"catenary": "catenary (pinned cable, elastic catenary)",
+               "cantilever": "cantilever (small tip load, Euler–Bernoulli)",
+               "pendulum": "pendulum (hanging cable swinging in its first mode)",
+               "twist": "twist (Greenhill buckling under driven clamps)"}
+METRICS = {"catenary": ("shape_error", "sag_error"), "cantilever": ("tip_deflection_error",),
+           "pendulum": ("period_error", "amplitude_change"), "twist": ("critical_twist_error",)}
+
+
+def cosseratbench() -> str:
+    d = _json("cosseratbench.json")
+    by = {(r["experiment"], r["solver"]): r for r in d["results"]}
+    rows = []
+    for exp in dict.fromkeys(r["experiment"] for r in d["results"]):
+        names = METRICS.get(exp) or sorted({k for r in d["results"] if r["experiment"] == exp for k in r["metrics"]})
+        cells, walls = [], []
+        for solver in ("cosnet", "pyelastica"):
+            r = by.get((exp, solver))
+            if r is None or r["outcome"] != "completed":
+                cells.append(r["outcome"] if r else "not run")
+                walls.append("–")
+            else:
+                cells.append(" / ".join(_g(r["metrics"][k]) for k in names if k in r["metrics"]))
+                walls.append(_g(r["wall_time"]))
+        n = next(r["n_elements"] for r in d["results"] if r["experiment"] == exp)
+        rows.append([EXPERIMENTS.get(exp, exp), str(n), " / ".join(n.replace("_", " ") for n in names), *cells, " / ".join(walls)])
+    return _table(["experiment", "elements", "metric", "cosnet", "PyElastica", "wall s cosnet / PyElastica"], rows)
+
+
+TABLES = {"throughput": throughput, "pyelastica": pyelastica, "accuracy_space": accuracy_space,
+          "accuracy_time": accuracy_time, "cosseratbench": cosseratbench}
+
+
+def render(page: Path) -> str:
+    """The page's text with every marked table made anew from its JSON."""
+    def fill(m: re.Match) -> str:
+        name = m.group(2)
+        if name not in TABLES:
+            raise KeyError(f"{page.name}: unknown bench table {name!r}; known: {sorted(TABLES)}")
+        return m.group(1) + TABLES[name]() + m.group(4)
+    return BLOCK.sub(fill, page.read_text(encoding="utf-8"))
+
+
+def stale() -> list[str]:
+    """Pages whose tables differ from the JSON."""
+    return [p for p in PAGES if render(DOCS / p) != (DOCS / p).read_text(encoding="utf-8")]
+
+
+def main(argv: list[str]) -> int:
+    if "--check" in argv:
+        bad = stale()
+        for page in bad:
+            print(f"docs/{page}: tables differ from bench/*.json; run python bench/tables.py", file=sys.stderr)
+        return 1 if bad else 0
+    for p in PAGES:
+        (DOCS / p).write_text(render(DOCS / p), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
