@@ -168,7 +168,7 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
     import xarray as xr
     scheds = {schedule(v.scene, until)[1:] for v in variants}
     frames = max(f for _, f in scheds)
-    probes = list(dict.fromkeys(p.name for v in variants for p in v.scene.run.probes))
+    probes = _probe_names(variants)
     coords = {"variant": np.arange(len(variants)),
               "component": np.array(["x", "y", "z"], dtype=object)}
     for key in variants[0].values:
@@ -186,33 +186,55 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
     return ds
 
 
-def _write_results(store: Path, ds_template, results: list):
-    """Write finished variants [(index, record)] into their regions of the store: one write
-    per run of consecutive indices (a task's variants are consecutive)."""
-    results = sorted(results, key=lambda r: r[0])
-    runs = []
-    for index, rec in results:
-        if runs and runs[-1][-1][0] == index - 1:
-            runs[-1].append((index, rec))
-        else:
-            runs.append([(index, rec)])
-    for run in runs:
-        i0, i1 = run[0][0], run[-1][0] + 1
-        rows = ds_template[[k for k in ds_template.data_vars if k != "key"]].isel(
-            variant=slice(i0, i1)).copy(deep=True)
-        rows = rows.drop_vars([c for c in rows.coords if c != "variant"])
-        nt = rows.sizes["time"]
+class _Store:
+    """The open store, written region by region as variants finish. Rows are assembled in
+    numpy and each variable is written once per run of consecutive variants, straight into
+    its zarr array: a write through xarray (an isel and a setitem per value) cost ten times
+    more, on the process that also drives the cluster."""
+
+    SCALARS = (("steps", "steps"), ("dt", "dt"), ("wall_time", "wall"), ("compiled", "compiled"))
+
+    def __init__(self, store: Path, probes: list[str]):
+        import zarr
+        self.group = zarr.open_group(str(store), mode="r+")
+        self.probes = probes
+        self.nt = self.group["frame_time"].shape[1]
+
+    def write(self, results: list):
+        """Write finished variants [(index, record)]: one write per variable and per run of
+        consecutive indices (a task's variants are consecutive)."""
+        runs: list[list] = []
+        for index, rec in sorted(results, key=lambda r: r[0]):
+            if runs and runs[-1][-1][0] == index - 1:
+                runs[-1].append((index, rec))
+            else:
+                runs.append([(index, rec)])
+        for run in runs:
+            self._write_run(run)
+
+    def _write_run(self, run: list):
+        g, nt, m = self.group, self.nt, len(run)
+        i0 = run[0][0]
+        rows = slice(i0, i0 + m)
+        times = np.full((m, nt), np.nan)
+        probes = {name: np.full((m, nt, 3), np.nan) for name in self.probes}
+        scalars = {var: g[var][rows] for var, _ in self.SCALARS}
         for j, (_, rec) in enumerate(run):
-            if "times" in rec:
-                rows["frame_time"][j, :len(rec["times"])] = rec["times"][:nt]
-                for name, arr in rec["probes"].items():
-                    rows[name][j, :len(arr)] = arr[:nt]
-                for var, key in (("steps", "steps"), ("dt", "dt"), ("wall_time", "wall"),
-                                 ("compiled", "compiled")):
-                    rows[var][j] = rec[key]
-            rows["status"][j] = rec["status"]
-            rows["worker"][j] = rec.get("worker", "")
-        rows.to_zarr(store, region={"variant": slice(i0, i1)}, zarr_format=2)
+            if "times" not in rec:
+                continue
+            times[j, :len(rec["times"])] = rec["times"][:nt]
+            for name, arr in rec["probes"].items():
+                probes[name][j, :len(arr)] = arr[:nt]
+            for var, key in self.SCALARS:
+                scalars[var][j] = rec[key]
+        for name, block in probes.items():
+            g[name][rows] = block
+        g["frame_time"][rows] = times
+        for var, block in scalars.items():
+            g[var][rows] = block
+        g["worker"][rows] = np.array([rec.get("worker", "") for _, rec in run], dtype=object)
+        # last: a variant whose status is written has all its values in the store
+        g["status"][rows] = np.array([rec["status"] for _, rec in run], dtype=object)
 
 
 # ---------------------------------------------------------------------- driving the cluster
@@ -268,6 +290,7 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     store = Path(out) / f"{name or spec.name or spec.path.stem}.zarr"
     if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
         raise ValueError(f"--batch must be a positive integer, got {batch!r}")
+    status = [PENDING] * len(variants)
     if resume and store.exists():
         old = xr.open_zarr(store)
         keys = [str(k) for k in old["key"].values]
@@ -275,31 +298,45 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
             raise ValueError(f"{store}: holds another sweep (its variants' scenes differ from "
                              f"these); use another --out or --name, or drop --resume")
         status = [str(s) for s in old["status"].values]
-        template = old.load()
         old.close()
+        resume = True
     else:
-        store.parent.mkdir(parents=True, exist_ok=True)
-        template = _new_store(store, spec, variants, spec.until)
-        status = [PENDING] * len(variants)
+        resume = False
     todo = [v for v, s in zip_(variants, status) if s == PENDING or s.startswith("lost:")]
-    if todo:
-        _run_all(store, template, spec, todo, client, scheduler, workers, batch, retries, progress)
+    if todo or not resume:
+        def open_store():
+            if not resume:
+                store.parent.mkdir(parents=True, exist_ok=True)
+                _new_store(store, spec, variants, spec.until)
+            return _Store(store, _probe_names(variants))
+        _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress)
     return xr.open_zarr(store)
 
 
 zip_ = zip  # the builtin, as ``sweep`` takes a ``zip`` flag
 
 
-def _run_all(store, template, spec, todo, client, scheduler, workers, batch, retries, progress):
+def _probe_names(variants) -> list[str]:
+    return list(dict.fromkeys(p.name for v in variants for p in v.scene.run.probes))
+
+
+def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress):
+    """Run the variants ``todo`` on the cluster, writing each task's results into the store
+    ``open_store()`` creates or opens -- while the first variant compiles or loads the
+    kernels on a worker."""
     from distributed import as_completed
     client, cluster = _client(client, scheduler, workers)
     try:
+        warm = client.submit(warm_up, todo[0].doc, str(spec.path), pure=False) if todo else None
+        out = open_store()
+        if warm is None:
+            return
         info = client.scheduler_info()
         nthreads = sum(w["nthreads"] for w in info["workers"].values()) or 1
         dash = getattr(client, "dashboard_link", None) if _has_dashboard(info) else None
         groups = _batches(todo, batch, nthreads)
         try:
-            client.submit(warm_up, todo[0].doc, str(spec.path), pure=False).result()
+            warm.result()
         except Exception:  # the variant fails in its own task, with its message recorded
             pass
         futures = {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
@@ -314,7 +351,7 @@ def _run_all(store, template, spec, todo, client, scheduler, workers, batch, ret
                 msg = " ".join(str(e).split())
                 results = [(v.index, dict(status=f"lost: {type(e).__name__}: {msg}"))
                            for v in futures[fut]]
-            _write_results(store, template, results)
+            out.write(results)
             for _, rec in results:
                 track.finished(rec["status"] == "ok")
             track.update(client, force=True)
