@@ -3,11 +3,15 @@ checkpoint, every output interval. ``cosnet run`` and ``Simulation.run(out=...)`
 through ``Recorder``, so their files are the same.
 
 Frame k sits at t_k = min(t_0 + k * interval, until), t_0 the time of frame 0 (0 for a
-scene): the steps of each interval are whole steps of
-dt, taken in chunks of CHUNK counted from the interval's start, then one shortened step that
-lands on t_k (to the round-off of the clock's sum); the next interval starts at dt again.
-Every interval is stepped from its frame alone, so a run resumed from the checkpoint of frame
-k (``resume=True``) reproduces an uninterrupted one bit for bit.
+scene). The run's step is the scene's dt shortened to interval / n, n the fewest whole steps
+that fit in an interval (``fit_step``), so every step of a run has one length and the frames
+land on t_k to the round-off of the clock's sum; only a last interval shorter than the others
+(until not a multiple of it) ends with one shortened step. (A shortened step before every
+frame would change the step length periodically, and position Verlet near its stability limit
+is then parametrically unstable: its invariant energy depends on the step, and switching
+between two of them pumps the highest modes, as a chain of rigid links showed within a second.)
+Each interval is stepped in chunks of CHUNK counted from its start, so a run resumed from the
+checkpoint of frame k (``resume=True``) reproduces an uninterrupted one bit for bit.
 
 Probes (``[run] probes``, ``probes=[...]``) are "NODE", "LINE@s" (the vertex nearest the arc
 fraction s; "LINE" is its midpoint) and either followed by ":FIELD" to record a field other
@@ -124,6 +128,14 @@ def frame_time(k: int, start: float, interval: float, until: float) -> float:
     return min(start + k * interval, until)
 
 
+def fit_step(sim, interval: float) -> float:
+    """Update sim.dt to interval / n, n the fewest whole steps of at most sim.dt in an
+    interval (the frames then need no shortened steps); return it."""
+    n = max(1, int(math.ceil(interval / sim.dt - 1e-9)))
+    sim.dt = interval / n
+    return sim.dt
+
+
 def advance_to(sim, t: float, progress=None):
     """Step ``sim`` to time ``t``: whole steps of dt in chunks of CHUNK, then one shortened
     step that lands on t (none if the whole steps already end within 1e-9 dt of it)."""
@@ -216,13 +228,15 @@ class Recorder:
                 raise ValueError(f"{self.out}: nothing to resume (no {CHECKPOINT})")
             if not (self.out / PVD).is_file():
                 raise ValueError(f"{self.out / PVD}: missing, so there is no series to resume")
-            sim.load_checkpoint(ckpt)
             self.start = read_pvd(self.out / PVD)[0][0]
         else:
             self.start = sim.time
         if not self.until > self.start:
             raise ValueError(f"until = {self.until!r} s must be later than the start, t = {self.start!r} s")
         self.interval = min(float(every), self.until - self.start)
+        fit_step(sim, self.interval)   # before the checkpoint, whose model fingerprint holds dt
+        if resume:
+            sim.load_checkpoint(ckpt)
         self.frames = int(math.ceil((self.until - self.start) / self.interval - 1e-9))
         if resume:
             self.k = self.frame_at(sim.time)
@@ -292,6 +306,10 @@ def run_with_output(sim, until, out=None, every=None, probes=(), callback=None, 
     if not (isinstance(every, (int, float)) and math.isfinite(every) and every > 0):
         raise ValueError(f"every must be a positive time in s, got {every!r}")
     start = sim.time
+    if not until > start:
+        raise ValueError(f"until = {until!r} s must be later than the start, t = {start!r} s")
+    every = min(float(every), until - start)
+    fit_step(sim, every)
     frames = int(math.ceil((until - start) / every - 1e-9))
     for k in range(frames + 1):
         advance_to(sim, frame_time(k, start, every, until))

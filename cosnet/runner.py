@@ -46,7 +46,7 @@ def run_probes(scene, until: float | None = None, threads: int | None = None) ->
     """Update a ProbeSeries given a Scene run to ``until`` (default: the scene's). A failure
     (instability, a refused dt, ...) ends the record early with its message as the status;
     frames not reached stay NaN."""
-    from .record import advance_to, frame_time
+    from .record import advance_to, fit_step, frame_time
     until, interval, frames = schedule(scene, until)
     probes = scene.run.probes
     times = np.full(frames + 1, np.nan)
@@ -57,7 +57,7 @@ def run_probes(scene, until: float | None = None, threads: int | None = None) ->
     t0 = time.perf_counter()
     try:
         sim = scene.simulation() if threads is None else scene.simulation(threads=threads)
-        out.dt = sim.dt
+        out.dt = fit_step(sim, interval)
         start = sim.time
         for k in range(frames + 1):
             if k:

@@ -200,7 +200,7 @@ class Simulation:
         ``steps`` steps (a non-negative integer; even zero steps scan the state for
         non-finite values). With ``out`` (a directory) or ``callback``, stop at every multiple
         of ``every`` seconds after the current time (default: 50 frames) and at ``until``,
-        landing on each with a shortened step, and there write the files ``cosnet run``
+        landing on each (dt shortened to a whole fraction of ``every``), and there write the files ``cosnet run``
         writes (``out``: series.pvd, frames, meta.json, probes.csv of ``probes`` such as
         ["tip", "rod@0.5:force"], checkpoint.npz; a directory holding a run already is
         refused unless ``overwrite``) and call ``callback(self)`` (cosnet.record)."""

@@ -11,7 +11,7 @@ import pytest
 import cosnet
 from cosnet import cli, measure
 from cosnet.io import SeriesWriter, read_output
-from cosnet.record import CHECKPOINT, PROBES, advance_to, frame_time
+from cosnet.record import CHECKPOINT, PROBES, advance_to, fit_step, frame_time
 from cosnet.scene import load_scene
 from cosnet.simulation import STRAIN_LIMIT
 from nets import ROD_SCENE, STEEL, cantilever, free_net, smooth_motion
@@ -56,12 +56,14 @@ def test_blown_up_ring_writes_no_frame_or_checkpoint_that_failed_the_watch(tmp_p
     assert not list(out.glob("*.tmp*"))
     # the checkpoint is the state of the last frame, bit for bit, and it passes the watch
     scene = load_scene(scene_file)
+    interval = min(scene.run.interval, scene.run.until)
     sim = scene.simulation()
+    fit_step(sim, interval)     # the run's step: dt shortened to a whole fraction of the interval
     sim.load_checkpoint(out / CHECKPOINT)
     assert sim.time == series.times[-1]
     assert measure.worst_strain(sim.model, sim.state)[0] <= STRAIN_LIMIT
     again = scene.simulation()
-    interval = min(scene.run.interval, scene.run.until)
+    fit_step(again, interval)
     for k in range(1, len(series.times)):   # as the run went: frame by frame
         advance_to(again, frame_time(k, 0.0, interval, scene.run.until))
     again.check()      # the line ends placed on their nodes, as before every write
