@@ -7,7 +7,7 @@
     cosnet render DIR [--png|--gif|--mp4] [--field NAME] [--clim LO HI] [--view V] [--warp F]
                                                              pictures of a run or of modes
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
-    cosnet sweep SCENE [--vary KEY=VALUES] [--ensemble N]    variants as Dask tasks, one Zarr store
+    cosnet sweep SCENE [--vary KEY=VALUES] [--vtk]          variants as Dask tasks, one Zarr store
 
 ``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
 interval (cosnet.record, which ``Simulation.run(out=...)`` uses too), each only after the
@@ -217,11 +217,13 @@ def cmd_sweep(args) -> int:
     ds = sweep(args.scene or str(default_scene()), vary=args.vary, zip=args.zip,
                ensemble=args.ensemble, until=args.until, out=args.out, name=args.name,
                scheduler=args.scheduler, workers=args.workers, batch=args.batch,
-               resume=args.resume, progress=progress)
+               resume=args.resume, progress=progress, vtk=args.vtk)
     sys.stderr.write("\n")
     store = ds.encoding.get("source", "")
     print(summary(ds, args.plot or None))
     print(f"results: {store}")
+    if args.vtk:
+        print(f"VTK series: {Path(store).with_suffix('.vtk')}/variant_NNNN/series.pvd")
     if args.plot is not None:
         print(f"plot: {plot(ds, Path(store).with_suffix('.png'), args.plot or None)}")
     return 0 if all(str(s) == "ok" for s in ds["status"].values) else 1
@@ -317,6 +319,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--workers", type=int, help="local cluster size (default: one per core)")
     s.add_argument("--batch", type=int, help="variants per task (default: about 4 tasks per worker)")
     s.add_argument("--resume", action="store_true", help="keep the finished variants of the store")
+    s.add_argument("--vtk", action="store_true",
+                   help="also write each variant's VTK series to OUT/NAME.vtk/variant_NNNN")
     s.add_argument("--plot", nargs="?", const="", metavar="PROBE[:x|y|z|norm]",
                    help="PNG of a probe's displacement against the first varied key")
     return p

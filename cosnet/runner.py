@@ -42,10 +42,13 @@ def schedule(scene, until: float | None = None) -> tuple[float, float, int]:
     return until, interval, int(math.ceil(until / interval - 1e-9))
 
 
-def run_probes(scene, until: float | None = None, threads: int | None = None) -> ProbeSeries:
+def run_probes(scene, until: float | None = None, threads: int | None = None,
+               vtk=None) -> ProbeSeries:
     """Update a ProbeSeries given a Scene run to ``until`` (default: the scene's). A failure
     (instability, a refused dt, ...) ends the record early with its message as the status;
-    frames not reached stay NaN."""
+    frames not reached stay NaN. With ``vtk`` (a directory), each frame is also written there
+    as a VTK series (cosnet.io.SeriesWriter: series.pvd, frames, meta.json)."""
+    from .io import SeriesWriter
     from .record import advance_to, fit_step, frame_time
     until, interval, frames = schedule(scene, until)
     probes = scene.run.probes
@@ -58,11 +61,14 @@ def run_probes(scene, until: float | None = None, threads: int | None = None) ->
     try:
         sim = scene.simulation() if threads is None else scene.simulation(threads=threads)
         out.dt = fit_step(sim, interval)
+        writer = None if vtk is None else SeriesWriter(vtk, scene.net)
         start = sim.time
         for k in range(frames + 1):
             if k:
                 advance_to(sim, frame_time(k, start, interval, until))
             sim.check()
+            if writer is not None:
+                writer.write(sim)
             times[k] = sim.time
             for p in probes:
                 series[p.name][k] = p.value(sim)

@@ -105,9 +105,10 @@ def read_spec(path, vary=(), zipped=None, ensemble=None, until=None) -> SweepSpe
 
 
 # ---------------------------------------------------------------------- on the workers
-def run_batch(items: list, until: float | None) -> list:
+def run_batch(items: list, until: float | None, vtk: str | None = None) -> list:
     """Update [(index, result dict)] given [(index, scene document, path)]: each variant
-    built and run single-threaded; anything a variant raises becomes its status."""
+    built and run single-threaded (its VTK series written into ``vtk``/variant_NNNN when
+    ``vtk`` is a directory); anything a variant raises becomes its status."""
     from distributed import get_worker
     try:
         who = get_worker().address
@@ -116,7 +117,8 @@ def run_batch(items: list, until: float | None) -> list:
     out = []
     for index, doc, path in items:
         try:
-            res = run_probes(build_scene(doc, path), until, threads=1)
+            series = None if vtk is None else Path(vtk) / variant_dir(index)
+            res = run_probes(build_scene(doc, path), until, threads=1, vtk=series)
             rec = dict(times=res.times, probes=res.probes, status=res.status, steps=res.steps,
                        dt=res.dt, wall=res.wall, compiled=res.compiled)
         except Exception as e:  # recorded, never lost: the sweep goes on
@@ -124,6 +126,11 @@ def run_batch(items: list, until: float | None) -> list:
         rec["worker"] = who
         out.append((index, rec))
     return out
+
+
+def variant_dir(index: int) -> str:
+    """The folder of a variant's VTK series inside the sweep's series folder."""
+    return f"variant_{index:04d}"
 
 
 def warm_up(doc: dict, path: str) -> int:
@@ -265,7 +272,7 @@ def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
 
 def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=None,
           client=None, scheduler=None, workers=None, batch=None, resume=False, retries=1,
-          progress=None):
+          progress=None, vtk=False):
     """Run a sweep and return its Dataset (opened from ``OUT/<name>.zarr``).
 
     scene: a scene file or sweep file (or ready case name); vary: ["KEY=VALUES", ...];
@@ -274,7 +281,8 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     ("tcp://HOST:PORT") / workers (LocalCluster size, default one per core); batch: variants
     per task (default: about four tasks per worker); resume: keep the finished variants of an
     existing store; progress: called with a dict (done, failed, running, total, eta, dashboard)
-    as the sweep goes.
+    as the sweep goes; vtk: also write each variant's VTK series into OUT/<name>.vtk/variant_NNNN
+    (written by the workers: on a cluster of several machines OUT must be a folder they share).
     """
     try:
         import distributed  # noqa: F401
@@ -288,6 +296,7 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     spec = read_spec(scene_path(str(scene)), vary, zip if zip else None, ensemble, until)
     variants = plan(spec.doc, spec.path, spec.axes, spec.zipped, spec.ensemble or 0, spec.until)
     store = Path(out) / f"{name or spec.name or spec.path.stem}.zarr"
+    series = str(store.with_suffix(".vtk").resolve()) if vtk else None
     if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
         raise ValueError(f"--batch must be a positive integer, got {batch!r}")
     status = [PENDING] * len(variants)
@@ -309,7 +318,7 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
                 store.parent.mkdir(parents=True, exist_ok=True)
                 _new_store(store, spec, variants, spec.until)
             return _Store(store, _probe_names(variants))
-        _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress)
+        _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series)
     return xr.open_zarr(store)
 
 
@@ -320,7 +329,7 @@ def _probe_names(variants) -> list[str]:
     return list(dict.fromkeys(p.name for v in variants for p in v.scene.run.probes))
 
 
-def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress):
+def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series=None):
     """Run the variants ``todo`` on the cluster, writing each task's results into the store
     ``open_store()`` creates or opens -- while the first variant compiles or loads the
     kernels on a worker."""
@@ -340,7 +349,7 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
         except Exception:  # the variant fails in its own task, with its message recorded
             pass
         futures = {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
-                                 spec.until, pure=False, retries=retries): g for g in groups}
+                                 spec.until, series, pure=False, retries=retries): g for g in groups}
         track = _Tracker(len(todo), len(groups[0]), dash, progress)
         track.update(client)
         ac = as_completed(futures)

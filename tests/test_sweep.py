@@ -149,7 +149,8 @@ def test_missing_extra_is_named_in_one_line(tmp_path, monkeypatch, capsys):
 def test_local_cluster_equals_cosnet_run_bit_for_bit(tmp_path, client, capsys):
     path = write_scene(tmp_path / "s.toml")
     values = ["1e11", "2.1e11", "4e11"]
-    ds = sweep(path, vary=[f"materials.steel.E={','.join(values)}"], out=tmp_path / "sw", client=client)
+    ds = sweep(path, vary=[f"materials.steel.E={','.join(values)}"], out=tmp_path / "sw", client=client,
+               vtk=True)
     assert list(ds["materials.steel.E"].values) == [1e11, 2.1e11, 4e11]
     assert ds.sizes == {"variant": 3, "time": 4, "component": 3}
     assert list(ds.time.values) == pytest.approx([0.0, 0.004, 0.008, 0.012], abs=1e-15)
@@ -161,6 +162,12 @@ def test_local_cluster_equals_cosnet_run_bit_for_bit(tmp_path, client, capsys):
         assert np.array_equal(ds["tip"].values[i], cols[:, 0:3])
         assert np.array_equal(ds["rod@0.5"].values[i], cols[:, 3:6])
         assert ds.status.values[i] == "ok" and ds.steps.values[i] > 0 and ds.dt.values[i] > 0
+        # the variant's own VTK series (--vtk) holds the frames cosnet run wrote, byte for byte
+        series = tmp_path / "sw" / "s.vtk" / f"variant_{i:04d}"
+        frames = sorted(p.name for p in run_dir.glob("*.vtu"))
+        assert frames and frames == sorted(p.name for p in series.glob("*.vtu"))
+        for name in frames + ["series.pvd", "meta.json"]:
+            assert (series / name).read_bytes() == (run_dir / name).read_bytes(), name
     # each worker process loads the kernels from the shared on-disk cache: no variant compiles
     assert list(ds.compiled.values) == [0, 0, 0]
     capsys.readouterr()
