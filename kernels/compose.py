@@ -15,6 +15,7 @@ from numba.extending import intrinsic
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
+KERNELS: dict = {}   # declaration -> the kernel as decorated (callable from Python), either stage
 
 
 def _inner(kernel):
@@ -33,6 +34,7 @@ def load_kernel(declaration):
     """Register the decorated njit function as the load kernel of ``declaration``."""
     def register(kernel):
         LOAD_KERNELS[declaration] = _inner(kernel)
+        KERNELS[declaration] = kernel
         return kernel
     return register
 
@@ -41,6 +43,7 @@ def flow_kernel(declaration):
     """Register the decorated njit function as the velocity-flow kernel of ``declaration``."""
     def register(kernel):
         FLOW_KERNELS[declaration] = _inner(kernel)
+        KERNELS[declaration] = kernel
         return kernel
     return register
 
