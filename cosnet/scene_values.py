@@ -177,6 +177,7 @@ def choice(*options):
         if v not in options:
             raise _Bad(f"must be one of {list(options)}, got {_show(v)}")
         return v
+    conv.options = options
     return conv
 
 
