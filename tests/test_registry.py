@@ -208,3 +208,22 @@ def test_examples_of_the_page_load(tmp_path):
         pytest.skip("a tether package is installed in this environment")
     with pytest.raises(ValueError, match=r"\[\[effects\]\] #1 kind: must be one of .*got 'tether'"):
         load_scene(tmp_path / "t.toml")
+
+
+def test_a_step_cache_naming_an_uninstalled_effect_still_loads(on_path):
+    """The step's cache index names each compiled effect record: after the package of one is
+    gone, the index still loads (its entry is skipped) and other steps run."""
+    import pickle
+    from numba.core import caching, types as nt
+    from cosnet.kernels.compose import UnresolvedRecord
+    (on_path / "broken_gone.py").write_text("from typing import NamedTuple\n\nclass Gone(NamedTuple):\n"
+                                            "    x: float\n", encoding="utf-8")
+    import broken_gone
+    data = pickle.dumps({(nt.NamedUniTuple(nt.float64, 1, broken_gone.Gone),): "entry"})
+    del sys.modules["broken_gone"]
+    (on_path / "broken_gone.py").unlink()
+    with pytest.raises(ModuleNotFoundError):
+        pickle.loads(data)
+    (key,), = caching.pickle.loads(data)
+    assert key.instance_class is UnresolvedRecord
+    pickle.loads(pickle.dumps(key))   # an index holding it can be saved again
