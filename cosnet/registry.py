@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import os
+import sys
 from dataclasses import dataclass
 from importlib import metadata
 from typing import Any, Callable, NamedTuple
@@ -199,27 +201,49 @@ def builtin_effects() -> dict:
     return dict(sorted(found.items(), key=lambda kv: order[kv[1].__module__]))
 
 
-def plugin_names() -> list[str]:
-    """The kinds other packages register under the entry-point group cosnet.effects."""
-    return [ep.name for ep in metadata.entry_points(group=ENTRY_POINTS)]
+_SCANNED: dict = {}   # (sys.path entries with their mtimes) -> entry points of the group
+
+
+def _entry_points() -> tuple:
+    """The entry points of the group cosnet.effects, read again only when sys.path or one of
+    its folders changed (a package installed or removed): reading every installed
+    distribution's metadata takes tens of milliseconds, and a scene names many effects."""
+    key = []
+    for p in sys.path:
+        try:
+            key.append((p, os.stat(p or ".").st_mtime_ns))
+        except OSError:
+            key.append((p, None))
+    key = tuple(key)
+    if key not in _SCANNED:
+        _SCANNED.clear()
+        _SCANNED[key] = tuple(metadata.entry_points(group=ENTRY_POINTS))
+    return _SCANNED[key]
+
+
+def catalogue() -> dict:
+    """kind -> the class of each effect kind a scene may name: cosnet's own, then those other
+    packages register (their entry points, loaded when a scene names them)."""
+    out = dict(builtin_effects())
+    for ep in _entry_points():
+        out.setdefault(ep.name, ep)
+    return out
 
 
 def kinds() -> list[str]:
     """Every effect kind a scene may name: cosnet's, then those of installed packages."""
-    own = list(builtin_effects())
-    return own + [n for n in plugin_names() if n not in own]
+    return list(catalogue())
 
 
-def effect_class(kind: str):
-    """The class declared for scene kind ``kind``; a ValueError in one line naming the entry
-    point when another package's registration is broken."""
-    own = builtin_effects()
-    if kind in own:
-        return own[kind]
-    for ep in metadata.entry_points(group=ENTRY_POINTS):
-        if ep.name == kind:
-            return _load(ep)
-    raise ValueError(f"unknown effect kind {kind!r}; kinds are {kinds()}")
+def effect_class(kind: str, known: dict | None = None):
+    """The class declared for scene kind ``kind`` (looked up in ``known``, a catalogue(), when
+    given); a ValueError in one line naming the entry point when another package's
+    registration is broken."""
+    known = catalogue() if known is None else known
+    if kind not in known:
+        raise ValueError(f"unknown effect kind {kind!r}; kinds are {list(known)}")
+    found = known[kind]
+    return found if inspect.isclass(found) else _load(found)
 
 
 def _load(ep):

@@ -222,10 +222,10 @@ def _named(t: Table, name, kind, net: Net):
         raise ValueError(f"{t.file}: [{t.name}]: unknown {kind} {name!r}; {kind}s are {have}") from None
 
 
-def _effect(t: Table, net: Net, units: Units):
-    name = t.get("kind", choice(*registry.kinds()))
+def _effect(t: Table, net: Net, units: Units, known: dict):
+    name = t.get("kind", choice(*known))
     try:
-        cls = registry.effect_class(name)
+        cls = registry.effect_class(name, known)
     except ValueError as e:
         raise t.err("kind", e) from None
     if t.label.startswith("[[effects]]"):
@@ -255,11 +255,12 @@ def _effects(top: Table, net: Net, units: Units) -> list:
         top.used.add("effects")
         return []
     raw = top.data["effects"]
+    known = registry.catalogue()
     if isinstance(raw, list):
         top.used.add("effects")
-        return [_effect(Table(top.file, f"effects[{i}]", e, label=f"[[effects]] #{i + 1}"), net, units)
+        return [_effect(Table(top.file, f"effects[{i}]", e, label=f"[[effects]] #{i + 1}"), net, units, known)
                 for i, e in enumerate(raw)]
-    return [_effect(t, net, units) for _, t in top.tables("effects")]
+    return [_effect(t, net, units, known) for _, t in top.tables("effects")]
 
 
 # ---------------------------------------------------------------------- initial conditions
