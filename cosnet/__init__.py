@@ -10,8 +10,7 @@ if not _os.path.isdir(_os.path.join(__path__[0], "kernels")):
     if _os.path.isfile(_os.path.join(_root, "kernels", "__init__.py")):
         __path__.append(_root)
 
-from .effects import Damping, Effect, Gravity, LineLoad, NodeLoad
-from .joints import FixedJoint, HingeJoint, SphericalJoint
+from .registry import Binding, Effect, Key, builtin_effects
 from .materials import Circle, Ellipse, Material, Rectangle, Section, Tube
 from .net import Line, Net, Node
 from .scaling import Scale
@@ -21,16 +20,18 @@ from .io import Output, SeriesWriter, read_output
 from .lincos import Mode, Modes, analytic_modes
 from .modes import DiscreteModes, main_modes, modes
 from .scene import RunSettings, Scene, build_scene, load_scene
-from .contact import Contact
 from .sweep import sweep
+
+# every effect cosnet declares is exported under its class name (cosnet.Gravity, ...)
+_EFFECTS = {cls.__name__: cls for cls in builtin_effects().values()}
+globals().update(_EFFECTS)
 
 __all__ = [
     "Circle", "Ellipse", "Material", "Rectangle", "Section", "Tube",
     "Line", "Net", "Node",
-    "Damping", "Effect", "Gravity", "LineLoad", "NodeLoad",
-    "SphericalJoint", "HingeJoint", "FixedJoint",
+    "Binding", "Effect", "Key", *_EFFECTS,
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",
-    "Contact", "sweep",
+    "sweep",
 ]

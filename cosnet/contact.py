@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from .effects import Effect
-from .kernels import contact as _contact_kernels  # noqa: F401  (registers the contact kernel)
 from .kernels.contact import ContactParams, contact_energy
 from .net import Line
+from .registry import Binding, Effect, Key
+from .scene_values import DAMPING, STIFFNESS, boolean, nonnegative, positive
 
 MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
 
@@ -28,6 +28,14 @@ class Contact(Effect):
     lines: the lines taking part (Line objects or names); None: all of them. Segments of
     lines meeting at a node are excluded near that node (see cosnet.kernels.contact).
     """
+
+    kind = "contact"
+    keys = (Key("k", positive, STIFFNESS, required=True, doc="penalty stiffness"),
+            Key("gamma", nonnegative, DAMPING, doc="damping of the normal approach"),
+            Key("self_contact", boolean, doc="whether a line touches itself"),
+            Key("lines", "lines", doc="names of the lines taking part (default: all)"),
+            Key("self_gap", nonnegative, doc="rest-arc exclusion of a line's own segments, in r_i + r_j"))
+    record = ContactParams
 
     def __init__(self, k: float, gamma: float = 0.0, self_contact: bool = True, lines=None,
                  self_gap: float = 0.5 * math.pi):
@@ -50,27 +58,27 @@ class Contact(Effect):
         self.lines = lines
 
     # ------------------------------------------------------------------ binding
-    def _lines(self, sim) -> list[Line]:
+    def _lines(self, on: Binding) -> list[Line]:
         if self.lines is None:
-            return list(sim.net.lines)
+            return list(on.net.lines)
         out = []
         for x in self.lines:
             if isinstance(x, str):
                 try:
-                    x = sim.net.line(x)
+                    x = on.net.line(x)
                 except KeyError:
-                    have = [ln.name for ln in sim.net.lines]
+                    have = [ln.name for ln in on.net.lines]
                     raise ValueError(f"Contact: unknown line {x!r}; lines are {have}") from None
-            sim.check_line(x, "Contact")
+            on.check_line(x, "Contact")
             out.append(x)
         return out
 
-    def bind(self, sim) -> ContactParams:
-        m, x = sim.model, sim.state.x
+    def bind(self, on: Binding) -> ContactParams:
+        m, x = on.model, on.state.x
         ne, nn = m.element_rest_length.shape[0], m.node_mass.shape[0]
         vo, eo = m.line_vertex_offsets, m.line_element_offsets
         index, geom = np.zeros((ne, 2), np.int64), np.zeros((ne, 4))
-        for line in sim.net.lines:
+        for line in on.net.lines:
             l = line.index
             e0, n = eo[l], eo[l + 1] - eo[l]
             cum = np.concatenate([[0.0], np.cumsum(m.element_rest_length[e0:e0 + n])])
@@ -78,7 +86,7 @@ class Contact(Effect):
             geom[e0:e0 + n, 1], geom[e0:e0 + n, 2], geom[e0:e0 + n, 3] = cum[:-1], cum[1:], cum[-1] - cum[1:]
             index[e0:e0 + n, 0] = vo[l] + np.arange(n)
             index[e0:e0 + n, 1] = l
-        chosen = sorted({line.index for line in self._lines(sim)})
+        chosen = sorted({line.index for line in self._lines(on)})
         elements = np.concatenate([np.arange(eo[l], eo[l + 1]) for l in chosen] or [[]]).astype(np.int64)
         count = elements.shape[0]
         size = 16
@@ -123,20 +131,21 @@ class Contact(Effect):
         return int(self.params(sim).active[0])
 
     # ------------------------------------------------------------------ effect interface
-    def potential_energy(self, sim) -> float:
-        return float(contact_energy(self.params(sim), sim.model, sim.state))
+    def potential(self, p, on: Binding) -> float:
+        return float(contact_energy(p, on.model, on.state))
 
-    def max_omega2(self, sim) -> float:
+    def omega2(self, p, on: Binding) -> float:
         """2 k / m_min: two of the smallest free masses (interior vertices, or the composite
-        node of a line end) bouncing on one contact spring."""
-        m = sim.model
+        node of a line end) of the record's lines bouncing on one contact spring."""
+        m = on.model
         masses = []
-        for line in self._lines(sim):
-            v = slice(m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1)
+        for l in np.unique(p.elem_index[p.elements, 1]):
+            line = on.net.lines[l]
+            v = slice(m.line_vertex_offsets[l] + 1, m.line_vertex_offsets[l + 1] - 1)
             masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
             masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
                           if 0 < m.node_mass[nd.index] < math.inf)
-        return 2.0 * self.k / min(masses) if masses else 0.0
+        return 2.0 * p.k / min(masses) if masses else 0.0
 
     def describe(self) -> str:
         lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]

@@ -1,10 +1,12 @@
-"""Declared effects. Each is a small validated object that binds, once, to the parameter
-record of its @njit kernel (cosnet.kernels.effects); the step is assembled from exactly the
-effects a simulation declares (see cosnet.kernels.compose).
+"""The built-in effects: gravity, node and line loads, damping. Each is one declaration
+(cosnet.registry.Effect): scene kind and keys, the parameter record of its @njit kernel
+(cosnet.kernels.effects) and the binding of the record; the step is assembled from exactly
+the effects a simulation declares (see cosnet.kernels.compose).
 
 To add an effect: write a NamedTuple of parameters and a kernel registered with
 ``@load_kernel(Params)`` (adds to forces/torques) or ``@flow_kernel(Params)`` (an exact
-velocity flow), then a subclass of ``Effect`` whose ``bind`` returns the parameters.
+velocity flow), then a subclass of ``Effect`` stating ``kind``, ``keys`` and
+``record = Params`` whose ``bind`` returns the parameters (docs/effects.md).
 """
 
 from __future__ import annotations
@@ -15,41 +17,14 @@ import numpy as np
 
 from .kernels.effects import DampingParams, GravityParams, LineLoadParams, NodeLoadParams
 from .net import Line, Node
+from .registry import Binding, Effect, Key
+from .scene_values import (ACCELERATION, FORCE, FORCE_PER_LENGTH, RATE, TIME, TORQUE, TORQUE_PER_LENGTH,
+                           floats, nonnegative, number, vec3)
 
-
-class Effect:
-    """Base of all declared effects. ``stage`` is "load" or "flow"; ``adds_energy`` says
-    whether it can feed energy in (the instability watch then skips its energy test)."""
-
-    stage = "load"
-    adds_energy = False
-
-    def bind(self, sim):
-        """Return the kernel's parameter record for this simulation."""
-        raise NotImplementedError
-
-    def params(self, sim):
-        """The parameter record this effect is bound to in ``sim`` (live: what its kernel
-        reads and writes)."""
-        return sim.effect_params(self)
-
-    def potential_energy(self, sim) -> float:
-        """Potential energy of a conservative effect (0 for others)."""
-        return 0.0
-
-    def energy_scale(self, sim) -> float:
-        """Energy this effect can exchange with the motion of the net as built (J); the
-        instability watch tolerates Verlet's error on it. 0 for effects that store none."""
-        return 0.0
-
-    def max_omega2(self, sim) -> float:
-        """Upper bound on the squared frequency this effect's stiffness adds to any mass of
-        the net (k / m for a penalty spring); the stable step shrinks accordingly. 0 when the
-        effect adds no stiffness."""
-        return 0.0
-
-    def describe(self) -> str:
-        return type(self).__name__
+AMPLITUDE = (Key("times", floats, TIME, doc="abscissae of the amplitude table (increasing)"),
+             Key("values", floats, doc="amplitude table (interpolated linearly, held at its ends)"),
+             Key("omega", number, RATE, doc="angular frequency of the factor sin(omega t + phase)"),
+             Key("phase", number, doc="phase of the harmonic factor (rad)"))
 
 
 def _vec3(owner, name, value):
@@ -77,29 +52,33 @@ def _amplitude(owner, times, values, omega, phase):
 class Gravity(Effect):
     """Uniform gravity g (lab frame) on every mass of the net."""
 
+    kind = "gravity"
+    keys = (Key("g", vec3, ACCELERATION, doc="acceleration of gravity, lab frame"),)
+    record = GravityParams
+
     def __init__(self, g=(0.0, 0.0, -9.81)):
         self.g = _vec3("Gravity", "g", g)
 
-    def bind(self, sim):
+    def bind(self, on: Binding):
         return GravityParams(self.g.copy())
 
-    def potential_energy(self, sim) -> float:
+    def potential(self, p, on: Binding) -> float:
         from .flatten import matrix_from_quat
-        m, s = sim.model, sim.state
+        m, s = on.model, on.state
         # einsum, not BLAS: a threaded BLAS call here leaves its threads spinning on the
         # cores the step's thread pool is about to use
-        e = -float(np.einsum("i,ij,j->", m.vertex_mass, s.x, self.g))
+        e = -float(np.einsum("i,ij,j->", m.vertex_mass, s.x, p.g))
         own = np.flatnonzero(m.node_own_mass > 0)       # the nodes' own masses sit at their reference points
         if own.size:
             ref = s.node_x[own] - np.einsum("nij,nj->ni", matrix_from_quat(s.node_q[own]), m.node_com_offset[own])
-            e -= float(np.einsum("i,ij,j->", m.node_own_mass[own], ref, self.g))
+            e -= float(np.einsum("i,ij,j->", m.node_own_mass[own], ref, p.g))
         return e
 
-    def energy_scale(self, sim) -> float:
+    def exchange(self, p, on: Binding) -> float:
         """Weight of the net times the diagonal of its bounding box."""
-        x = np.concatenate([sim.state.x, sim.state.node_x])
+        x = np.concatenate([on.state.x, on.state.node_x])
         size = float(np.linalg.norm(x.max(axis=0) - x.min(axis=0)))
-        return sim.net.total_mass() * float(np.linalg.norm(self.g)) * size
+        return on.net.total_mass() * float(np.linalg.norm(p.g)) * size
 
     def describe(self):
         return f"Gravity(g={self.g.tolist()})"
@@ -110,6 +89,11 @@ class NodeLoad(Effect):
     (1.5)/(1.7), scaled by amplitude(t) = interp(t, times, values) * sin(omega t + phase)
     (each factor 1 when not given)."""
 
+    kind = "node_load"
+    keys = (Key("node", "node", required=True, doc="the loaded node"),
+            Key("force", vec3, FORCE, doc="force at the node's reference point, lab frame"),
+            Key("torque", vec3, TORQUE, doc="torque, lab frame"), *AMPLITUDE)
+    record = NodeLoadParams
     adds_energy = True
 
     def __init__(self, node: Node, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), *,
@@ -122,8 +106,8 @@ class NodeLoad(Effect):
         self.torque = _vec3(who, "torque", torque)
         self.amp = _amplitude(who, times, values, omega, phase)
 
-    def bind(self, sim):
-        sim.check_node(self.node, "NodeLoad")
+    def bind(self, on: Binding):
+        on.check_node(self.node, "NodeLoad")
         return NodeLoadParams(np.array([self.node.index], dtype=np.int64), self.force[None].copy(),
                               self.torque[None].copy(), *self.amp)
 
@@ -131,6 +115,12 @@ class NodeLoad(Effect):
 class LineLoad(Effect):
     """Distributed force f and torque l per unit rest length on a line, lab frame (1.4)."""
 
+    kind = "line_load"
+    keys = (Key("line", "line", required=True, doc="the loaded line"),
+            Key("force_per_length", vec3, FORCE_PER_LENGTH, doc="force per unit rest length, lab frame"),
+            Key("torque_per_length", vec3, TORQUE_PER_LENGTH, doc="torque per unit rest length, lab frame"),
+            *AMPLITUDE)
+    record = LineLoadParams
     adds_energy = True
 
     def __init__(self, line: Line, force_per_length=(0.0, 0.0, 0.0), torque_per_length=(0.0, 0.0, 0.0),
@@ -143,8 +133,8 @@ class LineLoad(Effect):
         self.torque = _vec3(who, "torque_per_length", torque_per_length)
         self.amp = _amplitude(who, times, values, omega, phase)
 
-    def bind(self, sim):
-        sim.check_line(self.line, "LineLoad")
+    def bind(self, on: Binding):
+        on.check_line(self.line, "LineLoad")
         return LineLoadParams(np.array([self.line.index], dtype=np.int64), self.force[None].copy(),
                               self.torque[None].copy(), *self.amp)
 
@@ -153,7 +143,10 @@ class Damping(Effect):
     """Linear, mass-proportional viscous damping: every velocity decays as exp(-nu t), every
     angular velocity as exp(-nu_r t). Integrated exactly, so stable at any dt."""
 
-    stage = "flow"
+    kind = "damping"
+    keys = (Key("translational", nonnegative, RATE, required=True, doc="decay rate of velocities"),
+            Key("rotational", nonnegative, RATE, doc="decay rate of angular velocities (default: translational)"))
+    record = DampingParams
 
     def __init__(self, translational: float = 0.0, rotational: float | None = None):
         nu = float(translational)
@@ -163,7 +156,7 @@ class Damping(Effect):
                 raise ValueError(f"Damping: {name} rate must be a finite number >= 0, got {x}")
         self.translational, self.rotational = nu, nr
 
-    def bind(self, sim):
+    def bind(self, on: Binding):
         return DampingParams(self.translational, self.rotational)
 
     def describe(self):

@@ -21,13 +21,25 @@ import math
 
 import numpy as np
 
-from .effects import Effect, _vec3
+from .effects import _vec3
 from .rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
 from .kernels import joints as _joint_kernels
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .net import Line
+from .registry import Binding, Effect, Key
+from .scene_values import DAMPING, LENGTH, ROTARY_DAMPING, ROTARY_STIFFNESS, STIFFNESS, choice, nonnegative, \
+    number, positive, vec3
 
 ENDS = {"start": 0, "end": 1}
+JOINT_KEYS = (Key("line_a", "line", required=True, doc="the line of end a"),
+              Key("end_a", choice(*ENDS), required=True, doc="which end of line_a"),
+              Key("line_b", "line", required=True, doc="the line of end b"),
+              Key("end_b", choice(*ENDS), required=True, doc="which end of line_b"),
+              Key("k", positive, STIFFNESS, required=True, doc="spring stiffness"),
+              Key("nu", nonnegative, DAMPING, doc="damping of the relative velocity"),
+              Key("rest_offset", vec3, LENGTH, doc="x_b - x_a at rest, lab frame"))
+TORQUE_KEYS = (Key("kt", positive, ROTARY_STIFFNESS, required=True, doc="torque spring stiffness"),
+               Key("nut", nonnegative, ROTARY_DAMPING, doc="damping of the relative angular velocity"))
 
 
 def _stiffness(owner, name, value, allow_zero=False):
@@ -54,9 +66,10 @@ class SphericalJoint(Effect):
     k (N/m) and a damper nu (N s/m) on their relative velocity: f = k (eps - eps0) + nu dot
     eps on end a, -f on end b, eps = x_b - x_a (lab); the lines turn freely about the joint."""
 
-    params_type = SphericalJointParams
+    kind = "spherical_joint"
+    keys = JOINT_KEYS
+    record = SphericalJointParams
     energy_kernel = staticmethod(_joint_kernels.spherical_energy)
-    kt = nut = 0.0  # no torque spring or damper
 
     def __init__(self, line_a: Line, end_a: str, line_b: Line, end_b: str, *, k: float,
                  nu: float = 0.0, rest_offset=(0.0, 0.0, 0.0)):
@@ -75,47 +88,51 @@ class SphericalJoint(Effect):
         self.rest_offset = _vec3(self.who, "rest_offset", rest_offset)
 
     # -------------------------------------------------------------- binding
-    def _attachments(self, sim):
+    def _attachments(self, on: Binding):
         for line in (self.line_a, self.line_b):
-            sim.check_line(line, self.who)
+            on.check_line(line, self.who)
         return (2 * self.line_a.index + ENDS[self.end_a], 2 * self.line_b.index + ENDS[self.end_b])
 
-    def _end_frame(self, sim, a) -> np.ndarray:
+    def _end_frame(self, on: Binding, a) -> np.ndarray:
         """(3, 3) line-end frame E = D X of attachment a (columns d1 d2 d3, lab)."""
-        m = sim.model
+        m = on.model
         nd = m.attach_node[a]
-        return matrix_from_quat(sim.state.node_q[nd]) @ matrix_from_quat(m.attach_frame[a])
+        return matrix_from_quat(on.state.node_q[nd]) @ matrix_from_quat(m.attach_frame[a])
 
-    def _torque_fields(self, sim, a, b) -> tuple:
+    def _torque_fields(self, on: Binding, a, b) -> tuple:
         """The kind's own fields after the spherical ones (none for a spherical joint)."""
         return ()
 
-    def bind(self, sim):
-        a, b = self._attachments(sim)
-        return self.params_type(np.array([a], dtype=np.int64), np.array([b], dtype=np.int64),
-                                np.array([self.k]), np.array([self.nu]), self.rest_offset[None].copy(),
-                                *self._torque_fields(sim, a, b))
+    def bind(self, on: Binding):
+        a, b = self._attachments(on)
+        return self.record(np.array([a], dtype=np.int64), np.array([b], dtype=np.int64),
+                           np.array([self.k]), np.array([self.nu]), self.rest_offset[None].copy(),
+                           *self._torque_fields(on, a, b))
 
     # -------------------------------------------------------------- energy and stability
-    def potential_energy(self, sim) -> float:
-        return float(self.energy_kernel(self.params(sim), sim.model, sim.state))
+    def potential(self, p, on: Binding) -> float:
+        return float(self.energy_kernel(p, on.model, on.state))
 
-    def _end_inverse_inertia(self, sim, a):
+    @staticmethod
+    def _end_inverse_inertia(m, a):
         """(inverse mass of end a seen by a force at it, largest inverse rotary inertia)."""
-        m = sim.model
         nd = m.attach_node[a]
         inv_j = float(np.max(m.node_inv_inertia[nd]))
         lever = float(np.dot(m.attach_offset[a], m.attach_offset[a]))
         return float(m.node_inv_mass[nd]) + lever * inv_j, inv_j
 
-    def max_omega2(self, sim) -> float:
+    def omega2(self, p, on: Binding) -> float:
         """k (1/m_a + 1/m_b) + (nu (1/m_a + 1/m_b))^2, and the same with kt, nut and the ends'
         rotary inertias: an upper bound of the joint's frequencies (a damper's rate enters the
-        explicit kick like a frequency)."""
-        a, b = self._attachments(sim)
-        (ma, ja), (mb, jb) = self._end_inverse_inertia(sim, a), self._end_inverse_inertia(sim, b)
-        im, ij = ma + mb, ja + jb
-        return self.k * im + (self.nu * im) ** 2 + self.kt * ij + (self.nut * ij) ** 2
+        explicit kick like a frequency); the largest over the record's joints."""
+        kt, nut = (p.kt, p.nut) if hasattr(p, "kt") else (np.zeros_like(p.k), np.zeros_like(p.nu))
+        w2 = 0.0
+        for j in range(p.k.shape[0]):
+            (ma, ja) = self._end_inverse_inertia(on.model, int(p.attach_a[j]))
+            (mb, jb) = self._end_inverse_inertia(on.model, int(p.attach_b[j]))
+            im, ij = ma + mb, ja + jb
+            w2 = max(w2, float(p.k[j] * im + (p.nu[j] * im) ** 2 + kt[j] * ij + (nut[j] * ij) ** 2))
+        return w2
 
     def describe(self):
         return f"{self.who}, k = {self.k:g} N/m"
@@ -141,7 +158,9 @@ class HingeJoint(_TorqueJoint):
     then turns with line a's end frame (choose it normal to line a's tangent for a hinge axis
     along n through that end)."""
 
-    params_type = HingeJointParams
+    kind = "hinge_joint"
+    keys = JOINT_KEYS + TORQUE_KEYS + (Key("normal", vec3, doc="plane normal n, lab frame as built"),)
+    record = HingeJointParams
     energy_kernel = staticmethod(_joint_kernels.hinge_energy)
 
     def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, normal=(0.0, 0.0, 1.0), nu=0.0,
@@ -149,8 +168,8 @@ class HingeJoint(_TorqueJoint):
         super().__init__(line_a, end_a, line_b, end_b, k=k, kt=kt, nu=nu, nut=nut, rest_offset=rest_offset)
         self.normal = _unit(self.who, "normal", normal)
 
-    def _torque_fields(self, sim, a, b):
-        n_a = self._end_frame(sim, a).T @ self.normal
+    def _torque_fields(self, on, a, b):
+        n_a = self._end_frame(on, a).T @ self.normal
         return np.array([self.kt]), np.array([self.nut]), n_a[None].copy()
 
 
@@ -161,7 +180,11 @@ class FixedJoint(_TorqueJoint):
     angle=None takes R0 from the net as built; otherwise line b's end frame rests at line a's
     turned by ``angle`` (rad) about ``axis`` (lab, as built)."""
 
-    params_type = FixedJointParams
+    kind = "fixed_joint"
+    keys = JOINT_KEYS + TORQUE_KEYS + (
+        Key("angle", number, doc="rest rotation of end b's frame from end a's (rad); default: as built"),
+        Key("axis", vec3, doc="axis of that rotation, lab frame as built"))
+    record = FixedJointParams
     energy_kernel = staticmethod(_joint_kernels.fixed_energy)
 
     def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, angle=None, axis=(0.0, 0.0, 1.0),
@@ -173,10 +196,10 @@ class FixedJoint(_TorqueJoint):
                 raise ValueError(f"{self.who}: angle must be a finite number (rad), got {angle}")
         self.angle, self.axis = angle, _unit(self.who, "axis", axis)
 
-    def _torque_fields(self, sim, a, b):
-        ea = self._end_frame(sim, a)
+    def _torque_fields(self, on, a, b):
+        ea = self._end_frame(on, a)
         if self.angle is None:
-            r0 = ea.T @ self._end_frame(sim, b)
+            r0 = ea.T @ self._end_frame(on, b)
         else:
             r0 = matrix_from_rotvec(self.angle * (ea.T @ self.axis))  # axis in a's end frame
         return np.array([self.kt]), np.array([self.nut]), quat_from_matrix(r0)[None].copy()

@@ -9,6 +9,7 @@ import difflib
 import json
 import math
 import reprlib
+from typing import NamedTuple
 
 import numpy as np
 
@@ -176,6 +177,7 @@ def choice(*options):
         if v not in options:
             raise _Bad(f"must be one of {list(options)}, got {_show(v)}")
         return v
+    conv.options = options
     return conv
 
 
@@ -253,6 +255,31 @@ def frame(v):
 
 
 # ---------------------------------------------------------------------- units (§5)
+class Unit(NamedTuple):
+    """A physical unit: its SI ``symbol`` and the exponents of length, mass and time."""
+
+    symbol: str
+    length: int = 0
+    mass: int = 0
+    time: int = 0
+
+
+LENGTH = Unit("m", 1)
+TIME = Unit("s", time=1)
+RATE = Unit("1/s", time=-1)                    # decay rates, angular frequencies
+ANGULAR_VELOCITY = Unit("rad/s", time=-1)
+VELOCITY = Unit("m/s", 1, 0, -1)
+ACCELERATION = Unit("m/s^2", 1, 0, -2)
+FORCE = Unit("N", 1, 1, -2)
+TORQUE = Unit("N m", 2, 1, -2)
+FORCE_PER_LENGTH = Unit("N/m", 0, 1, -2)
+TORQUE_PER_LENGTH = Unit("N m/m", 1, 1, -2)
+STIFFNESS = Unit("N/m", 0, 1, -2)              # a spring: force per displacement
+DAMPING = Unit("N s/m", 0, 1, -1)
+ROTARY_STIFFNESS = Unit("N m/rad", 2, 1, -2)   # a torque spring: torque per angle
+ROTARY_DAMPING = Unit("N m s/rad", 2, 1, -1)
+
+
 class Units:
     """Conversion of scene numbers to SI: identity without [scale]."""
 
@@ -262,15 +289,8 @@ class Units:
     def factor(self, length=0, mass=0, time=0) -> float:
         return self.L**length * self.M**mass * self.T**time
 
-
-# dimensions (length, mass, time) of the keys that carry units outside the net
-DIM = {"g": (1, 0, -2), "force": (1, 1, -2), "torque": (2, 1, -2), "force_per_length": (0, 1, -2),
-       "torque_per_length": (1, 1, -2), "times": (0, 0, 1), "omega": (0, 0, -1),
-       "translational": (0, 0, -1), "rotational": (0, 0, -1), "velocity": (1, 0, -1),
-       "angular_velocity": (0, 0, -1), "center": (1, 0, 0), "k": (0, 1, -2), "nu": (0, 1, -1),
-       "kt": (2, 1, -2), "nut": (2, 1, -1), "rest_offset": (1, 0, 0),
-       "gamma": (0, 1, -1)}
-
-
-def _si(units: Units, key, value):
-    return value * units.factor(*DIM[key]) if key in DIM and value is not None else value
+    def si(self, unit: Unit | None, value):
+        """``value`` (scaled units) in SI; None and unit-less values pass unchanged."""
+        if unit is None or value is None:
+            return value
+        return value * self.factor(unit.length, unit.mass, unit.time)

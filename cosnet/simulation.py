@@ -14,7 +14,7 @@ from . import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
-from .effects import Effect
+from .registry import Binding, Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
@@ -124,7 +124,8 @@ class Simulation:
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
-        self._params = [e.bind(self) for e in self.effects]   # each effect's kernel record
+        on = Binding(net, self.model, self.state)
+        self._params = [e.bind(on) for e in self.effects]   # each effect's kernel record
         self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
         self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
         self._watch_energy = all(not e.adds_energy for e in self.effects)   # nothing feeds energy in
@@ -364,12 +365,10 @@ class Simulation:
         raise ValueError(f"{effect.describe()} is not an effect of this simulation")
 
     def check_node(self, node: Node, who: str = "Simulation"):
-        if not isinstance(node, Node) or node.index >= len(self.net.nodes) or self.net.nodes[node.index] is not node:
-            raise ValueError(f"{who}: {node!r} is not a node of this simulation's net")
+        Binding(self.net, self.model, self.state).check_node(node, who)
 
     def check_line(self, line: Line, who: str = "Simulation"):
-        if not isinstance(line, Line) or line.index >= len(self.net.lines) or self.net.lines[line.index] is not line:
-            raise ValueError(f"{who}: {line!r} is not a line of this simulation's net")
+        Binding(self.net, self.model, self.state).check_line(line, who)
 
     def _vrange(self, line):
         self.check_line(line)

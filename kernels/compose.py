@@ -9,12 +9,17 @@ Load kernels:  kernel(effect, model, state, loads)  -> add to loads (forces/torq
 Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g. damping)
 """
 
+import io
+import pickle
+import types as _pytypes
+
 from numba import njit
-from numba.core import types
+from numba.core import caching, types
 from numba.extending import intrinsic
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
+KERNELS: dict = {}   # declaration -> the kernel as decorated (callable from Python), either stage
 
 
 def _inner(kernel):
@@ -33,6 +38,7 @@ def load_kernel(declaration):
     """Register the decorated njit function as the load kernel of ``declaration``."""
     def register(kernel):
         LOAD_KERNELS[declaration] = _inner(kernel)
+        KERNELS[declaration] = kernel
         return kernel
     return register
 
@@ -41,6 +47,7 @@ def flow_kernel(declaration):
     """Register the decorated njit function as the velocity-flow kernel of ``declaration``."""
     def register(kernel):
         FLOW_KERNELS[declaration] = _inner(kernel)
+        KERNELS[declaration] = kernel
         return kernel
     return register
 
@@ -73,3 +80,36 @@ def _chain(registry, what):
 apply_loads = _chain(LOAD_KERNELS, "load")
 # apply_flows(effects, model, state, h): the velocity flow of every effect for time h
 apply_flows = _chain(FLOW_KERNELS, "flow")
+
+
+class UnresolvedRecord:
+    """Stands, in a step's cache index read back, for an effect record whose module this
+    process cannot import (a package since uninstalled, a script's own class)."""
+
+
+class _IndexUnpickler(pickle.Unpickler):
+    def find_class(self, module, name):
+        try:
+            return super().find_class(module, name)
+        except (ImportError, AttributeError):
+            return UnresolvedRecord
+
+
+def _tolerant_loads(data, **kw):
+    return _IndexUnpickler(io.BytesIO(data), **kw).load()
+
+
+def _tolerate_unresolved_records():
+    """Let numba read a cache index that names records it cannot import. The step's index
+    holds one signature per combination of effects, each naming its records' classes: one
+    unimportable class made every later compilation of the step fail on loading the index.
+    Such an entry now names UnresolvedRecord instead, matches no signature and is skipped."""
+    if getattr(caching.pickle, "tolerant", False):
+        return
+    shim = _pytypes.ModuleType("pickle")
+    shim.__dict__.update(pickle.__dict__)
+    shim.loads, shim.tolerant = _tolerant_loads, True
+    caching.pickle = shim
+
+
+_tolerate_unresolved_records()

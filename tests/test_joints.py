@@ -196,8 +196,9 @@ def test_fixed_joint_rest_angle_about_a_lab_axis_is_the_built_relative_rotation(
     rotvec = Rotation.from_matrix(ea.T @ eb).as_rotvec()          # in line a's end frame
     theta = float(np.linalg.norm(rotvec))
     assert theta > 1.0                                              # the lines meet at a right angle
-    built = cosnet.FixedJoint(a, "end", b, "start", k=1e6, kt=1.0).bind(sim)
+    on = cosnet.Binding(sim.net, sim.model, sim.state)
+    built = cosnet.FixedJoint(a, "end", b, "start", k=1e6, kt=1.0).bind(on)
     given = cosnet.FixedJoint(a, "end", b, "start", k=1e6, kt=1.0, angle=theta,
-                              axis=ea @ rotvec / theta).bind(sim)
+                              axis=ea @ rotvec / theta).bind(on)
     q0, q1 = built.rest_rotation[0], given.rest_rotation[0]
     assert min(np.abs(q0 - q1).max(), np.abs(q0 + q1).max()) < 1e-12

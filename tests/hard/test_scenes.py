@@ -133,7 +133,7 @@ def test_scene_has_the_tests_loads_initial_motion_and_step(name):
     assert mine.dt == theirs.dt
     assert [type(e) for e in scene.effects] == [type(e) for e in theirs.effects]
     for k, (a, b) in enumerate(zip(scene.effects, theirs.effects)):
-        pa, pb = a.bind(mine), b.bind(theirs)
+        pa, pb = a.params(mine), b.params(theirs)
         assert_same_arrays(f"effects[{k}]", pa, pb, pa._fields)
     if name in NOT_EXPRESSIBLE:
         pytest.skip(f"{name}: initial motion not fully expressible: {NOT_EXPRESSIBLE[name]}")

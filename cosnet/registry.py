@@ -1,0 +1,259 @@
+"""Effect declarations and their registry.
+
+An effect is one class: a subclass of ``Effect`` stating its scene ``kind``, its scene
+``keys`` (``Key``: converter, physical unit, required or not), its parameter ``record`` (a
+NamedTuple) and, through the record, its kernel and stage: the kernel registered for the
+record with ``@load_kernel(Record)`` (it adds forces and torques: stage "load") or
+``@flow_kernel(Record)`` (an exact velocity flow: stage "flow"), cosnet.kernels.compose. The
+scene loader, the ``[scale]`` conversion, the exports of ``cosnet`` and the scene reference
+(cosnet.scene_doc) are derived from these declarations.
+
+Effects of other packages register under the entry-point group ``cosnet.effects``: the entry
+point's name is the scene kind and its value the class (docs/effects.md).
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import os
+import sys
+from dataclasses import dataclass
+from importlib import metadata
+from typing import Any, Callable, NamedTuple
+
+from .kernels.compose import FLOW_KERNELS, KERNELS, LOAD_KERNELS
+from .scene_values import Unit
+
+ENTRY_POINTS = "cosnet.effects"
+BUILTIN_MODULES = ("cosnet.effects", "cosnet.contact", "cosnet.joints")  # in the order kinds are listed
+REFERENCES = ("node", "line", "lines")   # converters naming parts of the net
+
+
+@dataclass(frozen=True)
+class Key:
+    """One scene key of an effect: its ``convert``er (a scene_values converter, or "node" /
+    "line" / "lines" for names of the net's nodes or lines), its physical ``unit`` (None: a
+    pure number, a direction or a name; [scale] converts the others to SI), whether it is
+    ``required`` and a short ``doc`` for the scene reference. The key is passed to the
+    effect's constructor under its own name; the constructor's default is the key's default."""
+
+    name: str
+    convert: Callable | str
+    unit: Unit | None = None
+    required: bool = False
+    doc: str = ""
+
+
+class Binding(NamedTuple):
+    """What an effect binds to: the net as declared, its flattened ``model`` and the ``state``
+    as built (cosnet.flatten)."""
+
+    net: Any
+    model: Any
+    state: Any
+
+    def check_node(self, node, who: str) -> int:
+        """The index of ``node``, refused in one line unless it is a node of this net."""
+        from .net import Node
+        nodes = self.net.nodes
+        if not isinstance(node, Node) or node.index >= len(nodes) or nodes[node.index] is not node:
+            raise ValueError(f"{who}: {node!r} is not a node of this simulation's net")
+        return node.index
+
+    def check_line(self, line, who: str) -> int:
+        """The index of ``line``, refused in one line unless it is a line of this net."""
+        from .net import Line
+        lines = self.net.lines
+        if not isinstance(line, Line) or line.index >= len(lines) or lines[line.index] is not line:
+            raise ValueError(f"{who}: {line!r} is not a line of this simulation's net")
+        return line.index
+
+
+class Effect:
+    """Base of all declared effects. A concrete effect states ``kind`` (its scene name),
+    ``keys`` (a tuple of Key), ``record`` (its kernel's parameter NamedTuple) and implements
+    ``bind``; ``stage`` ("load" or "flow") and ``kernel`` follow from the kernel registered
+    for the record. ``adds_energy`` says whether it can feed energy in (the instability watch
+    then skips its energy test).
+
+    Energy and stability are read from the bound record ``p`` (what the kernel reads):
+    ``potential(p, on)``, ``exchange(p, on)`` and ``omega2(p, on)``; ``potential_energy``,
+    ``energy_scale`` and ``max_omega2`` evaluate them on the record bound in a simulation.
+    """
+
+    kind: str | None = None
+    keys: tuple = ()
+    record: type | None = None
+    stage: str = "load"
+    kernel: Callable | None = None
+    adds_energy = False
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        if cls.record is not None:
+            cls.stage, cls.kernel = _stage_of(cls)
+        if "kind" in cls.__dict__ or "keys" in cls.__dict__:
+            _check_declaration(cls)
+
+    # ------------------------------------------------------------------ the declaration
+    def bind(self, on: Binding):
+        """Return the kernel's parameter record for the net, model and state of ``on``."""
+        raise NotImplementedError
+
+    def potential(self, p, on: Binding) -> float:
+        """Potential energy stored in record ``p`` (0 for effects that store none)."""
+        return 0.0
+
+    def exchange(self, p, on: Binding) -> float:
+        """Energy (J) record ``p`` can exchange with the motion of the net as built; the
+        instability watch tolerates Verlet's error on it. 0 for effects that store none."""
+        return 0.0
+
+    def omega2(self, p, on: Binding) -> float:
+        """Upper bound on the squared frequency record ``p``'s stiffness adds to any mass of
+        the net (k / m for a penalty spring); the stable step shrinks accordingly. 0 when the
+        effect adds no stiffness."""
+        return 0.0
+
+    def describe(self) -> str:
+        return type(self).__name__
+
+    # ------------------------------------------------------------------ in a simulation
+    def params(self, sim):
+        """The parameter record this effect is bound to in ``sim`` (live: what its kernel
+        reads and writes)."""
+        return sim.effect_params(self)
+
+    def _bound(self, sim):
+        """(record, binding) in ``sim``: the bound record, or for an effect ``sim`` does not
+        hold, the record it would get there."""
+        on = Binding(sim.net, sim.model, sim.state)
+        held = any(e is self for e in getattr(sim, "effects", ()))
+        return (sim.effect_params(self) if held else self.bind(on)), on
+
+    def potential_energy(self, sim) -> float:
+        """Potential energy of the record bound in ``sim``."""
+        return float(self.potential(*self._bound(sim)))
+
+    def energy_scale(self, sim) -> float:
+        """Energy the record bound in ``sim`` can exchange with the motion (see exchange)."""
+        return float(self.exchange(*self._bound(sim)))
+
+    def max_omega2(self, sim) -> float:
+        """Squared-frequency bound of the record bound in ``sim`` (see omega2)."""
+        return float(self.omega2(*self._bound(sim)))
+
+
+def _stage_of(cls) -> tuple[str, Callable]:
+    """(stage, kernel) of the kernel registered for cls.record."""
+    rec = cls.record
+    stages = [s for s, reg in (("load", LOAD_KERNELS), ("flow", FLOW_KERNELS)) if rec in reg]
+    name = getattr(rec, "__name__", repr(rec))
+    if len(stages) != 1:
+        why = "no kernel is" if not stages else "both a load and a flow kernel are"
+        raise TypeError(f"{cls.__name__}: {why} registered for its record {name}; decorate one "
+                        f"@njit kernel with @load_kernel({name}) or @flow_kernel({name})")
+    kernel = cls.__dict__.get("kernel")
+    if kernel is not None and kernel is not KERNELS[rec]:
+        raise TypeError(f"{cls.__name__}: kernel is not the kernel registered for {name}")
+    return stages[0], KERNELS[rec]
+
+
+def _check_declaration(cls):
+    """Refuse a malformed declaration when its class is created (a TypeError naming it)."""
+    who = cls.__name__
+    if not isinstance(cls.kind, str) or not cls.kind.isidentifier():
+        raise TypeError(f"{who}: kind must be a scene name such as 'my_force', got {cls.kind!r}")
+    if cls.record is None:
+        raise TypeError(f"{who}: declares kind {cls.kind!r} but no record (its kernel's NamedTuple)")
+    names = [k.name for k in cls.keys]
+    if not all(isinstance(k, Key) for k in cls.keys) or len(set(names)) != len(names):
+        raise TypeError(f"{who}: keys must be distinct cosnet Key declarations")
+    params = inspect.signature(cls.__init__).parameters
+    takes_any = any(p.kind is p.VAR_KEYWORD for p in params.values())
+    for k in cls.keys:
+        if not (callable(k.convert) or k.convert in REFERENCES):
+            raise TypeError(f"{who}: key {k.name!r}: convert must be a converter or one of {REFERENCES}")
+        if k.name not in params and not takes_any:
+            raise TypeError(f"{who}: key {k.name!r} is not a parameter of {who}.__init__")
+
+
+def default_of(cls, key: Key):
+    """The constructor's default of ``key`` (inspect.Parameter.empty: none)."""
+    p = inspect.signature(cls.__init__).parameters.get(key.name)
+    return inspect.Parameter.empty if p is None else p.default
+
+
+def _declared(base=Effect):
+    for sub in base.__subclasses__():
+        if sub.__dict__.get("kind") is not None:
+            yield sub
+        yield from _declared(sub)
+
+
+def builtin_effects() -> dict:
+    """kind -> class of the effects cosnet itself declares."""
+    for name in BUILTIN_MODULES:
+        importlib.import_module(name)
+    found = {cls.kind: cls for cls in _declared() if cls.__module__ in BUILTIN_MODULES}
+    order = {m: i for i, m in enumerate(BUILTIN_MODULES)}
+    return dict(sorted(found.items(), key=lambda kv: order[kv[1].__module__]))
+
+
+_SCANNED: dict = {}   # (sys.path entries with their mtimes) -> entry points of the group
+
+
+def _entry_points() -> tuple:
+    """The entry points of the group cosnet.effects, read again only when sys.path or one of
+    its folders changed (a package installed or removed): reading every installed
+    distribution's metadata takes tens of milliseconds, and a scene names many effects."""
+    key = []
+    for p in sys.path:
+        try:
+            key.append((p, os.stat(p or ".").st_mtime_ns))
+        except OSError:
+            key.append((p, None))
+    key = tuple(key)
+    if key not in _SCANNED:
+        _SCANNED.clear()
+        _SCANNED[key] = tuple(metadata.entry_points(group=ENTRY_POINTS))
+    return _SCANNED[key]
+
+
+def catalogue() -> dict:
+    """kind -> the class of each effect kind a scene may name: cosnet's own, then those other
+    packages register (their entry points, loaded when a scene names them)."""
+    out = dict(builtin_effects())
+    for ep in _entry_points():
+        out.setdefault(ep.name, ep)
+    return out
+
+
+def kinds() -> list[str]:
+    """Every effect kind a scene may name: cosnet's, then those of installed packages."""
+    return list(catalogue())
+
+
+def effect_class(kind: str, known: dict | None = None):
+    """The class declared for scene kind ``kind`` (looked up in ``known``, a catalogue(), when
+    given); a ValueError in one line naming the entry point when another package's
+    registration is broken."""
+    known = catalogue() if known is None else known
+    if kind not in known:
+        raise ValueError(f"unknown effect kind {kind!r}; kinds are {list(known)}")
+    found = known[kind]
+    return found if inspect.isclass(found) else _load(found)
+
+
+def _load(ep):
+    where = f"entry point {ep.name} = {ep.value!r} of group {ENTRY_POINTS}"
+    try:
+        cls = ep.load()
+    except Exception as e:   # any failure of a foreign import is reported, not raised through
+        raise ValueError(f"{where} cannot be loaded ({type(e).__name__}: {e})") from None
+    if not (inspect.isclass(cls) and issubclass(cls, Effect) and cls.kind is not None):
+        raise ValueError(f"{where} is not a cosnet Effect declaration (got {cls!r})")
+    if cls.kind != ep.name:
+        raise ValueError(f"{where} declares kind {cls.kind!r}; the entry point's name must be its kind")
+    return cls
