@@ -8,12 +8,14 @@ adapter), and then moved to where the scenario starts it: its vertices to
 ``Rod.nodes(n)`` (which may be stretched, as in the pendulum), its free end node with them.
 Point loads are NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario
 gets mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
-choice). The time step is cosnet's estimated stable step for position Verlet, shortened so
+choice). Rods touch each other (and themselves, when the scenario says they can reach
+themselves) through cosnet's Contact: frictionless capsules of the rod radius, with a penalty
+as stiff as the step allows without shortening it -- a contact vibration of the lightest
+vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critical damping. The time step is cosnet's estimated stable step for position Verlet, shortened so
 a whole number of steps fits between frames.
 
-Outside cosnet's model (the run is then reported as unsupported): driven clamps
-(``Rod.start_motion`` / ``end_motion``: cosnet has no prescribed motion of a node) and
-obstacles or rod-rod contact (cosnet has no contact).
+Outside this adapter (the run is then reported as unsupported): driven clamps
+(``Rod.start_motion`` / ``end_motion``), obstacles and friction.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import cosnet
 class CosnetSolver:
     name = "cosnet"
     backend_version = version("cosnet")
-    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR})
+    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR, Capability.ROD_CONTACT})
 
     def __init__(self, time_step_scale: float = 1.0, stepper: str = "verlet") -> None:
         if not 0 < time_step_scale <= 1:
@@ -82,7 +84,18 @@ class CosnetSolver:
             effects.append(cosnet.Gravity(scenario.gravity))
         if scenario.quasi_static:
             effects.append(cosnet.Damping(2.0 * scenario.slowest_frequency()))
+        if len(scenario.rods) > 1 or scenario.self_contact:
+            effects.append(self._contact(net, effects, scenario))
         return net, placed, effects
+
+    def _contact(self, net, effects, scenario: Scenario):
+        """Frictionless rod-rod contact whose penalty leaves the stable step as it is."""
+        sim = cosnet.Simulation(net, effects=effects, stepper=self.stepper)
+        mass = sim.model.vertex_mass
+        lightest = float(mass[np.isfinite(mass) & (mass > 0)].min())
+        omega = 0.5 / sim.stable_dt()
+        k = lightest * omega**2
+        return cosnet.Contact(k=k, gamma=math.sqrt(k * lightest), self_contact=scenario.self_contact)
 
     def _steps(self, sim, scenario: Scenario, n_frames: int) -> tuple[float, int]:
         interval = scenario.duration / (n_frames - 1)

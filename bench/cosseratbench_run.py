@@ -1,6 +1,6 @@
 """cosseratbench 0.3.0's validated experiments for cosnet and PyElastica, side by side.
 
-    python bench/cosseratbench_run.py [--experiments catenary cantilever pendulum twist]
+    python bench/cosseratbench_run.py [--experiments catenary cantilever pendulum twist crossing]
 
 Each experiment runs at its default parameters and resolution for both solvers through
 ``cosseratbench.run`` (which warms each solver up on a short copy of the scenario first, so
@@ -25,7 +25,7 @@ from cosseratbench.solvers.pyelastica import PyElasticaSolver  # noqa: E402
 from cosseratbench_adapter import CosnetSolver  # noqa: E402
 from harness import table, write_json  # noqa: E402
 
-EXPERIMENTS = ("catenary", "cantilever", "pendulum", "twist")
+EXPERIMENTS = ("catenary", "cantilever", "pendulum", "twist", "crossing")
 
 
 def main(argv=None):

@@ -115,9 +115,11 @@ def accuracy_time() -> str:
 EXPERIMENTS = {"catenary": "catenary (pinned cable, elastic catenary)",
                "cantilever": "cantilever (small tip load, Euler–Bernoulli)",
                "pendulum": "pendulum (hanging cable swinging in its first mode)",
-               "twist": "twist (Greenhill buckling under driven clamps)"}
+               "twist": "twist (Greenhill buckling under driven clamps)",
+               "crossing": "crossing (two pinned ropes, one resting on the other; frictionless rod–rod contact)"}
 METRICS = {"catenary": ("shape_error", "sag_error"), "cantilever": ("tip_deflection_error",),
-           "pendulum": ("period_error", "amplitude_change"), "twist": ("critical_twist_error",)}
+           "pendulum": ("period_error", "amplitude_change"), "twist": ("critical_twist_error",),
+           "crossing": ("shape_error", "lift_error", "settling_residual")}
 
 
 def cosseratbench() -> str:
