@@ -22,6 +22,7 @@ from .lincos import Mode, Modes, analytic_modes
 from .modes import DiscreteModes, main_modes, modes
 from .scene import RunSettings, Scene, build_scene, load_scene
 from .contact import Contact
+from .obstacles import Obstacle
 from .sweep import sweep
 
 __all__ = [
@@ -32,5 +33,5 @@ __all__ = [
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",
-    "Contact", "sweep",
+    "Contact", "Obstacle", "sweep",
 ]

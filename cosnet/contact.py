@@ -15,6 +15,36 @@ from .net import Line
 MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
 
 
+def chosen_lines(sim, lines, who: str) -> list[Line]:
+    """The lines of sim an effect names (Line objects or names); None: all of them."""
+    if lines is None:
+        return list(sim.net.lines)
+    out = []
+    for x in lines:
+        if isinstance(x, str):
+            try:
+                x = sim.net.line(x)
+            except KeyError:
+                have = [ln.name for ln in sim.net.lines]
+                raise ValueError(f"{who}: unknown line {x!r}; lines are {have}") from None
+        sim.check_line(x, who)
+        out.append(x)
+    return out
+
+
+def smallest_mass(sim, lines) -> float:
+    """The smallest free mass a contact force on these lines can push: an interior vertex, or
+    the composite node of a line end (0 when there is none)."""
+    m = sim.model
+    masses = []
+    for line in lines:
+        v = slice(m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1)
+        masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
+        masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
+                      if 0 < m.node_mass[nd.index] < math.inf)
+    return float(min(masses)) if masses else 0.0
+
+
 class Contact(Effect):
     """Contact between the capsules (centre segment, radius r = section.radius) of the lines'
     elements: overlap eps = r_i + r_j - d_min gives the force max(0, k eps - gamma v_n) along
@@ -51,19 +81,7 @@ class Contact(Effect):
 
     # ------------------------------------------------------------------ binding
     def _lines(self, sim) -> list[Line]:
-        if self.lines is None:
-            return list(sim.net.lines)
-        out = []
-        for x in self.lines:
-            if isinstance(x, str):
-                try:
-                    x = sim.net.line(x)
-                except KeyError:
-                    have = [ln.name for ln in sim.net.lines]
-                    raise ValueError(f"Contact: unknown line {x!r}; lines are {have}") from None
-            sim.check_line(x, "Contact")
-            out.append(x)
-        return out
+        return chosen_lines(sim, self.lines, "Contact")
 
     def bind(self, sim) -> ContactParams:
         m, x = sim.model, sim.state.x
@@ -129,14 +147,8 @@ class Contact(Effect):
     def max_omega2(self, sim) -> float:
         """2 k / m_min: two of the smallest free masses (interior vertices, or the composite
         node of a line end) bouncing on one contact spring."""
-        m = sim.model
-        masses = []
-        for line in self._lines(sim):
-            v = slice(m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1)
-            masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
-            masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
-                          if 0 < m.node_mass[nd.index] < math.inf)
-        return 2.0 * self.k / min(masses) if masses else 0.0
+        m_min = smallest_mass(sim, self._lines(sim))
+        return 2.0 * self.k / m_min if m_min else 0.0
 
     def describe(self) -> str:
         lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]

@@ -16,7 +16,7 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
                                     rotary_inertia, rotary_inertia_scale, fast_modes
     [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping |
                                     spherical_joint | hinge_joint | fixed_joint |
-                                    contact
+                                    contact | obstacle
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
@@ -51,7 +51,7 @@ from .net import Net, frame_from_tangent
 from .record import Probe, parse_probe
 from .scaling import Scale
 from .scene_values import (Table, Units, _Bad, _one_line, _show, _si, array, auto_or_positive, boolean,
-                           choice, direction, floats, frame, integer, mass_value, nonnegative,
+                           choice, coefficients, direction, floats, frame, integer, mass_value, nonnegative,
                            number, positive, quote_key, seed, string, string_list, vec3)
 
 # what building a net from scene values may raise for values out of range: refused, not a crash
@@ -229,6 +229,13 @@ EFFECTS = {
                           ("translational",)),
     "contact": EffectKind("Contact", {"k": positive, "gamma": nonnegative, "self_contact": boolean,
                                       "lines": string_list, "self_gap": nonnegative}, ("k",)),
+    "obstacle": EffectKind("Obstacle", {"shape": choice("plane", "sphere", "capsule", "box", "mesh"),
+                                        "lines": string_list, "k": positive, "gamma": nonnegative,
+                                        "k_t": nonnegative, "mu_s": coefficients, "mu_k": coefficients,
+                                        "point": vec3, "normal": direction, "center": vec3,
+                                        "radius": positive, "start": vec3, "end": vec3,
+                                        "half_size": vec3, "axes": frame, "file": "path", "name": string},
+                           ("shape", "k")),
     "spherical_joint": EffectKind("SphericalJoint", _JOINT, _JOINT_REQUIRED),
     "hinge_joint": EffectKind("HingeJoint", {**_JOINT, **_TORQUE_JOINT, "normal": vec3},
                               _JOINT_REQUIRED + ("kt",)),
@@ -266,7 +273,12 @@ def _effect(t: Table, net: Net, units: Units):
     for key, conv in kind.keys.items():
         if key not in t.data and key not in kind.required:
             continue
-        kw[key] = _ref(t, key, conv, net) if isinstance(conv, str) else _si(units, key, t.get(key, conv))
+        if conv == "path":   # relative to the scene file
+            kw[key] = str(Path(t.file).parent / t.get(key, string))
+        elif isinstance(conv, str):
+            kw[key] = _ref(t, key, conv, net)
+        else:
+            kw[key] = _si(units, key, t.get(key, conv))
     t.done()
     if kw.get("lines") is not None:
         have = [x.name for x in net.lines]
@@ -276,7 +288,8 @@ def _effect(t: Table, net: Net, units: Units):
     cls = getattr(cosnet, kind.cls, None)
     if cls is None:
         raise t.err("kind", f"effect {kind.cls} is not available in this version of cosnet")
-    return _wrap(t, "kind", lambda: cls(**kw))
+    shape = kw.pop("shape", None)   # the one positional argument (an obstacle's)
+    return _wrap(t, "kind", lambda: cls(*(() if shape is None else (shape,)), **kw))
 
 
 def _effects(top: Table, net: Net, units: Units) -> list:

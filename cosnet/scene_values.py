@@ -221,6 +221,14 @@ def floats(v):
     return np.array([number(x) for x in v])
 
 
+def coefficients(v):
+    """A number >= 0, or three of them (friction: forward, backward, lateral)."""
+    a = array((3,))(v) if isinstance(v, list) else np.array(number(v))
+    if np.any(a < 0):
+        raise _Bad(f"must be >= 0, got {_show(v)}")
+    return a
+
+
 def string_list(v):
     if not isinstance(v, list):
         raise _Bad(f"must be a list of strings, got {_show(v)}")
@@ -269,7 +277,8 @@ DIM = {"g": (1, 0, -2), "force": (1, 1, -2), "torque": (2, 1, -2), "force_per_le
        "translational": (0, 0, -1), "rotational": (0, 0, -1), "velocity": (1, 0, -1),
        "angular_velocity": (0, 0, -1), "center": (1, 0, 0), "k": (0, 1, -2), "nu": (0, 1, -1),
        "kt": (2, 1, -2), "nut": (2, 1, -1), "rest_offset": (1, 0, 0),
-       "gamma": (0, 1, -1)}
+       "gamma": (0, 1, -1), "k_t": (0, 1, -2), "point": (1, 0, 0), "radius": (1, 0, 0),
+       "start": (1, 0, 0), "end": (1, 0, 0), "half_size": (1, 0, 0)}
 
 
 def _si(units: Units, key, value):

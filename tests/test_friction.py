@@ -1,0 +1,217 @@
+"""Obstacles and Coulomb friction: a line held on an incline below mu_s and sliding above it
+at g (sin - mu_k cos), kinetic deceleration mu_k g along and across the line, energy plus
+friction's dissipation conserved, no pass-through at a plane, a sphere and a mesh (wound
+either way), and bad input refused in one line."""
+
+import math
+
+import meshio
+import numpy as np
+import pytest
+
+import cosnet
+from cosnet.kernels.obstacles import obstacle_distance
+from cosnet.scene import build_scene
+
+STIFF = cosnet.Material(E=1e9, G=4e8, density=1000.0, name="stiff")
+G = 9.81
+R = 0.01      # section radius
+LENGTH = 0.1
+WEIGHT = STIFF.density * math.pi * R * R * LENGTH * G
+
+
+def rod(obstacle, g=(0.0, 0.0, -G), height=R, along=(1.0, 0.0, 0.0), n=4):
+    """A short stiff line along `along` whose axis is `height` above z = 0, with gravity g."""
+    net = cosnet.Net()
+    u = np.array(along, dtype=float)
+    p0 = np.array([0.0, 0.0, height])
+    a, b = net.add_node(p0), net.add_node(p0 + LENGTH * u)
+    line = net.add_line(a, b, material=STIFF, section=cosnet.Circle(R), elements=n, name="rod")
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity(g), obstacle])
+    return sim, line, (a, b)
+
+
+def push(sim, line, nodes, v):
+    sim.line_velocities(line)[:] = v
+    for nd in nodes:
+        sim.node_velocity(nd)[:] = v
+
+
+def centre(sim, line):
+    return sim.line_positions(line).mean(axis=0)
+
+
+def velocity(sim, line):
+    return sim.line_velocities(line).mean(axis=0)
+
+
+def plane(**kw):
+    kw.setdefault("k", 1e4)
+    kw.setdefault("gamma", 15.0)   # near critical for a vertex on k_t = k
+    return cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), **kw)
+
+
+def incline(theta, mu_s, mu_k):
+    """The rod resting on z = 0 under gravity tilted by theta towards +x (the rod's forward),
+    sunk by its weight's share per vertex so that its contacts are loaded from the start (a
+    contact touching with no normal force slides at once, and a block sliding on an incline
+    steeper than mu_k rightly never stops)."""
+    ob = plane(mu_s=mu_s, mu_k=mu_k)
+    sink = WEIGHT * math.cos(theta) / 5 / ob.k
+    sim, line, _ = rod(ob, g=(G * math.sin(theta), 0.0, -G * math.cos(theta)), height=R - sink)
+    return sim, line, ob
+
+
+def test_line_sticks_on_incline_below_mu_s():
+    theta = math.atan(0.4)
+    sim, line, ob = incline(theta, mu_s=0.5, mu_k=0.3)
+    x0 = centre(sim, line)
+    drift = []
+    for i in range(10):
+        sim.run(until=0.1 * (i + 1))
+        drift.append(abs(centre(sim, line)[0] - x0[0]))
+    # the stick springs hold each vertex within its weight's share / k_t of the anchor:
+    # m_v g sin(theta) / k_t ~ 3e-6 m here; no creep over the second
+    hold = WEIGHT / 4 * math.sin(theta) / ob.k_t
+    assert max(drift) < 3.0 * hold
+    assert abs(drift[-1] - drift[4]) < 0.5 * hold  # no creep: the second half adds nothing
+    assert ob.sliding(sim) == 0 and ob.active_contacts(sim) == 5
+
+
+def second_difference(sim, line, times, axis, of=centre):
+    xs = []
+    for t in times:
+        sim.run(until=t)
+        xs.append(of(sim, line)[axis])
+    dt = times[1] - times[0]
+    return (xs[2] - 2 * xs[1] + xs[0]) / dt**2
+
+
+def test_line_slides_on_incline_above_mu_s():
+    theta = math.atan(0.7)
+    mu_k = 0.3
+    sim, line, ob = incline(theta, mu_s=0.5, mu_k=mu_k)
+    a = second_difference(sim, line, (0.1, 0.3, 0.5), 0)
+    assert a == pytest.approx(G * (math.sin(theta) - mu_k * math.cos(theta)), rel=0.01)
+    assert ob.sliding(sim) == ob.active_contacts(sim) == 5
+
+
+def deceleration(mu_s, mu_k, along, v):
+    ob = plane(mu_s=mu_s, mu_k=mu_k)
+    sim, line, nodes = rod(ob, along=along)
+    push(sim, line, nodes, v)
+    v1 = velocity(sim, line).copy()
+    sim.run(until=0.1)
+    v2 = velocity(sim, line)
+    return -(v2 - v1) @ np.array(v) / np.linalg.norm(v) / 0.1, sim, ob
+
+
+@pytest.mark.parametrize("along, v, mu", [
+    ((1, 0, 0), (0.8, 0, 0), 0.2),    # forward along the line
+    ((1, 0, 0), (-0.8, 0, 0), 0.4),   # backward
+    ((1, 0, 0), (0, 0.8, 0), 0.6),    # lateral
+    ((0, 1, 0), (0, 0.8, 0), 0.2),    # forward again, the line turned
+])
+def test_sliding_decelerates_at_mu_k_g_in_each_direction(along, v, mu):
+    a, _, _ = deceleration((0.3, 0.5, 0.7), (0.2, 0.4, 0.6), along, v)
+    assert a == pytest.approx(mu * G, rel=0.01)
+
+
+def test_energy_plus_dissipation_is_conserved():
+    ob = plane(gamma=0.0, mu_s=0.4, mu_k=0.3)
+    sim, line, nodes = rod(ob)
+    push(sim, line, nodes, (1.0, 0.3, 0.0))
+    e0 = sim.energy()
+    kinetic = sim.energy_parts()["kinetic"]
+    totals = []
+    for i in range(8):
+        sim.run(until=0.05 * (i + 1))
+        totals.append(sim.energy() + ob.dissipated(sim))
+    assert ob.dissipated(sim) > 0.5 * kinetic   # friction took most of the motion
+    assert np.abs(np.array(totals) - e0).max() < 2e-3 * kinetic
+
+
+def throw(obstacle, speed=5.0, height=0.05):
+    """The rod thrown down at speed onto the obstacle below it, without gravity; return the
+    deepest overlap as a fraction of R and the rod's final vertical velocity."""
+    sim, line, nodes = rod(obstacle, g=(0.0, 0.0, 0.0), height=height)
+    push(sim, line, nodes, (0.0, 0.0, -speed))
+    sim.run(until=height / speed + 0.01)
+    return obstacle.deepest(sim), velocity(sim, line)[2], sim
+
+
+def cube_mesh(path, inward=False, flip_some=False):
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], dtype=float)
+    pts = (pts - 0.5) * 0.2 + np.array([0.05, 0.0, -0.1])   # top face at z = 0
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    if inward:
+        tris = tris[:, ::-1]
+    if flip_some:
+        tris[::3] = tris[::3, ::-1]
+    meshio.write(path, meshio.Mesh(pts, [("triangle", tris)]))
+    return path
+
+
+@pytest.mark.parametrize("shape", ["plane", "sphere", "box", "mesh", "mesh_inward", "mesh_mixed"])
+def test_thrown_line_stops_at_the_surface(shape, tmp_path):
+    k = 1e5
+    if shape == "plane":
+        ob = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=k)
+    elif shape == "sphere":
+        ob = cosnet.Obstacle("sphere", center=(0.05, 0, -0.3), radius=0.3, k=k)
+    elif shape == "box":
+        ob = cosnet.Obstacle("box", center=(0.05, 0, -0.1), half_size=(0.1, 0.1, 0.1), k=k)
+    else:
+        f = cube_mesh(str(tmp_path / "cube.stl"), inward=shape == "mesh_inward", flip_some=shape == "mesh_mixed")
+        ob = cosnet.Obstacle("mesh", file=f, k=k)
+    deepest, vz, sim = throw(ob)
+    # the bounce turns the rod's 5 m/s into an overlap of v sqrt(m / k) ~ 0.14 R per vertex
+    assert 0.05 < deepest < 0.25
+    assert vz > 4.0   # it came back up, elastically
+    p = ob.params(sim)
+    d = [obstacle_distance(p, *x)[0] for x in sim.state.x]
+    assert min(d) > R   # and left the surface
+
+
+def test_mesh_normals_point_out_whatever_the_winding(tmp_path):
+    for inward in (False, True):
+        ob = cosnet.Obstacle("mesh", file=cube_mesh(str(tmp_path / f"c{inward}.obj"), inward=inward), k=1.0)
+        t = ob.points[ob.triangles]
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        outward = np.einsum("ij,ij->i", n, t.mean(axis=1) - ob.points.mean(axis=0))
+        assert np.all(outward > 0)
+
+
+def test_bad_input_is_refused_in_one_line(tmp_path):
+    with pytest.raises(ValueError, match=r"mu_s must be >= 0"):
+        plane(mu_s=-0.1)
+    with pytest.raises(ValueError, match=r"mu_k must not exceed the static"):
+        plane(mu_s=0.3, mu_k=0.5)
+    with pytest.raises(ValueError, match=r"Obstacle 'floor' \(plane\): k_t"):
+        cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1.0, mu_s=0.5, k_t=0.0, name="floor")
+    with pytest.raises(ValueError, match=r"\(sphere\): needs radius"):
+        cosnet.Obstacle("sphere", center=(0, 0, 0), k=1.0)
+    pts = np.eye(3)
+    with pytest.raises(ValueError, match=r"must be closed and manifold; it is open"):
+        cosnet.Obstacle("mesh", points=np.vstack([pts, [[0, 0, 0]]]), triangles=[[0, 1, 2], [0, 1, 3]], k=1.0)
+    bad = tmp_path / "bad.stl"
+    bad.write_text("solid nothing here\n garbage\n")
+    scene = {
+        "materials": {"m": {"E": 1e9, "G": 4e8, "density": 1000.0}},
+        "sections": {"s": {"kind": "circle", "radius": 0.01}},
+        "nodes": {"a": {"position": [0, 0, 0.01]}, "b": {"position": [0.1, 0, 0.01]}},
+        "lines": {"rod": {"start": "a", "end": "b", "material": "m", "section": "s", "elements": 2}},
+        "effects": [{"kind": "obstacle", "shape": "mesh", "file": "bad.stl", "k": 1e4, "lines": ["rod"]}],
+    }
+    with pytest.raises(ValueError) as e:
+        build_scene(scene, path=tmp_path / "scene.toml")
+    msg = str(e.value)
+    assert "\n" not in msg and "[[effects]] #1 (obstacle) file" in msg and "bad.stl" in msg
+    scene["effects"] = [{"kind": "obstacle", "shape": "plane", "point": [0, 0, 0], "normal": [0, 0, 1],
+                         "k": 1e4, "mu_s": 0.2, "mu_k": 0.4}]
+    with pytest.raises(ValueError, match=r"\[\[effects\]\] #1 \(obstacle\) mu_k: .*must not exceed"):
+        build_scene(scene, path=tmp_path / "scene.toml")
+    scene["effects"][0].update(mu_s=[0.3, -0.1, 0.2])
+    with pytest.raises(ValueError, match=r"\[\[effects\]\] #1 \(obstacle\) mu_s: must be >= 0"):
+        build_scene(scene, path=tmp_path / "scene.toml")
