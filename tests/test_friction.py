@@ -215,3 +215,40 @@ def test_bad_input_is_refused_in_one_line(tmp_path):
     scene["effects"][0].update(mu_s=[0.3, -0.1, 0.2])
     with pytest.raises(ValueError, match=r"\[\[effects\]\] #1 \(obstacle\) mu_s: must be >= 0"):
         build_scene(scene, path=tmp_path / "scene.toml")
+
+
+def capstan(ratio, mu=0.3, drum=0.1, r=0.003, drop=0.2, n_arc=60, until=0.6):
+    """A rope over a fixed horizontal drum (a capsule along y), half a turn of contact,
+    loads m and ratio * m hanging from its ends; return (how far the heavy end went down over
+    the second half of the run, sliding contacts, contacts). The rope is light (0.03 kg
+    against 5 kg) and supple (its bending stiffness over the drum's radius is 1 % of the
+    tension); mass-proportional damping and the normal dashpot settle the first drop."""
+    rope = cosnet.Material(E=1e8, G=4e7, density=1000.0)
+    rr = drum + 0.99 * r
+    th = np.linspace(math.pi, 0.0, n_arc + 1)
+    arc = np.column_stack([rr * np.cos(th), np.zeros_like(th), rr * np.sin(th)])
+    z = np.linspace(-drop, 0.0, 12, endpoint=False)
+    pts = np.vstack([np.column_stack([np.full(12, -rr), np.zeros(12), z]), arc,
+                     np.column_stack([np.full(12, rr), np.zeros(12), z[::-1]])])
+    net = cosnet.Net()
+    light = net.add_node(pts[0], mass=5.0, inertia=(1e-2, 1e-2, 1e-2))
+    heavy = net.add_node(pts[-1], mass=5.0 * ratio, inertia=(1e-2, 1e-2, 1e-2))
+    net.add_line(light, heavy, material=rope, section=cosnet.Circle(r), elements=len(pts) - 1, points=pts)
+    ob = cosnet.Obstacle("capsule", start=(0, -0.1, 0), end=(0, 0.1, 0), radius=drum, k=1e6, gamma=24.0,
+                         mu_s=mu, mu_k=mu)
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity(), ob, cosnet.Damping(30.0)])
+    sim.run(until=until / 2)
+    z0 = sim.node_position(heavy)[2]
+    sim.run(until=until)
+    return z0 - sim.node_position(heavy)[2], ob.sliding(sim), ob.active_contacts(sim)
+
+
+@pytest.mark.parametrize("factor", [0.98, 1.02])
+def test_capstan_holds_below_and_slips_above_e_to_the_mu_theta(factor):
+    limit = math.exp(0.3 * math.pi)   # T2 / T1 over half a turn
+    went, sliding, contacts = capstan(factor * limit)
+    assert contacts >= 55   # the rope lies on the drum's half turn (61 vertices)
+    if factor < 1:
+        assert sliding == 0 and abs(went) < 1e-4
+    else:
+        assert sliding == contacts and went > 5e-4
