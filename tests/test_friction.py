@@ -252,3 +252,64 @@ def test_capstan_holds_below_and_slips_above_e_to_the_mu_theta(factor):
         assert sliding == 0 and abs(went) < 1e-4
     else:
         assert sliding == contacts and went > 5e-4
+
+
+def octasphere(levels=2, radius=0.1):
+    """A closed triangulated sphere: an octahedron's faces split in four `levels` times."""
+    pts = [np.array(p, float) for p in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))]
+    tris = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
+    for _ in range(levels):
+        mid, out = {}, []
+
+        def middle(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in mid:
+                m = pts[a] + pts[b]
+                pts.append(m / np.linalg.norm(m))
+                mid[key] = len(pts) - 1
+            return mid[key]
+        for a, b, c in tris:
+            ab, bc, ca = middle(a, b), middle(b, c), middle(c, a)
+            out += [(a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca)]
+        tris = out
+    return radius * np.array(pts), np.array(tris)
+
+
+def test_triangle_closest_point_matches_a_fine_scan():
+    from cosnet.kernels.obstacles import triangle_closest
+    rng = np.random.default_rng(3)
+    u, w = np.meshgrid(np.linspace(0, 1, 401), np.linspace(0, 1, 401))
+    inside = u + w <= 1
+    u, w = u[inside], w[inside]
+    for _ in range(30):
+        a, b, c, p = rng.standard_normal((4, 3))
+        q = np.array(triangle_closest(*p, a, b, c))
+        scan = a + u[:, None] * (b - a) + w[:, None] * (c - a)
+        d_scan = np.linalg.norm(scan - p, axis=1).min()
+        assert np.linalg.norm(q - p) <= d_scan + 1e-12
+        assert np.linalg.norm(q - p) >= d_scan - 5e-3 * np.linalg.norm(b - a)
+
+
+def test_mesh_distance_is_the_nearest_triangle_with_the_side_of_the_solid():
+    """Through the grid, the distance of points near a closed mesh (either winding) is the
+    brute-force distance to its nearest triangle, negative exactly inside the polyhedron."""
+    from cosnet.kernels.obstacles import triangle_closest
+    pts, tris = octasphere()
+    rng = np.random.default_rng(4)
+    dirs = rng.standard_normal((300, 3))
+    probes = dirs / np.linalg.norm(dirs, axis=1)[:, None] * rng.uniform(0.085, 0.112, (300, 1))
+    faces = pts[tris]
+    normals = np.cross(faces[:, 1] - faces[:, 0], faces[:, 2] - faces[:, 0])
+    for winding in (tris, tris[:, ::-1]):
+        ob = cosnet.Obstacle("mesh", points=pts, triangles=winding, k=1.0)
+        sim, _, _ = rod(ob, g=(0.0, 0.0, 0.0), height=1.0)   # binds the grid for vertices of radius R
+        p = ob.params(sim)
+        for x in probes:
+            d = obstacle_distance(p, *x)[0]
+            brute = min(np.linalg.norm(np.array(triangle_closest(*x, *f)) - x) for f in faces)
+            inside = np.all(np.einsum("ij,ij->i", normals, x - faces[:, 0]) < 0)
+            if brute < R:   # within a vertex's reach the grid must find the nearest triangle
+                assert abs(d) == pytest.approx(brute, abs=1e-15)
+                assert (d < 0) == inside
+            else:   # farther: no triangle is reported nearer than the nearest
+                assert abs(d) >= brute - 1e-15
