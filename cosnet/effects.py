@@ -48,6 +48,11 @@ class Effect:
         effect adds no stiffness."""
         return 0.0
 
+    def state_arrays(self, sim) -> dict:
+        """The arrays of its parameter record that change as the net moves (friction anchors):
+        a checkpoint saves and restores them with the state. Empty for most effects."""
+        return {}
+
     def describe(self) -> str:
         return type(self).__name__
 

@@ -281,6 +281,10 @@ class Obstacle(Effect):
     def potential_energy(self, sim) -> float:
         return float(obstacle_energy(self.params(sim), sim.state))
 
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"anchor": p.anchor, "mode": p.mode, "dissipated": p.dissipated, "deepest": p.deepest}
+
     def max_omega2(self, sim) -> float:
         """max(k, k_t) / m_min: the smallest free mass on the stiffer of the normal and
         tangential springs (they act along orthogonal directions)."""
