@@ -215,16 +215,18 @@ class Obstacle(Effect):
         else:
             if file is not None and (points is not None or triangles is not None):
                 raise ValueError(f"{who}: give file, or points and triangles, not both")
+            source = who
             if file is not None:
                 self.file = str(file)
                 pts, tris = read_mesh(file, who)
+                source = f"{who} file {self.file!r}"
             elif points is not None and triangles is not None:
                 pts, tris = np.array(points, dtype=float), np.array(triangles)
                 if pts.ndim != 2 or pts.shape[1] != 3:
                     raise ValueError(f"{who}: points must be an (n, 3) array")
             else:
                 raise ValueError(f"{who}: needs file, or points and triangles")
-            self.points, self.triangles = pts, orient_outwards(pts, tris, who)
+            self.points, self.triangles = pts, orient_outwards(pts, tris, source)
 
     # ------------------------------------------------------------------ binding
     def _lines(self, sim):

@@ -343,3 +343,67 @@ def test_a_checkpoint_carries_the_anchors(tmp_path):
     np.testing.assert_array_equal(resumed.state.x, whole.state.x)
     np.testing.assert_array_equal(resumed.effects[1].params(resumed).anchor, whole.effects[1].params(whole).anchor)
     assert resumed.effects[1].dissipated(resumed) == whole.effects[1].dissipated(whole) > 0
+
+
+def test_only_the_listed_lines_touch(tmp_path):
+    """A scene's mesh file is read beside the scene; of two rods dropped onto it, the one not
+    listed falls through, the listed one rests on it."""
+    from cosnet.cli import main
+    cube_mesh(str(tmp_path / "cube.obj"))
+    (tmp_path / "two.toml").write_text('''
+[materials.m]
+E = 1e9
+G = 4e8
+density = 1000.0
+
+[sections.s]
+kind = "circle"
+radius = 0.01
+
+[nodes.a]
+position = [0.0, 0.0, 0.01]
+[nodes.b]
+position = [0.1, 0.0, 0.01]
+[nodes.c]
+position = [0.0, 0.05, 0.01]
+[nodes.d]
+position = [0.1, 0.05, 0.01]
+
+[lines.held]
+start = "a"
+end = "b"
+material = "m"
+section = "s"
+elements = 4
+
+[lines.loose]
+start = "c"
+end = "d"
+material = "m"
+section = "s"
+elements = 4
+
+[[effects]]
+kind = "gravity"
+
+[[effects]]
+kind = "obstacle"
+shape = "mesh"
+file = "cube.obj"
+k = 1e4
+gamma = 15.0
+mu_s = 0.5
+lines = ["held"]
+
+[run]
+until = 0.1
+''')
+    assert main(["info", str(tmp_path / "two.toml")]) == 0
+    scene = cosnet.load_scene(tmp_path / "two.toml")
+    sim = scene.simulation()
+    sim.run(until=0.1)
+    held, loose = (sim.line_positions(scene.net.line(n))[:, 2].mean() for n in ("held", "loose"))
+    assert abs(held - R) < 0.05 * R                             # resting, overlapped by its weight
+    assert loose == pytest.approx(R - 0.5 * G * 0.1**2, rel=1e-3)   # in free fall
+    (tmp_path / "cube.obj").write_text("v 0 0 0\nf 1 2 3\n")
+    assert main(["info", str(tmp_path / "two.toml")]) == 2
