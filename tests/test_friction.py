@@ -407,3 +407,18 @@ until = 0.1
     assert loose == pytest.approx(R - 0.5 * G * 0.1**2, rel=1e-3)   # in free fall
     (tmp_path / "cube.obj").write_text("v 0 0 0\nf 1 2 3\n")
     assert main(["info", str(tmp_path / "two.toml")]) == 2
+
+
+@pytest.mark.parametrize("spoil, message", [
+    (lambda p: p.verts.__setitem__(0, 99), "obstacle.verts holds 99"),
+    (lambda p: p.vnext.__setitem__(4, -1), "obstacle.vnext holds -1"),
+    (lambda p: p.cell_tri.__setitem__(0, 12), "obstacle.cell_tri holds 12"),
+    (lambda p: p.cell_start.__setitem__(-1, 10**6), "obstacle.cell_start is not an offset table"),
+])
+def test_spoilt_obstacle_tables_are_refused_before_a_run(spoil, message, tmp_path):
+    ob = cosnet.Obstacle("mesh", file=cube_mesh(str(tmp_path / "c.stl")), k=1e4)
+    sim, _, _ = rod(ob)
+    spoil(ob.params(sim))
+    with pytest.raises(ValueError, match="^Simulation.run: " + message):
+        sim.run(steps=1)
+    assert sim.steps == 0
