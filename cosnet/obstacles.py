@@ -11,6 +11,7 @@ import numpy as np
 
 from .contact import chosen_lines, smallest_mass
 from .effects import Effect
+from .net import Line
 from .kernels import obstacles as _obstacle_kernels  # noqa: F401  (registers the obstacle kernel)
 from .kernels.obstacles import SHAPES, SLIDE, ObstacleParams, obstacle_energy
 
@@ -150,14 +151,15 @@ class Obstacle(Effect):
                  (t, 3); it must be closed and manifold, and is wound outwards on loading
     k: normal stiffness (N/m) > 0; gamma: normal damping (N s/m) >= 0.
     mu_s, mu_k: static and kinetic coefficients, a number or [forward, backward, lateral]
-    (along the line's tangent, against it, across it); mu_k defaults to mu_s, each <= mu_s.
+    (along the line's tangent, against it, across it); the one not given equals the other
+    (neither: no friction); mu_k <= mu_s in each direction.
     k_t: tangential stiffness (N/m), default k (friction needs k_t > 0); the contact sticks
     elastically within mu_s N / k_t of its anchor.
     lines: the lines touching it (Line objects or names); None: all of them.
     """
 
     def __init__(self, shape: str, *, k: float, lines=None, gamma: float = 0.0, k_t=None,
-                 mu_s=0.0, mu_k=None, point=None, normal=None, center=None, radius=None,
+                 mu_s=None, mu_k=None, point=None, normal=None, center=None, radius=None,
                  start=None, end=None, half_size=None, axes=None, file=None, points=None,
                  triangles=None, name: str | None = None):
         if shape not in SHAPES:
@@ -168,6 +170,8 @@ class Obstacle(Effect):
         self.gamma = float(gamma)
         if not math.isfinite(self.gamma) or self.gamma < 0:
             raise ValueError(f"{who}: gamma must be a finite number >= 0, got {gamma!r}")
+        if mu_s is None:   # only a kinetic coefficient: the contact holds up to the same
+            mu_s = 0.0 if mu_k is None else mu_k
         self.mu_s = _coefficients(who, "mu_s", mu_s)
         self.mu_k = self.mu_s.copy() if mu_k is None else _coefficients(who, "mu_k", mu_k)
         if np.any(self.mu_k > self.mu_s):
@@ -178,6 +182,8 @@ class Obstacle(Effect):
         if not math.isfinite(self.k_t) or self.k_t < 0 or (friction and self.k_t == 0):
             raise ValueError(f"{who}: k_t must be a finite number > 0 (>= 0 without friction), got {k_t!r}")
         if lines is not None:
+            if isinstance(lines, (str, Line)):
+                raise ValueError(f"{who}: lines must be a list of lines or line names, got {lines!r}")
             lines = list(lines)
         self.lines = lines
         given = {key for key, val in (("point", point), ("normal", normal), ("center", center),
