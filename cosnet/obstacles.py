@@ -74,7 +74,8 @@ def orient_outwards(points, triangles, who: str) -> np.ndarray:
             edges.setdefault((min(u, w), max(u, w)), []).append(t)
     for (u, w), ts in edges.items():
         if len(ts) != 2:
-            kind = "open (an edge of one triangle)" if len(ts) == 1 else f"non-manifold (an edge of {len(ts)} triangles)"
+            kind = ("open (an edge of one triangle)" if len(ts) == 1
+                    else f"non-manifold (an edge of {len(ts)} triangles)")
             raise ValueError(f"{who}: the mesh must be closed and manifold; it is {kind} at points {u}, {w}")
 
     def directed(t, u, w):  # +1 if triangle t runs u -> w
@@ -212,7 +213,8 @@ class Obstacle(Effect):
             self.size[0] = _positive(who, "radius", radius)
         elif shape == "box":
             self.origin = _point(who, "center", center)
-            self.size = np.array([_positive(who, "half_size", x) for x in np.ravel(_point(who, "half_size", half_size))])
+            half = _point(who, "half_size", half_size)
+            self.size = np.array([_positive(who, "half_size", x) for x in half])
             if axes is not None:
                 r = np.array(axes, dtype=float)
                 if r.shape != (3, 3) or not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
