@@ -2,11 +2,12 @@
 
 The kernels index the state by integers read from the model (CSR offsets, line ends, node
 attachments) and from the effects' records (joined line ends, loaded nodes and lines, contact
-segments); they do not check those on every access. These tables are built valid, but they
-are writable arrays a user can reach (``sim.model``, ``sim.effect_params``), so ``table_error``
-checks them, and every array's shape, before a run hands them to the kernels: a few vectorised
-passes over the integer tables, nothing per step. Indices computed from coordinates (the
-contact grid) are clamped in their kernel instead.
+segments, obstacle vertices and mesh grids); they do not check those on every access. These
+tables are built valid, but they are writable arrays a user can reach (``sim.model``,
+``sim.effect_params``), so ``table_error`` checks them, and every array's shape, before a run
+hands them to the kernels: a few vectorised passes over the integer tables, nothing per step.
+Indices computed from coordinates (the contact grid, an obstacle's mesh grid) are clamped or
+range-checked in their kernel instead.
 """
 
 import numpy as np
@@ -14,6 +15,7 @@ import numpy as np
 from .kernels.contact import ContactParams
 from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
+from .kernels.obstacles import ObstacleParams
 
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
@@ -121,6 +123,24 @@ def _contact_error(p, model):
             or _index_error("contact.elem_index (line)", p.elem_index[:, 1], nl))
 
 
+def _obstacle_error(p, model):
+    nv, m, nt = model.vertex_mass.shape[0], p.verts.shape[0], p.tri.shape[0]
+    shapes = {"origin": (3,), "axis": (3,), "size": (3,), "rot": (3, 3), "mu_s": (3,), "mu_k": (3,),
+              "vprev": (m,), "vnext": (m,), "radius": (m,), "anchor": (m, 3), "mode": (m,),
+              "dissipated": (1,), "deepest": (1,), "active": (1,), "tri": (nt, 3, 3), "tri_normal": (nt, 3),
+              "grid_origin": (3,), "grid_dims": (3,)}
+    for name, shape in shapes.items():
+        if getattr(p, name).shape != shape:
+            return f"obstacle.{name} has shape {getattr(p, name).shape}, needs {shape}"
+    dims = p.grid_dims
+    if np.any(dims < 0) or p.cell_start.shape != (int(np.prod(dims)) + 1,):
+        return "obstacle: the triangle grid's cell_start does not have one offset per cell and one more"
+    return (_index_error("obstacle.verts", p.verts, nv) or _index_error("obstacle.vprev", p.vprev, nv)
+            or _index_error("obstacle.vnext", p.vnext, nv)
+            or _offsets_error("obstacle.cell_start", p.cell_start, p.cell_tri.shape[0])
+            or _index_error("obstacle.cell_tri", p.cell_tri, nt))
+
+
 def params_error(params, model):
     """Return what is wrong with the tables of the built-in effects' records, or None
     (records of other effects are their own kernels' business)."""
@@ -137,6 +157,8 @@ def params_error(params, model):
             problem = "gravity: g needs 3 components"
         elif isinstance(p, ContactParams):
             problem = _contact_error(p, model)
+        elif isinstance(p, ObstacleParams):
+            problem = _obstacle_error(p, model)
         if problem:
             return problem
     return None

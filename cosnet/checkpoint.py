@@ -129,6 +129,11 @@ def differences(sim, saved) -> list[str]:
     return out
 
 
+def _effect_arrays(sim) -> dict:
+    """The effects' changing arrays (friction anchors), keyed effect<i>_<name>."""
+    return {f"effect{i}_{k}": a for i, e in enumerate(sim.effects) for k, a in e.state_arrays(sim).items()}
+
+
 def save(sim, path):
     """Write the state, step count, dt, stepper and fingerprint of ``sim`` to ``path``
     atomically: the previous file stays whole until the new one is complete, and no temporary
@@ -137,7 +142,7 @@ def save(sim, path):
     tmp = f"{path}.tmp.npz"
     try:
         np.savez(tmp, format=FORMAT, steps=sim.steps, dt=sim.dt, stepper=sim.stepper,
-                 **sim.fingerprint, **sim.state._asdict())
+                 **sim.fingerprint, **sim.state._asdict(), **_effect_arrays(sim))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -175,7 +180,15 @@ def load(sim, path):
     restored = sim.state._make(saved[n] for n in names)
     if scan_state(restored)[1] is not None:
         raise ValueError(f"checkpoint {path}: holds non-finite values")
+    effect_arrays = _effect_arrays(sim)
+    for key, arr in effect_arrays.items():
+        if key not in saved or saved[key].shape != arr.shape or saved[key].dtype != arr.dtype:
+            raise ValueError(f"checkpoint {path}: lacks the effect state {key} (shape {arr.shape})")
+        if not np.all(np.isfinite(saved[key])):
+            raise ValueError(f"checkpoint {path}: holds non-finite values in {key}")
     for name, arr in sim.state._asdict().items():
         arr[...] = saved[name]
+    for key, arr in effect_arrays.items():
+        arr[...] = saved[key]
     sim.steps = steps
     return sim

@@ -15,6 +15,36 @@ from .scene_values import DAMPING, STIFFNESS, boolean, nonnegative, positive
 MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
 
 
+def chosen_lines(sim, lines, who: str) -> list[Line]:
+    """The lines of sim an effect names (Line objects or names); None: all of them."""
+    if lines is None:
+        return list(sim.net.lines)
+    out = []
+    for x in lines:
+        if isinstance(x, str):
+            try:
+                x = sim.net.line(x)
+            except KeyError:
+                have = [ln.name for ln in sim.net.lines]
+                raise ValueError(f"{who}: unknown line {x!r}; lines are {have}") from None
+        sim.check_line(x, who)
+        out.append(x)
+    return out
+
+
+def smallest_mass(sim, lines) -> float:
+    """The smallest free mass a contact force on these lines can push: an interior vertex, or
+    the composite node of a line end (0 when there is none)."""
+    m = sim.model
+    masses = []
+    for line in lines:
+        v = slice(m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1)
+        masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
+        masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
+                      if 0 < m.node_mass[nd.index] < math.inf)
+    return float(min(masses)) if masses else 0.0
+
+
 class Contact(Effect):
     """Contact between the capsules (centre segment, radius r = section.radius) of the lines'
     elements: overlap eps = r_i + r_j - d_min gives the force max(0, k eps - gamma v_n) along
@@ -59,19 +89,7 @@ class Contact(Effect):
 
     # ------------------------------------------------------------------ binding
     def _lines(self, on: Binding) -> list[Line]:
-        if self.lines is None:
-            return list(on.net.lines)
-        out = []
-        for x in self.lines:
-            if isinstance(x, str):
-                try:
-                    x = on.net.line(x)
-                except KeyError:
-                    have = [ln.name for ln in on.net.lines]
-                    raise ValueError(f"Contact: unknown line {x!r}; lines are {have}") from None
-            on.check_line(x, "Contact")
-            out.append(x)
-        return out
+        return chosen_lines(on, self.lines, "Contact")
 
     def bind(self, on: Binding) -> ContactParams:
         m, x = on.model, on.state.x

@@ -26,8 +26,8 @@ from .kernels.compose import FLOW_KERNELS, KERNELS, LOAD_KERNELS
 from .scene_values import Unit
 
 ENTRY_POINTS = "cosnet.effects"
-BUILTIN_MODULES = ("cosnet.effects", "cosnet.contact", "cosnet.joints")  # in the order kinds are listed
-REFERENCES = ("node", "line", "lines")   # converters naming parts of the net
+BUILTIN_MODULES = ("cosnet.effects", "cosnet.contact", "cosnet.obstacles", "cosnet.joints")  # in the order kinds are listed
+REFERENCES = ("node", "line", "lines", "path")   # converters naming parts of the net, or a file
 
 
 @dataclass(frozen=True)
@@ -115,6 +115,11 @@ class Effect:
         the net (k / m for a penalty spring); the stable step shrinks accordingly. 0 when the
         effect adds no stiffness."""
         return 0.0
+
+    def state_arrays(self, sim) -> dict:
+        """The arrays of its parameter record that change as the net moves (friction anchors):
+        a checkpoint saves and restores them with the state. Empty for most effects."""
+        return {}
 
     def describe(self) -> str:
         return type(self).__name__

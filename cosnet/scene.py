@@ -235,7 +235,9 @@ def _effect(t: Table, net: Net, units: Units, known: dict):
     for key in cls.keys:
         if key.name not in t.data and not key.required:
             continue
-        if key.convert in ("node", "line"):
+        if key.convert == "path":   # a file named relative to the scene file
+            kw[key.name] = str(Path(t.file).parent / t.get(key.name, string))
+        elif key.convert in ("node", "line"):
             kw[key.name] = _ref(t, key.name, key.convert, net)
         else:
             conv = string_list if key.convert == "lines" else key.convert

@@ -223,6 +223,14 @@ def floats(v):
     return np.array([number(x) for x in v])
 
 
+def coefficients(v):
+    """A number >= 0, or three of them (friction: forward, backward, lateral)."""
+    a = array((3,))(v) if isinstance(v, list) else np.array(number(v))
+    if np.any(a < 0):
+        raise _Bad(f"must be >= 0, got {_show(v)}")
+    return a
+
+
 def string_list(v):
     if not isinstance(v, list):
         raise _Bad(f"must be a list of strings, got {_show(v)}")

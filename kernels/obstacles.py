@@ -1,0 +1,316 @@
+"""Static obstacles with Coulomb friction: the lines' vertices, spheres of the section radius,
+against a plane (half-space), sphere, capsule, box or closed triangle mesh.
+
+Normal law. A vertex centre c at signed distance d from the surface (outward normal n)
+overlaps it by eps = r - d; the normal force is fn = max(0, k eps - gamma v.n) along n (the
+potential k eps^2 / 2 when gamma = 0).
+
+Friction: elastic stick, plastic slip. Each contact keeps an anchor A (lab point) set where
+the contact began; the tangential spring displacement is delta = P (c - A), P the projection
+on the tangent plane, and the trial friction force -k_t delta - gamma v_t (a dashpot beside
+the spring, so that a sudden load does not overshoot the stick). The Coulomb limit is an
+ellipse in the tangent plane: along the line's tangent (forward or backward, by the sign of
+delta's component) and across it (lateral),
+
+    (k_t delta_long / mu_long)^2 + (k_t delta_lat / mu_lat)^2 <= fn^2.
+
+A sticking contact whose trial force leaves the static ellipse (mu_s) starts sliding; the
+trial displacement is then scaled back onto the kinetic ellipse (mu_k) and the anchor dragged
+to c - delta, so a sliding contact carries exactly mu_k fn (no dashpot). A sliding contact whose trial force
+falls inside the kinetic ellipse sticks again. A direction with mu = 0 carries no friction.
+The work of the friction force on each drag of the anchor (and the spring energy left when
+a contact opens) is added to `dissipated`, so kinetic + elastic + penalty + spring energy + dissipated
+is conserved (to the integrator's error) while gamma = 0; the dashpots' work is not counted.
+
+Forces act at the vertex centres (no rolling resistance). The segments between vertices are
+not tested: vertices must be closer than the obstacle's features (a sphere's or capsule's
+radius, a mesh's triangles) are large. Mesh triangles are binned once into a uniform grid
+whose cells hold every triangle within the largest radius of them, so a vertex scans one
+cell; a vertex outside the grid touches nothing.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compose import load_kernel
+from .rotations import CACHED
+
+PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
+SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}
+FAR = 1e300  # the distance of a vertex no mesh triangle is near
+FREE, STICK, SLIDE = 0, 1, 2  # contact modes
+
+
+class ObstacleParams(NamedTuple):
+    shape: int
+    origin: np.ndarray      # (3,) plane point, sphere centre, capsule start, box centre
+    axis: np.ndarray        # (3,) plane unit normal, capsule end
+    size: np.ndarray        # (3,) sphere/capsule radius in [0]; box half sizes
+    rot: np.ndarray         # (3, 3) box axes as rows (lab to box frame)
+    tri: np.ndarray         # (nt, 3, 3) mesh triangles, wound outwards
+    tri_normal: np.ndarray  # (nt, 3) their unit outward normals
+    grid_origin: np.ndarray  # (3,) lowest corner of the triangle grid
+    grid_h: float            # its cell size
+    grid_dims: np.ndarray    # (3,) int64 its cells along x, y, z
+    cell_start: np.ndarray   # (nc + 1,) int64 CSR offsets into cell_tri
+    cell_tri: np.ndarray     # triangles near each cell
+    k: float                 # normal penalty stiffness (N/m)
+    gamma: float             # normal damping (N s/m)
+    k_t: float               # tangential (stick) stiffness (N/m)
+    mu_s: np.ndarray         # (3,) static coefficients: forward, backward, lateral
+    mu_k: np.ndarray         # (3,) kinetic coefficients
+    verts: np.ndarray        # (m,) int64 vertices taking part
+    vprev: np.ndarray        # (m,) int64 their neighbours along the line (themselves at ends)
+    vnext: np.ndarray        # (m,) int64
+    radius: np.ndarray       # (m,) sphere radius of each vertex
+    anchor: np.ndarray       # (m, 3) anchors of the tangential springs
+    mode: np.ndarray         # (m,) int64 FREE, STICK or SLIDE
+    dissipated: np.ndarray   # (1,) energy dissipated by friction (J)
+    deepest: np.ndarray      # (1,) largest eps / r met so far
+    active: np.ndarray       # (1,) int64 contacts at the last call
+
+
+@njit(**CACHED, inline="always")
+def _clamp01(a):
+    return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
+
+
+@njit(**CACHED)
+def triangle_closest(px, py, pz, a, b, c):
+    """Return the point of triangle (a, b, c) ((3,) arrays) closest to p (Ericson, Real-Time
+    Collision Detection, 5.1.5)."""
+    abx, aby, abz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    acx, acy, acz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    apx, apy, apz = px - a[0], py - a[1], pz - a[2]
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        return a[0], a[1], a[2]
+    bpx, bpy, bpz = px - b[0], py - b[1], pz - b[2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return b[0], b[1], b[2]
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return a[0] + v * abx, a[1] + v * aby, a[2] + v * abz
+    cpx, cpy, cpz = px - c[0], py - c[1], pz - c[2]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    if d6 >= 0.0 and d5 <= d6:
+        return c[0], c[1], c[2]
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return a[0] + w * acx, a[1] + w * acy, a[2] + w * acz
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return b[0] + w * (c[0] - b[0]), b[1] + w * (c[1] - b[1]), b[2] + w * (c[2] - b[2])
+    den = va + vb + vc
+    if not den > 0.0:  # a degenerate triangle: its first vertex
+        return a[0], a[1], a[2]
+    v, w = vb / den, vc / den
+    return a[0] + abx * v + acx * w, a[1] + aby * v + acy * w, a[2] + abz * v + acz * w
+
+
+@njit(**CACHED, inline="always")
+def _away(dx, dy, dz, d, radius, fx, fy, fz):
+    """Signed distance and unit normal of a point offset (dx, dy, dz) from the nearest point of
+    a core at distance d, surface at radius (fallback normal f when the point is on the core)."""
+    if d > 0.0:
+        return d - radius, dx / d, dy / d, dz / d
+    return -radius, fx, fy, fz
+
+
+@njit(**CACHED)
+def _mesh_distance(p, cx, cy, cz):
+    h, o, dims = p.grid_h, p.grid_origin, p.grid_dims
+    ix = math.floor((cx - o[0]) / h) if abs(cx) < FAR else -1.0
+    iy = math.floor((cy - o[1]) / h) if abs(cy) < FAR else -1.0
+    iz = math.floor((cz - o[2]) / h) if abs(cz) < FAR else -1.0
+    # also refuses NaN (every comparison False)
+    if not (0.0 <= ix < dims[0] and 0.0 <= iy < dims[1] and 0.0 <= iz < dims[2]):
+        return FAR, 0.0, 0.0, 1.0
+    cell = int(ix) + dims[0] * (int(iy) + dims[1] * int(iz))
+    best, bx, by, bz, bt = FAR, 0.0, 0.0, 0.0, -1
+    for j in range(p.cell_start[cell], p.cell_start[cell + 1]):
+        t = p.cell_tri[j]
+        qx, qy, qz = triangle_closest(cx, cy, cz, p.tri[t, 0], p.tri[t, 1], p.tri[t, 2])
+        d2 = (cx - qx) ** 2 + (cy - qy) ** 2 + (cz - qz) ** 2
+        if d2 < best:
+            best, bx, by, bz, bt = d2, qx, qy, qz, t
+    if bt < 0:
+        return FAR, 0.0, 0.0, 1.0
+    n = p.tri_normal[bt]
+    dx, dy, dz = cx - bx, cy - by, cz - bz
+    side = 1.0 if dx * n[0] + dy * n[1] + dz * n[2] >= 0.0 else -1.0
+    d = math.sqrt(best)
+    if d > 0.0:
+        return side * d, side * dx / d, side * dy / d, side * dz / d
+    return 0.0, n[0], n[1], n[2]
+
+
+@njit(**CACHED)
+def obstacle_distance(p, cx, cy, cz):
+    """Return (d, nx, ny, nz): the signed distance of point c from the obstacle's surface
+    (positive outside) and the outward unit normal there (FAR for a mesh with no triangle
+    near c)."""
+    o, a, s = p.origin, p.axis, p.size
+    if p.shape == PLANE:
+        return (cx - o[0]) * a[0] + (cy - o[1]) * a[1] + (cz - o[2]) * a[2], a[0], a[1], a[2]
+    if p.shape == SPHERE:
+        dx, dy, dz = cx - o[0], cy - o[1], cz - o[2]
+        return _away(dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz), s[0], 0.0, 0.0, 1.0)
+    if p.shape == CAPSULE:
+        ux, uy, uz = a[0] - o[0], a[1] - o[1], a[2] - o[2]
+        uu = ux * ux + uy * uy + uz * uz
+        t = _clamp01(((cx - o[0]) * ux + (cy - o[1]) * uy + (cz - o[2]) * uz) / uu) if uu > 0.0 else 0.0
+        dx, dy, dz = cx - o[0] - t * ux, cy - o[1] - t * uy, cz - o[2] - t * uz
+        return _away(dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz), s[0], 0.0, 0.0, 1.0)
+    if p.shape == BOX:
+        r = p.rot
+        dx, dy, dz = cx - o[0], cy - o[1], cz - o[2]
+        q0 = r[0, 0] * dx + r[0, 1] * dy + r[0, 2] * dz
+        q1 = r[1, 0] * dx + r[1, 1] * dy + r[1, 2] * dz
+        q2 = r[2, 0] * dx + r[2, 1] * dy + r[2, 2] * dz
+        e0, e1, e2 = q0 - max(-s[0], min(s[0], q0)), q1 - max(-s[1], min(s[1], q1)), q2 - max(-s[2], min(s[2], q2))
+        out = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        if out > 0.0:
+            n0, n1, n2 = e0 / out, e1 / out, e2 / out
+            d = out
+        else:  # inside: out through the nearest face
+            o0, o1, o2 = abs(q0) - s[0], abs(q1) - s[1], abs(q2) - s[2]
+            n0 = n1 = n2 = 0.0
+            if o0 >= o1 and o0 >= o2:
+                d, n0 = o0, (1.0 if q0 >= 0.0 else -1.0)
+            elif o1 >= o2:
+                d, n1 = o1, (1.0 if q1 >= 0.0 else -1.0)
+            else:
+                d, n2 = o2, (1.0 if q2 >= 0.0 else -1.0)
+        return (d, r[0, 0] * n0 + r[1, 0] * n1 + r[2, 0] * n2, r[0, 1] * n0 + r[1, 1] * n1 + r[2, 1] * n2,
+                r[0, 2] * n0 + r[1, 2] * n1 + r[2, 2] * n2)
+    return _mesh_distance(p, cx, cy, cz)
+
+
+@njit(**CACHED, inline="always")
+def _ellipse(a, b, mu_long, mu_lat, k_t, fn):
+    """Return the trial friction of displacement (a along, b across the line) measured against
+    the ellipse of coefficients (mu_long, mu_lat) at normal force fn: <= 1 inside."""
+    q = 0.0
+    if a != 0.0:
+        if mu_long * fn <= 0.0:
+            return math.inf
+        q += (k_t * a / (mu_long * fn)) ** 2
+    if b != 0.0:
+        if mu_lat * fn <= 0.0:
+            return math.inf
+        q += (k_t * b / (mu_lat * fn)) ** 2
+    return math.sqrt(q)
+
+
+@njit(**CACHED)
+def _tangent(x, i, j, nx, ny, nz):
+    """Unit tangent of the line through vertices i -> j, projected on the plane normal to n
+    (zeros when the line is along n)."""
+    tx, ty, tz = x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2]
+    tn = tx * nx + ty * ny + tz * nz
+    tx, ty, tz = tx - tn * nx, ty - tn * ny, tz - tn * nz
+    t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if t > 0.0:
+        return tx / t, ty / t, tz / t
+    return 0.0, 0.0, 0.0
+
+
+@load_kernel(ObstacleParams)
+@njit(**CACHED)
+def add_obstacle(p, model, state, loads):
+    """Update loads.f (nv, 3), p.anchor, p.mode, p.dissipated, p.deepest, p.active given the
+    vertex positions and velocities: the normal and friction forces of every vertex touching
+    the obstacle (see the module docstring)."""
+    x, v, f = state.x, state.v, loads.f
+    anchor, mode, k, k_t = p.anchor, p.mode, p.k, p.k_t
+    active, lost = 0, 0.0
+    for j in range(p.verts.shape[0]):
+        i = p.verts[j]
+        cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
+        d, nx, ny, nz = obstacle_distance(p, cx, cy, cz)
+        eps = p.radius[j] - d
+        # the spring displacement: the anchor's offset in the tangent plane
+        ax, ay, az = cx - anchor[j, 0], cy - anchor[j, 1], cz - anchor[j, 2]
+        an = ax * nx + ay * ny + az * nz
+        ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
+        if not eps > 0.0:
+            if mode[j] != FREE:  # the cone shrank to nothing as the contact opened
+                lost += 0.5 * k_t * (ax * ax + ay * ay + az * az)
+                mode[j] = FREE
+            continue
+        active += 1
+        p.deepest[0] = max(p.deepest[0], eps / p.radius[j])
+        if mode[j] == FREE:
+            mode[j] = STICK
+            anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx, cy, cz
+            ax = ay = az = 0.0
+        fn = k * eps - p.gamma * (v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz)
+        fn = max(fn, 0.0)
+        if k_t > 0.0:
+            # trial force -k_t e: the spring and the dashpot beside it, while it sticks
+            vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
+            c_t = p.gamma / k_t
+            ex, ey, ez = (ax + c_t * (v[i, 0] - vn * nx), ay + c_t * (v[i, 1] - vn * ny),
+                          az + c_t * (v[i, 2] - vn * nz))
+            tx, ty, tz = _tangent(x, p.vprev[j], p.vnext[j], nx, ny, nz)
+            along = ex * tx + ey * ty + ez * tz
+            lx, ly, lz = ex - along * tx, ey - along * ty, ez - along * tz
+            lat = math.sqrt(lx * lx + ly * ly + lz * lz)
+            which = 0 if along >= 0.0 else 1  # moved forward: the forward coefficient resists
+            mu = p.mu_s if mode[j] == STICK else p.mu_k
+            if _ellipse(along, lat, mu[which], mu[2], k_t, fn) > 1.0:
+                mode[j] = SLIDE
+                mk = p.mu_k
+                # a direction without friction lets its share go; the rest returns radially
+                # onto the kinetic ellipse, the dashpot idle
+                if mk[which] * fn <= 0.0:
+                    along = 0.0
+                if mk[2] * fn <= 0.0:
+                    lx = ly = lz = lat = 0.0
+                q = _ellipse(along, lat, mk[which], mk[2], k_t, fn)
+                scale = 1.0 / q if q > 1.0 else 1.0
+                bx, by, bz = scale * (along * tx + lx), scale * (along * ty + ly), scale * (along * tz + lz)
+                # the plastic work: the friction force on the anchor's slip (the spring's own
+                # energy drop would also count the drift's O(h^2) excess over a constant force)
+                lost += k_t * (bx * (ax - bx) + by * (ay - by) + bz * (az - bz))
+                anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx - bx, cy - by, cz - bz
+                ex, ey, ez = bx, by, bz
+            elif mode[j] == SLIDE:
+                mode[j] = STICK
+            ax, ay, az = ex, ey, ez
+        f[i, 0] += fn * nx - k_t * ax
+        f[i, 1] += fn * ny - k_t * ay
+        f[i, 2] += fn * nz - k_t * az
+    p.dissipated[0] += lost
+    p.active[0] = active
+
+
+@njit(**CACHED)
+def obstacle_energy(p, state):
+    """Return the stored energy: k eps^2 / 2 over the overlapping vertices plus the spring
+    energy k_t |delta|^2 / 2 of their anchors."""
+    x, anchor = state.x, p.anchor
+    e = 0.0
+    for j in range(p.verts.shape[0]):
+        i = p.verts[j]
+        d, nx, ny, nz = obstacle_distance(p, x[i, 0], x[i, 1], x[i, 2])
+        eps = p.radius[j] - d
+        if not eps > 0.0:
+            continue
+        e += 0.5 * p.k * eps * eps
+        if p.mode[j] != FREE:
+            ax, ay, az = x[i, 0] - anchor[j, 0], x[i, 1] - anchor[j, 1], x[i, 2] - anchor[j, 2]
+            an = ax * nx + ay * ny + az * nz
+            e += 0.5 * p.k_t * ((ax - an * nx) ** 2 + (ay - an * ny) ** 2 + (az - an * nz) ** 2)
+    return e
