@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .kernels.stepping import steps_to
 from .record import parse_probe
 from .scene import Probe, Scene, build_scene, load_scene, read_toml
 
@@ -181,7 +182,7 @@ class Study:
 
 
 def _steps_for(window: float, dt: float) -> int:
-    return max(1, int(math.ceil(window / dt - 1e-9)))
+    return max(1, steps_to(window, dt))
 
 
 def time_series(scene: Scene, stepper: str, window: float, probes=None, log=None,

@@ -4,7 +4,7 @@ through ``Recorder``, so their files are the same.
 
 Frame k sits at t_k = min(t_0 + k * interval, until), t_0 the time of frame 0 (0 for a
 scene): the steps of each interval are whole steps of
-dt, taken in chunks of CHUNK counted from the interval's start, then one shortened step that
+dt, taken in chunks of CHUNK_STEPS counted from the interval's start, then one shortened step that
 lands on t_k (to the round-off of the clock's sum); the next interval starts at dt again.
 Every interval is stepped from its frame alone, so a run resumed from the checkpoint of frame
 k (``resume=True``) reproduces an uninterrupted one bit for bit.
@@ -27,10 +27,10 @@ import numpy as np
 
 from .io import (LINE_FIELDS, NODE_FIELDS, PVD, SeriesWriter, node_point_fields, read_pvd,
                  replace_atomically)
+from .kernels.stepping import CHUNK_STEPS, steps_to
 
 CHECKPOINT = "checkpoint.npz"
 PROBES = "probes.csv"
-CHUNK = 2000  # steps per compiled call, counted from the start of each output interval
 PROBE_LINE_FIELDS = ("position",) + LINE_FIELDS
 PROBE_NODE_FIELDS = ("position",) + NODE_FIELDS
 
@@ -125,11 +125,11 @@ def frame_time(k: int, start: float, interval: float, until: float) -> float:
 
 
 def advance_to(sim, t: float, progress=None):
-    """Step ``sim`` to time ``t``: whole steps of dt in chunks of CHUNK, then one shortened
+    """Step ``sim`` to time ``t``: whole steps of dt in chunks of CHUNK_STEPS, then one shortened
     step that lands on t (none if the whole steps already end within 1e-9 dt of it)."""
-    whole = int(math.ceil((t - sim.time) / sim.dt - 1e-9)) - 1
+    whole = steps_to(t - sim.time, sim.dt) - 1
     while whole > 0:
-        n = min(whole, CHUNK)
+        n = min(whole, CHUNK_STEPS)
         sim.run(steps=n)
         whole -= n
         if progress is not None:
@@ -223,7 +223,7 @@ class Recorder:
         if not self.until > self.start:
             raise ValueError(f"until = {self.until!r} s must be later than the start, t = {self.start!r} s")
         self.interval = min(float(every), self.until - self.start)
-        self.frames = int(math.ceil((self.until - self.start) / self.interval - 1e-9))
+        self.frames = steps_to(self.until - self.start, self.interval)
         if resume:
             self.k = self.frame_at(sim.time)
             if self.k is None:
@@ -248,7 +248,7 @@ class Recorder:
 
     def steps_left(self) -> int:
         """Steps still to run (whole steps and the shortened ones)."""
-        whole = max(0, int(math.ceil((self.until - self.sim.time) / self.sim.dt - 1e-9)))
+        whole = max(0, steps_to(self.until - self.sim.time, self.sim.dt))
         return whole + (self.frames - self.k)
 
     def write(self):
@@ -292,7 +292,7 @@ def run_with_output(sim, until, out=None, every=None, probes=(), callback=None, 
     if not (isinstance(every, (int, float)) and math.isfinite(every) and every > 0):
         raise ValueError(f"every must be a positive time in s, got {every!r}")
     start = sim.time
-    frames = int(math.ceil((until - start) / every - 1e-9))
+    frames = steps_to(until - start, every)
     for k in range(frames + 1):
         advance_to(sim, frame_time(k, start, every, until))
         if callback is not None:
