@@ -28,29 +28,24 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .flatten import flatten
-from .rotmath import matrix_from_quat, rotvec_from_matrix
-from .kernels.layout import State
+from .rotmath import matrix_from_quat, rotvec_from_matrix, skew
+from .kernels.layout import Model, State
 from .kernels.motion import place_line_ends
 from .net import Line, Net, Node
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 STRESS_FREE_TOL = 1e-8   # largest strain |eps| and rotation misfit |theta - L u0| (rad) accepted
 DENSE_LIMIT = 64         # below this many degrees of freedom the dense solver is used
 REST_HINT = ("modes linearise about the stress-free state, so build the net in its rest shape "
              "(points consistent with rest_curvature, end frames consistent with the curvature "
              "at the line ends); a pre-stressed net has no such state")
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """(N, 3) -> (N, 3, 3) cross-product matrices."""
-    s = np.zeros(v.shape[:-1] + (3, 3))
-    s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
-    s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
-    s[..., 2, 0], s[..., 2, 1] = -v[..., 1], v[..., 0]
-    return s
 
 
 def inverse_jacobians(theta: np.ndarray):
@@ -62,7 +57,7 @@ def inverse_jacobians(theta: np.ndarray):
     ts = np.where(small, 1.0, t)
     c = np.where(small, 1.0 / 12.0 + t2 / 720.0,
                  1.0 / ts**2 - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts)))
-    h = _skew(theta)
+    h = skew(theta)
     quad = np.eye(3) + c[:, None, None] * (h @ h)
     return quad - 0.5 * h, quad + 0.5 * h
 
@@ -99,7 +94,7 @@ class Linearisation:
     reduced: np.ndarray
     jacobian: sp.csr_matrix   # (3 ne + 3 nv, N): strain rows d eps_e (3 each), then d theta_k
     weights: np.ndarray       # (3 ne + 3 nv,): l_e K_e, then B_k / L_k
-    model: object
+    model: Model
     x0: np.ndarray
     q0: np.ndarray
     node_x0: np.ndarray
@@ -196,7 +191,7 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisa
     # stretch and shear rows (block e): D^T (dx_{e+1} - dx_e)/l + e3 x alpha
     Dt = np.transpose(D, (0, 2, 1)) * model.element_inv_rest_length[:, None, None]
     trip = [_blocks(e, XA + e + eline + 1, Dt), _blocks(e, XA + e + eline, -Dt),
-            _blocks(e, AA + e, np.broadcast_to(_skew(np.array([0.0, 0.0, 1.0])), (ne, 3, 3)))]
+            _blocks(e, AA + e, np.broadcast_to(skew(np.array([0.0, 0.0, 1.0])), (ne, 3, 3)))]
     # bend and twist rows (block ne + k): J_r^-1 beta_b - J_l^-1 alpha_a
     line_v, start, end, e_left, e_right = geo.sides
     jl_inv, jr_inv = inverse_jacobians(geo.theta)
@@ -224,7 +219,7 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisa
     na = model.attach_node.shape[0]
     ends = [_blocks(model.attach_vertex, CA + model.attach_node, np.broadcast_to(eye, (na, 3, 3))),
             _blocks(model.attach_vertex, PA + model.attach_node,
-                    -R[model.attach_node] @ _skew(model.attach_offset))]
+                    -R[model.attach_node] @ skew(model.attach_offset))]
     er, ec, ev = (np.concatenate(p) for p in zip(*ends))
     keep = to_red[ec] >= 0
     t_rows = np.concatenate([reduced, er[keep]])
@@ -478,8 +473,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
     rot_nd = np.einsum("nij,nj->ni", R, phi) * scale
     segs, eline, local, vline = _mode_mesh_parts(res)
     nv, nn = lin.x0.shape[0], refs.shape[0]
-    radius = np.concatenate([[l.section_at(u).radius for u in np.linspace(0, 1, l.elements + 1)]
-                             for l in res.net.lines] + [np.zeros(nn)])
+    radius = np.concatenate([np.array([l.section_at(u).radius for u in np.linspace(0, 1, l.elements + 1)],
+                                      dtype=float) for l in res.net.lines] + [np.zeros(nn)])
     verts = (nv + np.arange(nn))[:, None].astype(np.int64)
     period = 2 * math.pi / float(res.omega[j]) if res.omega[j] > 0 else 1.0
     entries = []
@@ -563,7 +558,7 @@ def bending_omegas(sim, count: int) -> np.ndarray:
     and twist left out), one of each equal pair of a round section."""
     res = modes(sim, count=4 * count + 6)
     m, J = sim.model.vertex_mass, sim.model.element_inertia
-    out = []
+    out: list = []
     for j, w in enumerate(res.omega):
         dx, alpha, _, _ = res.lin.split(res.lin.T @ res.vectors[:, j])
         side = float(np.sum(m[:, None] * dx[:, 1:] ** 2))

@@ -164,6 +164,11 @@ def cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
+# |r_vec|^2 < SMALL_TURN2 r_w^2, i.e. tan(|theta|/2) < 0.1: |theta| below about 0.2 rad,
+# where small_rotation's series holds to round-off
+SMALL_TURN2 = 0.01
+
+
 @njit(**OPTS)
 def relative_quat(aw, ax, ay, az, bw, bx, by, bz):
     """Return (r, small): r = A^T B with r_w >= 0, and whether |theta| < 0.2 (the range of
@@ -171,7 +176,7 @@ def relative_quat(aw, ax, ay, az, bw, bx, by, bz):
     rw, rx, ry, rz = quat_mul(aw, -ax, -ay, -az, bw, bx, by, bz)
     sg = 1.0 if rw >= 0.0 else -1.0   # a select, not a branch: the loops stay vectorisable
     rw, rx, ry, rz = sg * rw, sg * rx, sg * ry, sg * rz
-    return rw, rx, ry, rz, rx * rx + ry * ry + rz * rz < 0.01 * rw * rw
+    return rw, rx, ry, rz, rx * rx + ry * ry + rz * rz < SMALL_TURN2 * rw * rw
 
 
 @njit(**OPTS)
