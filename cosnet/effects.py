@@ -84,7 +84,7 @@ class Gravity(Effect):
         return GravityParams(self.g.copy())
 
     def potential_energy(self, sim) -> float:
-        from .flatten import matrix_from_quat
+        from .rotmath import matrix_from_quat
         m, s = sim.model, sim.state
         # einsum, not BLAS: a threaded BLAS call here leaves its threads spinning on the
         # cores the step's thread pool is about to use

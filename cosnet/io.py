@@ -152,7 +152,7 @@ def node_point_fields(sim, node) -> dict:
 
 def _node_body_w(sim, node) -> np.ndarray:
     """Angular velocity of the node in its own body frame D(nu)."""
-    from .flatten import matrix_from_quat
+    from .rotmath import matrix_from_quat
     p = matrix_from_quat(sim.model.node_principal[node.index])  # user body -> principal
     return p @ sim.node_angular_velocity(node)
 
@@ -169,7 +169,7 @@ def read_pvd(path) -> list[tuple[float, int]]:
         m = re.search(r"_(\d+)\.vtu$", ds.get("file", ""))
         if m:
             try:
-                out[int(m.group(1))] = float(ds.get("timestep"))
+                out[int(m.group(1))] = float(ds.get("timestep", ""))
             except (TypeError, ValueError):
                 raise ValueError(f"{path}: frame {m.group(1)} has no valid timestep") from None
     return [(out[k], k) for k in sorted(out)]

@@ -73,7 +73,7 @@ def parse_probe(text: str, net) -> Probe:
     nodes = {n.name for n in net.nodes}
     if point in nodes:
         probe = Probe(text, node=net.node(point))
-        valid = PROBE_NODE_FIELDS
+        valid: tuple[str, ...] = PROBE_NODE_FIELDS
     else:
         lname, _, frac = point.partition("@")
         try:

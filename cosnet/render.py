@@ -278,7 +278,8 @@ class Picture:
         a = np.array([lo[0], front[1], lo[2]]) if axis == 0 else np.array([front[0], lo[1], lo[2]])
         b = a.copy()
         b[axis] += length
-        self.plotter.add_ruler(a, b, number_labels=2, title=f"{length:g} m", label_format="%.0f" if length >= 1 else "%.2g",
+        self.plotter.add_ruler(a, b, number_labels=2, title=f"{length:g} m",
+                               label_format="%.0f" if length >= 1 else "%.2g",
                                font_size_factor=0.7, tick_color="black", label_color="black",
                                show_labels=False)
 

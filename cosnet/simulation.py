@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
 
 import numba
 import numpy as np
@@ -14,13 +15,14 @@ from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
 from .effects import Effect
-from .flatten import flatten, matrix_from_quat
+from .flatten import flatten
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
-from .kernels.layout import empty_loads
+from .kernels.layout import Model, State, empty_loads
 from .kernels.motion import place_line_ends
 from .kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, stability_interval, steps_to
 from .net import Line, Net, Node
+from .rotmath import matrix_from_quat
 from .watch import InstabilityError, Watch, locate  # noqa: F401  (InstabilityError: cosnet's export)
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
@@ -30,7 +32,7 @@ PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs mo
 def check_threads(threads) -> int:
     """Return threads if it is an integer from 1 to the number of threads numba may use
     (NUMBA_NUM_THREADS), else raise ValueError saying so."""
-    available = numba.config.NUMBA_NUM_THREADS
+    available = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at numba import
     if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) \
             or not 1 <= threads <= available:
         raise ValueError(f"must be an integer from 1 to {available}, got {threads!r}")
@@ -53,6 +55,27 @@ class Simulation:
         "resolve" (as built), "rotary", "soften" or "auto"; a line's own setting overrides it
         (docs/fast_modes.md).
     """
+
+    # declared here: the modules this one imports import it back (fast_modes, record), and
+    # mypy types attributes first assigned in __init__ only after that cycle is resolved
+    net: Net
+    effects: list
+    stepper: str
+    safety: float
+    fast_modes: str
+    model: Model
+    state: State
+    grids: list
+    loads: Any
+    threads: int
+    dt: float
+    steps: int
+    watch: Watch
+    _params: list
+    _load_params: tuple
+    _flow_params: tuple
+    _advance: Any
+    _backend: Any
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
                  force_dt: bool = False, safety: float = 0.9, threads: int | None = None,

@@ -169,7 +169,7 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
     scheds = {schedule(v.scene, until)[1:] for v in variants}
     frames = max(f for _, f in scheds)
     probes = list(dict.fromkeys(p.name for v in variants for p in v.scene.run.probes))
-    coords = {"variant": np.arange(len(variants)),
+    coords: dict = {"variant": np.arange(len(variants)),
               "component": np.array(["x", "y", "z"], dtype=object)}
     for key in variants[0].values:
         coords[key] = ("variant", _coord([v.values[key] for v in variants]))
@@ -190,7 +190,7 @@ def _write_results(store: Path, ds_template, results: list):
     """Write finished variants [(index, record)] into their regions of the store: one write
     per run of consecutive indices (a task's variants are consecutive)."""
     results = sorted(results, key=lambda r: r[0])
-    runs = []
+    runs: list = []
     for index, rec in results:
         if runs and runs[-1][-1][0] == index - 1:
             runs[-1].append((index, rec))

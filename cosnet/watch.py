@@ -57,7 +57,7 @@ class Watch:
     """The watch over one Simulation (``sim.watch``): ``start`` at the start of a run, ``after_chunk``
     after each compiled call, ``check`` before anything is written."""
 
-    def __init__(self, sim):
+    def __init__(self, sim) -> None:
         self.sim = sim
         self.energy_watched = all(not e.adds_energy for e in sim.effects)  # nothing feeds energy in
         self.e_start: float | None = None  # the energy test's reference (None: taken at the next test)

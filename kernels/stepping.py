@@ -10,7 +10,7 @@ interval (cosnet) and the convergence tests read the table.
 """
 
 import math
-from functools import lru_cache
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -50,7 +50,7 @@ def steps_to(t: float, dt: float) -> int:
     return int(math.ceil(t / dt - 1e-9))
 
 
-@lru_cache(maxsize=None)
+@cache
 def stability_interval(name: str) -> float:
     """Largest omega*h for which scheme ``name`` is stable on the harmonic oscillator: where
     the trace of its step's 2 x 2 transfer matrix first leaves [-2, 2]."""

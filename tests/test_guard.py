@@ -146,7 +146,8 @@ def test_checkpoint_names_dt_stepper_effects_and_size_differences(tmp_path):
     with pytest.raises(ValueError, match=r"effects \(Damping\(translational=0.2/s"):
         cosnet.Simulation(net, effects=[cosnet.Damping(0.2)], dt=sim.dt, force_dt=True).load_checkpoint(path)
     with pytest.raises(ValueError, match=r"effects \(1 in the checkpoint, 2 here\)"):
-        cosnet.Simulation(net, effects=[cosnet.Damping(0.1), cosnet.Gravity()], dt=sim.dt, force_dt=True).load_checkpoint(path)
+        other = cosnet.Simulation(net, effects=[cosnet.Damping(0.1), cosnet.Gravity()], dt=sim.dt, force_dt=True)
+        other.load_checkpoint(path)
     with pytest.raises(ValueError, match=r"stepper \(verlet in the checkpoint, pefrl here\)"):
         cosnet.Simulation(net, effects=[cosnet.Damping(0.1)], stepper="pefrl", dt=sim.dt,
                           force_dt=True).load_checkpoint(path)
