@@ -208,7 +208,7 @@ def study(path, window: float | None = None, probes=None, factors=FACTORS, log=N
         window = 0.05 * base.run.until
     window = float(window)
     if not (math.isfinite(window) and window > 0):
-        raise ValueError(f"--window must be a positive number of seconds, got {window}")
+        raise ValueError(f"window must be a positive number of seconds, got {window}")
     if len(factors) != 3 or list(factors) != [factors[0], 2 * factors[0], 4 * factors[0]]:
         raise ValueError(f"element factors must be f, 2f, 4f, got {factors}")
     say = log or (lambda msg: None)
@@ -318,7 +318,7 @@ def check_tol(tol) -> float:
     try:
         t = float(tol)
     except (TypeError, ValueError):
-        raise ValueError(f"--tol must be a positive number (an error in m), got {tol!r}") from None
+        raise ValueError(f"tol must be a positive number (an error in m), got {tol!r}") from None
     if not (math.isfinite(t) and t > 0):
-        raise ValueError(f"--tol must be a positive number (an error in m), got {tol!r}")
+        raise ValueError(f"tol must be a positive number (an error in m), got {tol!r}")
     return t

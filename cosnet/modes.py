@@ -284,7 +284,10 @@ def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
 class DiscreteModes:
     """Normal modes of a discretised net: ``omega`` (k,) rad/s ascending, ``frequency`` Hz,
     ``rigid_modes`` (zero-frequency rigid motions, not listed), ``vectors`` (N, k) mass-normalised
-    reduced mode vectors (u^T M u = 1), ``lin`` the Linearisation, ``net``."""
+    reduced mode vectors (u^T M u = 1), ``lin`` the Linearisation, ``net``; ``analytic``: the
+    exact modes main_modes set beside them, or None."""
+
+    analytic = None   # cosnet.lincos.Modes when main_modes computed them
 
     def __init__(self, net: Net, lin: Linearisation, omega, vectors, rigid_modes: int):
         self.net, self.lin = net, lin
@@ -507,15 +510,12 @@ def spectrum_table(res: DiscreteModes) -> str:
     return "\n".join(lines)
 
 
-def main_modes(scene_or_net, count: int = 6, out_dir=None, frames: int = 16, sigma: float = 0.0,
-               amplitude: float | None = None, analytic: bool = False) -> DiscreteModes:
-    """Compute ``count`` modes of a scene (path to a TOML file, or a Scene) or a Net, print the
-    spectrum, and (if out_dir) write ``spectrum.csv`` and each mode as a VTK series
-    (``mode_JJ.pvd``, ``frames`` frames over one period). ``analytic``: also the exact modes
-    of the continuous net (§6, straight uniform lines), printed beside the discrete ones and
-    written as the columns analytic_omega_rad_s, analytic_frequency_hz, relative_difference
-    (mode j of each, in ascending order); they are kept as ``result.analytic``. Returns the
-    DiscreteModes."""
+def main_modes(scene_or_net, count: int = 6, sigma: float = 0.0, analytic: bool = False) -> DiscreteModes:
+    """The ``count`` modes of a scene (path to a TOML file, or a Scene) or a Net nearest to
+    ``sigma``, as ``cosnet modes`` lists them. ``analytic``: also the exact modes of the
+    continuous net (§6, straight uniform lines), kept as ``result.analytic`` (mode j of each,
+    in ascending order). ``spectrum_table``, ``comparison_table`` and ``write_modes`` show
+    and write the result."""
     net = scene_or_net
     if isinstance(net, (str, Path)):
         from .scene import load_scene
@@ -526,30 +526,47 @@ def main_modes(scene_or_net, count: int = 6, out_dir=None, frames: int = 16, sig
     if analytic:
         from .lincos import analytic_modes
         res.analytic = analytic_modes(net, count=len(res))
-    print(spectrum_table(res))
-    if res.analytic is not None:
-        print("mode  discrete (rad/s)  analytic (rad/s)  relative difference")
-        for j, (w, we) in enumerate(zip(res.omega, res.analytic.omega)):
-            print(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
-    if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        head = "mode,omega_rad_s,frequency_hz,stretch,shear,bend,twist"
-        rows = [head + (",analytic_omega_rad_s,analytic_frequency_hz,relative_difference"
-                        if res.analytic is not None else "")]
-        for j in range(len(res)):
-            sh = res.energy_shares(j)
-            row = f"{j},{float(res.omega[j])!r},{float(res.frequency[j])!r}," + \
-                ",".join(f"{sh[k]:.6g}" for k in ("stretch", "shear", "bend", "twist"))
-            if res.analytic is not None:
-                we = float(res.analytic.omega[j])
-                row += f",{we!r},{we / (2 * math.pi)!r},{(float(res.omega[j]) - we) / we:.6e}"
-            rows.append(row)
-        (out / "spectrum.csv").write_text("\n".join(rows) + "\n")
-        for j in range(len(res)):
-            write_mode_series(res, j, out, frames=frames, amplitude=amplitude)
-        print(f"wrote {len(res)} mode series to {out}")
     return res
+
+
+def comparison_table(res: DiscreteModes) -> str:
+    """The discrete and analytic frequencies side by side, one mode a line ("" without
+    analytic modes)."""
+    if res.analytic is None:
+        return ""
+    rows = ["mode  discrete (rad/s)  analytic (rad/s)  relative difference"]
+    for j, (w, we) in enumerate(zip(res.omega, res.analytic.omega)):
+        rows.append(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
+    return "\n".join(rows)
+
+
+def spectrum_csv(res: DiscreteModes) -> str:
+    """``spectrum.csv``: mode, omega_rad_s, frequency_hz, the energy shares stretch, shear,
+    bend, twist, and with analytic modes analytic_omega_rad_s, analytic_frequency_hz,
+    relative_difference."""
+    head = "mode,omega_rad_s,frequency_hz,stretch,shear,bend,twist"
+    rows = [head + (",analytic_omega_rad_s,analytic_frequency_hz,relative_difference"
+                    if res.analytic is not None else "")]
+    for j in range(len(res)):
+        sh = res.energy_shares(j)
+        row = f"{j},{float(res.omega[j])!r},{float(res.frequency[j])!r}," + \
+            ",".join(f"{sh[k]:.6g}" for k in ("stretch", "shear", "bend", "twist"))
+        if res.analytic is not None:
+            we = float(res.analytic.omega[j])
+            row += f",{we!r},{we / (2 * math.pi)!r},{(float(res.omega[j]) - we) / we:.6e}"
+        rows.append(row)
+    return "\n".join(rows) + "\n"
+
+
+def write_modes(res: DiscreteModes, out_dir, frames: int = 16, amplitude: float | None = None) -> Path:
+    """Write ``spectrum.csv`` and each mode as a VTK series (``mode_JJ.pvd``, ``frames``
+    frames over one period, see write_mode_series) into out_dir; return out_dir."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "spectrum.csv").write_text(spectrum_csv(res))
+    for j in range(len(res)):
+        write_mode_series(res, j, out, frames=frames, amplitude=amplitude)
+    return out
 
 
 def bending_omegas(sim, count: int) -> np.ndarray:
