@@ -12,7 +12,7 @@ contact grid) are clamped in their kernel instead. ``table_seal`` is a key of ev
 
 import numpy as np
 
-from .kernels.checksum import FNV_OFFSET, scan_words
+from .kernels.checksum import weigh_words
 
 from .kernels.contact import ContactParams
 from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
@@ -156,8 +156,9 @@ def table_error(model, state, loads, params):
 
 def table_seal(model, state, loads, params) -> tuple:
     """Return a key that changes whenever what table_error reads may have changed: the shape
-    of every array of the records and a hash of the index tables' entries."""
-    shapes, h = [], FNV_OFFSET
+    of every array of the records and a weighted sum of the index tables' entries, which
+    any change of one entry changes (kernels.checksum.weigh_words)."""
+    shapes, h = [], np.uint64(0)
     for record in (model, state, loads, *params):
         for name, a in zip(record._fields, record):
             if not isinstance(a, np.ndarray):
@@ -165,5 +166,5 @@ def table_seal(model, state, loads, params) -> tuple:
             shapes.append(a.shape)
             if name in INDEX_TABLES:
                 words = a if a.dtype.itemsize == 8 else a.astype(np.int64)
-                h = np.uint64(scan_words(np.ravel(words, order="K").view(np.uint64), h)[0])
+                h = np.uint64(weigh_words(np.ravel(words, order="K").view(np.uint64), h))
     return int(h), tuple(shapes)
