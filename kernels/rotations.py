@@ -72,9 +72,13 @@ def _cache_options() -> dict:
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 
-# Options every kernel starts from (the contact, joint and checksum kernels use them as they
-# are: without fast-math)
+# Options every kernel starts from. The contact, joint and checksum kernels use them as they
+# are, without fast-math or numpy's error model: their results are pinned bit for bit (the
+# reproducibility tests, --resume), and reassociation would change them; the checksum's
+# integer passes gain nothing from either.
 CACHED = _cache_options()
+# the same, inlined by numba where called (the joints' helpers)
+CACHED_INLINE = dict(CACHED, inline="always")
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}
@@ -91,7 +95,7 @@ INNER = dict(KERNEL, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # vectorised passes by half). Numba types an inlined body afresh at every call site, so the
 # scalar helpers below are plain functions instead: compiled once, inlined by LLVM.
 INLINE = dict(INNER, inline="always")
-OPTS = INNER
+OPTS = INNER   # the scalar helpers below
 
 
 @njit(**OPTS)
