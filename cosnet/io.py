@@ -131,13 +131,19 @@ class SeriesWriter:
 
     def _write_pvd(self):
         """Rewrite the ParaView collection listing every frame written so far (atomically)."""
-        root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
-        coll = ET.SubElement(root, "Collection")
-        for k, t in enumerate(self.times):
-            for p, name in enumerate(_frame_files(k)):
-                ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(p), file=name)
-        ET.indent(root)
-        _atomic_write(self.dir / PVD, ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
+        write_collection(self.dir / PVD, [(t, p, name) for k, t in enumerate(self.times)
+                                          for p, name in enumerate(_frame_files(k))])
+
+
+def write_collection(path: Path, datasets) -> None:
+    """Write a ParaView collection (.pvd) listing ``datasets``, (time, part, file name)
+    each, atomically."""
+    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+    coll = ET.SubElement(root, "Collection")
+    for t, part, name in datasets:
+        ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(part), file=name)
+    ET.indent(root)
+    _atomic_write(path, ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
 
 
 def node_point_fields(sim, node) -> dict:

@@ -459,6 +459,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
     collection ``mode_JJ.pvd``; point data "radius" (the section's, 0 on nodes) lets pictures
     draw the lines at their size. amplitude: peak translation (default 5 % of the net's size)."""
     import meshio
+
+    from .io import write_collection
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     lin = res.lin
@@ -492,10 +494,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
                                       "rotation": [s * rot_el, s * rot_nd]})
         name = f"mode_{j:02d}_{f:03d}.vtu"
         mesh.write(out / name, file_format="vtu", binary=True)
-        entries.append(f'    <DataSet timestep="{t!r}" group="" part="0" file="{name}"/>\n')
-    (out / f"mode_{j:02d}.pvd").write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
-        '  <Collection>\n' + "".join(entries) + '  </Collection>\n</VTKFile>\n')
+        entries.append((t, 0, name))
+    write_collection(out / f"mode_{j:02d}.pvd", entries)
     return out / f"mode_{j:02d}.pvd"
 
 
