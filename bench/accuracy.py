@@ -38,7 +38,7 @@ from scipy.optimize import minimize_scalar
 from scipy.special import ellipk
 
 import cosnet
-from cosnet.flatten import matrix_from_quat
+from cosnet.rotmath import matrix_from_quat
 from cosnet.lincos import analytic_modes
 from harness import table, write_json
 

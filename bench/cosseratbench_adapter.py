@@ -11,7 +11,8 @@ gets mass-proportional Damping at twice its slowest frequency (the PyElastica ad
 choice). Rods touch each other (and themselves, when the scenario says they can reach
 themselves) through cosnet's Contact: frictionless capsules of the rod radius, with a penalty
 as stiff as the step allows without shortening it -- a contact vibration of the lightest
-vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critical damping. The time step is cosnet's estimated stable step for position Verlet, shortened so
+vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critical damping.
+The time step is cosnet's estimated stable step for position Verlet, shortened so
 a whole number of steps fits between frames.
 
 Outside this adapter (the run is then reported as unsupported): driven clamps

@@ -35,7 +35,10 @@ SETTINGS = ("resolve", "rotary", "soften", "auto")
 CLAMPED_FREE = (1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349, 14.1371683910)
 
 
-def cable_points(L=10.0, span=9.0, tilt=math.radians(40.0), samples=4001):
+TILT = math.radians(40.0)
+
+
+def cable_points(L=10.0, span=9.0, tilt=TILT, samples=4001):
     """A sine-shaped sag of arc length L over the span, in the plane turned by tilt."""
     x = np.linspace(0.0, span, samples)
     lo, hi = 0.0, span

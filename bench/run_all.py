@@ -3,7 +3,8 @@
 Scripts that are absent are reported as missing. By default the quick settings are used
 (the whole set stays under 15 minutes on a 2-core machine) and each script's JSON and any
 figure it writes in bench/ go to --out DIR (default: a temporary folder, printed), leaving the
-full-size figures in bench/ alone; --full runs each script at its own default size, writes bench/NAME.json and remakes the tables
+full-size figures in bench/ alone; --full runs each script at its own default size, writes
+bench/NAME.json and remakes the tables
 of docs/ from it (bench/tables.py). Each
 script's output goes to stdout as it runs (and to LOGDIR/NAME.txt with --logs LOGDIR).
 
@@ -133,7 +134,8 @@ def main(argv=None):
         subprocess.run([sys.executable, str(HERE / "tables.py")], check=False)
         print("docs/performance.md and docs/accuracy.md: tables remade from the new JSON")
     others = sorted(p.stem for p in HERE.glob("*.py")
-                    if p.stem not in known | {"harness", "run_all", "tables"} and "__main__" in p.read_text(errors="replace"))
+                    if p.stem not in known | {"harness", "run_all", "tables"}
+                    and "__main__" in p.read_text(errors="replace"))
     print("\n===== summary =====")
     width = max(len(r["script"]) for r in results) if results else 10
     for r in results:

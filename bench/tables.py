@@ -71,7 +71,8 @@ SPACE_CASES = {   # case in accuracy.json -> what it is, against what
     "elastica": ("large-deflection cantilever, P L²/EI = 3, tip displacement",
                  "elastica with stretch and shear (`scipy.integrate.solve_bvp`; gives Bisshopp–Drucker's "
                  "0.30172 L at P L²/EI = 1 when inextensible)"),
-    "pendulum": ("rigid body (1 kg, I = 0.01 kg m²) on a light stiff line (5 % of its mass), released from 1 rad: period",
+    "pendulum": ("rigid body (1 kg, I = 0.01 kg m²) on a light stiff line (5 % of its mass), "
+                 "released from 1 rad: period",
                  "compound pendulum 4 √(I_p/mgl) K(sin²(θ₀/2))"),
 }
 TIME_CASES = {
@@ -138,7 +139,8 @@ def cosseratbench() -> str:
                 cells.append(" / ".join(_g(r["metrics"][k]) for k in names if k in r["metrics"]))
                 walls.append(_g(r["wall_time"]))
         n = next(r["n_elements"] for r in d["results"] if r["experiment"] == exp)
-        rows.append([EXPERIMENTS.get(exp, exp), str(n), " / ".join(n.replace("_", " ") for n in names), *cells, " / ".join(walls)])
+        metric = " / ".join(k.replace("_", " ") for k in names)
+        rows.append([EXPERIMENTS.get(exp, exp), str(n), metric, *cells, " / ".join(walls)])
     return _table(["experiment", "elements", "metric", "cosnet", "PyElastica", "wall s cosnet / PyElastica"], rows)
 
 

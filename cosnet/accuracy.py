@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .kernels.stepping import steps_to
 from .record import parse_probe
 from .scene import Probe, Scene, build_scene, load_scene, read_toml
 
@@ -181,7 +182,7 @@ class Study:
 
 
 def _steps_for(window: float, dt: float) -> int:
-    return max(1, int(math.ceil(window / dt - 1e-9)))
+    return max(1, steps_to(window, dt))
 
 
 def time_series(scene: Scene, stepper: str, window: float, probes=None, log=None,
@@ -207,7 +208,7 @@ def study(path, window: float | None = None, probes=None, factors=FACTORS, log=N
         window = 0.05 * base.run.until
     window = float(window)
     if not (math.isfinite(window) and window > 0):
-        raise ValueError(f"--window must be a positive number of seconds, got {window}")
+        raise ValueError(f"window must be a positive number of seconds, got {window}")
     if len(factors) != 3 or list(factors) != [factors[0], 2 * factors[0], 4 * factors[0]]:
         raise ValueError(f"element factors must be f, 2f, 4f, got {factors}")
     say = log or (lambda msg: None)
@@ -317,7 +318,7 @@ def check_tol(tol) -> float:
     try:
         t = float(tol)
     except (TypeError, ValueError):
-        raise ValueError(f"--tol must be a positive number (an error in m), got {tol!r}") from None
+        raise ValueError(f"tol must be a positive number (an error in m), got {tol!r}") from None
     if not (math.isfinite(t) and t > 0):
-        raise ValueError(f"--tol must be a positive number (an error in m), got {tol!r}")
+        raise ValueError(f"tol must be a positive number (an error in m), got {tol!r}")
     return t

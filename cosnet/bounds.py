@@ -7,16 +7,23 @@ tables are built valid, but they are writable arrays a user can reach (``sim.mod
 ``sim.effect_params``), so ``table_error`` checks them, and every array's shape, before a run
 hands them to the kernels: a few vectorised passes over the integer tables, nothing per step.
 Indices computed from coordinates (the contact grid, an obstacle's mesh grid) are clamped or
-range-checked in their kernel instead.
+range-checked in their kernel instead. ``table_seal`` is a key of everything
+``table_error`` reads, far cheaper than the check: a run checks again only when it changed.
 """
 
 import numpy as np
+
+from .kernels.checksum import weigh_words
 
 from .kernels.contact import ContactParams
 from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .kernels.obstacles import ObstacleParams
 
+# the arrays whose entries table_error reads (of all others it reads only the shape)
+INDEX_TABLES = {"line_vertex_offsets", "line_element_offsets", "node_attach_offsets", "attach_vertex",
+                "attach_element", "attach_node", "node_attach_list", "attach_a", "attach_b", "nodes",
+                "lines", "elements", "elem_index"}
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
 # 0 lines + 1, 1 vertices, 2 elements, 3 line ends, 4 nodes, 5 nodes + 1, 6 one row
@@ -167,3 +174,19 @@ def params_error(params, model):
 def table_error(model, state, loads, params):
     """Return the first problem of model_error and params_error, or None."""
     return model_error(model, state, loads) or params_error(params, model)
+
+
+def table_seal(model, state, loads, params) -> tuple:
+    """Return a key that changes whenever what table_error reads may have changed: the shape
+    of every array of the records and a weighted sum of the index tables' entries, which
+    any change of one entry changes (kernels.checksum.weigh_words)."""
+    shapes, h = [], np.uint64(0)
+    for record in (model, state, loads, *params):
+        for name, a in zip(record._fields, record):
+            if not isinstance(a, np.ndarray):
+                continue
+            shapes.append(a.shape)
+            if name in INDEX_TABLES:
+                words = a if a.dtype.itemsize == 8 else a.astype(np.int64)
+                h = np.uint64(weigh_words(np.ravel(words, order="K").view(np.uint64), h))
+    return int(h), tuple(shapes)

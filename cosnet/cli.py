@@ -150,12 +150,16 @@ def cmd_info(args) -> int:
 
 
 def cmd_modes(args) -> int:
-    from .modes import main_modes
+    from .modes import comparison_table, main_modes, spectrum_table, write_modes
     from .scene import load_scene
     scene = load_scene(scene_path(args.scene))
-    out = None if args.no_output else Path(args.out)
-    main_modes(scene, count=args.count, out_dir=out, frames=args.frames, sigma=args.sigma,
-               analytic=args.analytic)
+    res = main_modes(scene, count=args.count, sigma=args.sigma, analytic=args.analytic)
+    print(spectrum_table(res))
+    if res.analytic is not None:
+        print(comparison_table(res))
+    if not args.no_output:
+        out = write_modes(res, Path(args.out), frames=args.frames)
+        print(f"wrote {len(res)} mode series to {out}")
     return 0
 
 
@@ -180,7 +184,10 @@ def package_version() -> str:
 def cmd_accuracy(args) -> int:
     """Exit code 0 with a recommendation, 1 when no setting reaches --tol."""
     from .accuracy import check_tol, report, study
-    tol = check_tol(args.tol)
+    try:
+        tol = check_tol(args.tol)
+    except ValueError as e:   # the library names its parameter, the command its flag
+        raise ValueError(f"--{e}") from None
     if args.window is not None and not (math.isfinite(args.window) and args.window > 0):
         raise ValueError(f"--window must be a positive number of seconds, got {args.window}")
     path = scene_path(args.scene)

@@ -105,7 +105,7 @@ class Contact(Effect):
             index[e0:e0 + n, 0] = vo[l] + np.arange(n)
             index[e0:e0 + n, 1] = l
         chosen = sorted({line.index for line in self._lines(on)})
-        elements = np.concatenate([np.arange(eo[l], eo[l + 1]) for l in chosen] or [[]]).astype(np.int64)
+        elements = np.concatenate([np.arange(eo[l], eo[l + 1]) for l in chosen] or [np.zeros(0)]).astype(np.int64)
         count = elements.shape[0]
         size = 16
         while size < 2 * count:

@@ -31,13 +31,8 @@ import math
 import numpy as np
 
 from .flatten import _element_frames, build_line_grid
-from .rotmath import rotvec_from_matrix
+from .rotmath import inertia_shift, rotvec_from_matrix
 from .net import Line, Net, Node, node_groups
-
-
-def _shift(x: np.ndarray) -> np.ndarray:
-    """M(x) = |x|^2 1 - x x^T: inertia of a unit point mass at x about the origin."""
-    return float(x @ x) * np.eye(3) - np.outer(x, x)
 
 
 def _check_rigidifiable(line: Line):
@@ -100,9 +95,9 @@ def _rigid_body(nodes: list[Node], lines: list[Line], frame: np.ndarray, name: s
         own = np.where(np.isinf(n.inertia), 0.0, n.inertia)
         I += n.frame @ own @ n.frame.T
         if not n.fixed_position:
-            I += n.mass * _shift(n.position - c)
+            I += n.mass * inertia_shift(n.position - c)
     for m, x, Ie in elems:
-        I += Ie + m * _shift(x - c)
+        I += Ie + m * inertia_shift(x - c)
     # rotations still allowed: orthogonal to every locked axis and, with two fixed points,
     # along the line through them
     rows = [n.frame[:, k][None, :] for n in nodes for k in np.flatnonzero(n.locked_axes)]
@@ -153,7 +148,7 @@ def contract(net: Net, line: Line | str | None = None, *, stiffer_than: float | 
         chosen = [line]
     else:
         try:
-            thr = float(stiffer_than)
+            thr = float(stiffer_than)  # type: ignore[arg-type]  # not None: one of line, stiffer_than
         except (TypeError, ValueError):
             raise ValueError(f"contract: stiffer_than must be a Young's modulus in Pa, got {stiffer_than!r}") from None
         if not (thr > 0 and math.isfinite(thr)):
@@ -180,7 +175,7 @@ def contract(net: Net, line: Line | str | None = None, *, stiffer_than: float | 
     for n in net.nodes:
         r = root(n.index)
         if r not in merged:
-            kw = dict(frame=n.frame, name=n.name)
+            kw: dict = dict(frame=n.frame, name=n.name)
             if n.fixed_position and n.locked_axes.all():
                 kw["fixed"] = True
             else:

@@ -63,7 +63,7 @@ class Gravity(Effect):
         return GravityParams(self.g.copy())
 
     def potential(self, p, on: Binding) -> float:
-        from .flatten import matrix_from_quat
+        from .rotmath import matrix_from_quat
         m, s = on.model, on.state
         # einsum, not BLAS: a threaded BLAS call here leaves its threads spinning on the
         # cores the step's thread pool is about to use

@@ -189,7 +189,7 @@ def check_strain(sim):
 
 def summary(sim) -> str:
     """One line: the setting in force, per-treatment line counts and the factors' range."""
-    counts = {}
+    counts: dict[str, int] = {}
     for f in sim.line_factors:
         counts[f.treatment] = counts.get(f.treatment, 0) + 1
     parts = [f"{n} {t}" for t, n in counts.items()]

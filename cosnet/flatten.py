@@ -3,7 +3,8 @@
 Builds, per line, the staggered grid (vertices, elements, Voronoi points) in the principal
 axes of its cross-section, and per node the composite rigid body: the node's own mass and
 inertia plus the lumped masses of its line ends (at their offsets xi) and a quarter of the
-rotary inertia of each end element (the dual cell [0, l/4] of the node's rotation), all about the composite centre of mass, in principal axes.
+rotary inertia of each end element (the dual cell [0, l/4] of the node's rotation), all about
+the composite centre of mass, in principal axes.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from .fast_modes import Factors, apply_factors, line_factors
 from .kernels.layout import Model, State, column_major
 from .net import Line, Net, frame_from_tangent
-from .rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix
+from .rotmath import inertia_shift, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix
 
 
 NODE_ROTARY_SHARE = 0.25
@@ -157,13 +158,10 @@ def _composite_body(node, ends):
         com = sum((m * xi for xi, m, _ in ends), np.zeros(3)) / mass
     I = np.where(np.isinf(node.inertia), 0.0, node.inertia)
 
-    def shift(x):
-        return np.dot(x, x) * np.eye(3) - np.outer(x, x)
-
     if not math.isinf(node.mass):
-        I = I + node.mass * shift(-com)
+        I = I + node.mass * inertia_shift(-com)
     for xi, m, j in ends:
-        I = I + m * shift(xi - com) + j
+        I = I + m * inertia_shift(xi - com) + j
     # a locked axis is infinitely stiff: its couplings to the free axes vanish in the limit
     I[locked, :] = 0.0
     I[:, locked] = 0.0
@@ -237,7 +235,7 @@ def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0) -> tuple[M
     attach_node = np.zeros(na, dtype=np.int64)
     attach_vertex = np.zeros(na, dtype=np.int64)
     attach_element = np.zeros(na, dtype=np.int64)
-    ends_of = {n.index: [] for n in net.nodes}
+    ends_of: dict[int, list] = {n.index: [] for n in net.nodes}
     for l, (line, g) in enumerate(zip(net.lines, grids)):
         for side, node, xi in ((0, line.start, line.start_offset), (1, line.end, line.end_offset)):
             a = 2 * l + side
@@ -256,11 +254,11 @@ def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0) -> tuple[M
     node_J = np.zeros((nn, 3))
     node_locked = np.zeros((nn, 3))
     node_com = np.zeros((nn, 3))
-    node_P = np.zeros((nn, 3, 3))          # rotation matrices, turned to quaternions at once below
+    node_P: np.ndarray = np.zeros((nn, 3, 3))          # rotation matrices, turned to quaternions at once below
     node_x = np.zeros((nn, 3))
-    node_q = np.zeros((nn, 3, 3))
+    node_q: np.ndarray = np.zeros((nn, 3, 3))
     attach_offset = np.zeros((na, 3))
-    attach_frame = np.zeros((na, 3, 3))
+    attach_frame: np.ndarray = np.zeros((na, 3, 3))
     for node in net.nodes:
         i = node.index
         ends = ends_of[i]

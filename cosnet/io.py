@@ -131,13 +131,19 @@ class SeriesWriter:
 
     def _write_pvd(self):
         """Rewrite the ParaView collection listing every frame written so far (atomically)."""
-        root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
-        coll = ET.SubElement(root, "Collection")
-        for k, t in enumerate(self.times):
-            for p, name in enumerate(_frame_files(k)):
-                ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(p), file=name)
-        ET.indent(root)
-        _atomic_write(self.dir / PVD, ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
+        write_collection(self.dir / PVD, [(t, p, name) for k, t in enumerate(self.times)
+                                          for p, name in enumerate(_frame_files(k))])
+
+
+def write_collection(path: Path, datasets) -> None:
+    """Write a ParaView collection (.pvd) listing ``datasets``, (time, part, file name)
+    each, atomically."""
+    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+    coll = ET.SubElement(root, "Collection")
+    for t, part, name in datasets:
+        ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(part), file=name)
+    ET.indent(root)
+    _atomic_write(path, ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
 
 
 def node_point_fields(sim, node) -> dict:
@@ -152,7 +158,7 @@ def node_point_fields(sim, node) -> dict:
 
 def _node_body_w(sim, node) -> np.ndarray:
     """Angular velocity of the node in its own body frame D(nu)."""
-    from .flatten import matrix_from_quat
+    from .rotmath import matrix_from_quat
     p = matrix_from_quat(sim.model.node_principal[node.index])  # user body -> principal
     return p @ sim.node_angular_velocity(node)
 
@@ -169,7 +175,7 @@ def read_pvd(path) -> list[tuple[float, int]]:
         m = re.search(r"_(\d+)\.vtu$", ds.get("file", ""))
         if m:
             try:
-                out[int(m.group(1))] = float(ds.get("timestep"))
+                out[int(m.group(1))] = float(ds.get("timestep", ""))
             except (TypeError, ValueError):
                 raise ValueError(f"{path}: frame {m.group(1)} has no valid timestep") from None
     return [(out[k], k) for k in sorted(out)]

@@ -67,7 +67,7 @@ class SphericalJoint(Effect):
     eps on end a, -f on end b, eps = x_b - x_a (lab); the lines turn freely about the joint."""
 
     kind = "spherical_joint"
-    keys = JOINT_KEYS
+    keys: tuple[Key, ...] = JOINT_KEYS
     record = SphericalJointParams
     energy_kernel = staticmethod(_joint_kernels.spherical_energy)
 

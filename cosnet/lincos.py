@@ -37,16 +37,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .net import Line, Net, frame_from_tangent, node_groups
+from .rotmath import skew
 
 _SAFETY = 0.4          # omega <= _SAFETY x (lower estimate of a segment's first clamped frequency)
 _GAUSS = np.polynomial.legendre.leggauss(4)
+CLAMPED_BETA_L2 = 22.37  # (beta L)^2 = 4.730^2 of a clamped-clamped beam's first mode
 
 
-def _skew(x) -> np.ndarray:
-    return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
-
-
-_E3X = _skew((0.0, 0.0, 1.0))
+_E3X = skew((0.0, 0.0, 1.0))
 
 
 def line_frame(line: Line) -> np.ndarray:
@@ -88,6 +86,7 @@ class _LineData:
                                  f"stress-free state (§6)")
         mat = line.material
         E, G, rho = mat.E, mat.G, mat.density
+        assert G is not None   # Material fills it in from E and nu
         self.mu = rho * sec.A
         self.K = np.array([sec.shear_coefficient * G * sec.A] * 2 + [E * sec.A])
         self.B = np.array([[E * sec.I11, E * sec.I12, 0.0], [E * sec.I12, E * sec.I22, 0.0],
@@ -105,7 +104,7 @@ class _LineData:
 
     def clamped_bound(self, h: float) -> float:
         """A lower estimate of the first clamped-clamped frequency of a segment of length h."""
-        bend = 1.0 / math.sqrt((h * h / (22.37 * self.a_b)) ** 2 + (h / (math.pi * self.c_sh)) ** 2
+        bend = 1.0 / math.sqrt((h * h / (CLAMPED_BETA_L2 * self.a_b)) ** 2 + (h / (math.pi * self.c_sh)) ** 2
                                + (h / (math.pi * self.c_ax)) ** 2)
         return min(math.pi * self.c_ax / h, math.pi * self.c_tor / h, bend)
 
@@ -187,7 +186,7 @@ class _Assembly:
         zeta = D @ xi
         full = np.zeros((6, 6))
         full[0:3, 0:3] = Ct
-        full[0:3, 3:6] = -Ct @ _skew(zeta) @ D
+        full[0:3, 3:6] = -Ct @ skew(zeta) @ D
         full[3:6, 3:6] = Ct @ D
         cols = ([0, 1, 2] if nt else []) + [3 + k for k in free]
         return idx, full[:, cols]
@@ -237,7 +236,7 @@ def rigid_mode_count(net: Net) -> int:
         rows = []
         for n in members:
             if n.fixed_position:     # v + w x (x - c) = 0
-                rows.append(np.hstack([np.eye(3), -_skew(n.position - c)]))
+                rows.append(np.hstack([np.eye(3), -skew(n.position - c)]))
             for k in np.flatnonzero(n.locked_axes):
                 rows.append(np.hstack([np.zeros((1, 3)), n.frame[:, k][None, :]]))
         rank = np.linalg.matrix_rank(np.vstack(rows), tol=1e-9) if rows else 0
@@ -318,7 +317,8 @@ def _gram(asm: _Assembly, omega: float, X: np.ndarray) -> np.ndarray:
         W[0:3, 0:3] = d.mu * np.eye(3)
         W[3:6, 3:6] = d.Jr
         # Y[c, j, q]: state of column c in segment j at Gauss point q
-        Y = np.array([[props @ y for y in Mode(omega, None, None, asm, X[:, c])._segment_states(li)[0]]
+        none = np.zeros((0, 3))
+        Y = np.array([[props @ y for y in Mode(omega, none, none, asm, X[:, c])._segment_states(li)[0]]
                       for c in range(X.shape[1])])
         G += 0.5 * h * np.einsum("q,cjqa,ab,djqb->cd", _GAUSS[1], Y, W, Y)
     return G

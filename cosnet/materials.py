@@ -64,7 +64,8 @@ def rotary_inertia_triple(owner: str, value) -> tuple[float, float, float]:
         raise ValueError(f"{owner}: rotary_inertia must be three numbers (kg m), got {value!r}") from None
     if len(vals) != 3:
         raise ValueError(f"{owner}: rotary_inertia must be three numbers (kg m), got {len(vals)}")
-    return tuple(_check_positive(owner, "rotary_inertia", v) for v in vals)
+    a, b, c = (_check_positive(owner, "rotary_inertia", v) for v in vals)
+    return a, b, c
 
 
 def rotary_inertia_scale_value(owner: str, value) -> float | str:

@@ -18,58 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .kernels.layout import Model, State
-
-
-# --------------------------------------------------- quaternions and vectors as column tuples
-# A quaternion stack is a tuple of four 1-D arrays (w, x, y, z), a vector stack a tuple of
-# three: the per-element arrays of the model and state are column-major, so each component
-# runs contiguously and every operation below is a plain vectorised loop.
-def cols(a) -> tuple:
-    """The columns of a (n, k) array, as a tuple of k 1-D arrays."""
-    return tuple(a[:, k] for k in range(a.shape[1]))
-
-
-def qmul(a, b):
-    """Hamilton products a b."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
-
-
-def cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def qrot(q, v, inverse=False):
-    """R(q) v (body -> lab), or R(q)^T v with inverse=True."""
-    w, u = (-q[0] if inverse else q[0]), q[1:]
-    t = tuple(2.0 * c for c in cross(u, v))
-    ut = cross(u, t)
-    return tuple(v[k] + w * t[k] + ut[k] for k in range(3))
-
-
-def qlog(q):
-    """Rotation vectors, |theta| <= pi, of unit quaternions q."""
-    sign = np.where(q[0] < 0.0, -1.0, 1.0)
-    w, x, y, z = (sign * c for c in q)
-    s = np.sqrt(x * x + y * y + z * z)
-    turned = s > 0.0
-    f = np.where(turned, 2.0 * np.arctan2(s, w) / np.where(turned, s, 1.0), 2.0 / w)
-    return f * x, f * y, f * z
-
-
-def qexp(theta):
-    """Unit quaternions exp(theta) of rotation vectors theta."""
-    tx, ty, tz = theta
-    a = np.sqrt(tx * tx + ty * ty + tz * tz)
-    turned = a > 0.0
-    s = np.where(turned, np.sin(0.5 * a) / np.where(turned, a, 1.0), 0.5)
-    return np.cos(0.5 * a), s * tx, s * ty, s * tz
-
-
-def conj(q):
-    return q[0], -q[1], -q[2], -q[3]
+from .rotmath import cols, conj, qexp, qlog, qmul, qrot
 
 
 # ----------------------------------------------------------------- strains of a block of lines

@@ -28,29 +28,24 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .flatten import flatten
-from .rotmath import matrix_from_quat, rotvec_from_matrix
-from .kernels.layout import State
+from .rotmath import matrix_from_quat, rotvec_from_matrix, skew
+from .kernels.layout import Model, State
 from .kernels.motion import place_line_ends
 from .net import Line, Net, Node
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 STRESS_FREE_TOL = 1e-8   # largest strain |eps| and rotation misfit |theta - L u0| (rad) accepted
 DENSE_LIMIT = 64         # below this many degrees of freedom the dense solver is used
 REST_HINT = ("modes linearise about the stress-free state, so build the net in its rest shape "
              "(points consistent with rest_curvature, end frames consistent with the curvature "
              "at the line ends); a pre-stressed net has no such state")
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """(N, 3) -> (N, 3, 3) cross-product matrices."""
-    s = np.zeros(v.shape[:-1] + (3, 3))
-    s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
-    s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
-    s[..., 2, 0], s[..., 2, 1] = -v[..., 1], v[..., 0]
-    return s
 
 
 def inverse_jacobians(theta: np.ndarray):
@@ -62,7 +57,7 @@ def inverse_jacobians(theta: np.ndarray):
     ts = np.where(small, 1.0, t)
     c = np.where(small, 1.0 / 12.0 + t2 / 720.0,
                  1.0 / ts**2 - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts)))
-    h = _skew(theta)
+    h = skew(theta)
     quad = np.eye(3) + c[:, None, None] * (h @ h)
     return quad - 0.5 * h, quad + 0.5 * h
 
@@ -99,7 +94,7 @@ class Linearisation:
     reduced: np.ndarray
     jacobian: sp.csr_matrix   # (3 ne + 3 nv, N): strain rows d eps_e (3 each), then d theta_k
     weights: np.ndarray       # (3 ne + 3 nv,): l_e K_e, then B_k / L_k
-    model: object
+    model: Model
     x0: np.ndarray
     q0: np.ndarray
     node_x0: np.ndarray
@@ -196,7 +191,7 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisa
     # stretch and shear rows (block e): D^T (dx_{e+1} - dx_e)/l + e3 x alpha
     Dt = np.transpose(D, (0, 2, 1)) * model.element_inv_rest_length[:, None, None]
     trip = [_blocks(e, XA + e + eline + 1, Dt), _blocks(e, XA + e + eline, -Dt),
-            _blocks(e, AA + e, np.broadcast_to(_skew(np.array([0.0, 0.0, 1.0])), (ne, 3, 3)))]
+            _blocks(e, AA + e, np.broadcast_to(skew(np.array([0.0, 0.0, 1.0])), (ne, 3, 3)))]
     # bend and twist rows (block ne + k): J_r^-1 beta_b - J_l^-1 alpha_a
     line_v, start, end, e_left, e_right = geo.sides
     jl_inv, jr_inv = inverse_jacobians(geo.theta)
@@ -224,7 +219,7 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisa
     na = model.attach_node.shape[0]
     ends = [_blocks(model.attach_vertex, CA + model.attach_node, np.broadcast_to(eye, (na, 3, 3))),
             _blocks(model.attach_vertex, PA + model.attach_node,
-                    -R[model.attach_node] @ _skew(model.attach_offset))]
+                    -R[model.attach_node] @ skew(model.attach_offset))]
     er, ec, ev = (np.concatenate(p) for p in zip(*ends))
     keep = to_red[ec] >= 0
     t_rows = np.concatenate([reduced, er[keep]])
@@ -289,7 +284,10 @@ def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
 class DiscreteModes:
     """Normal modes of a discretised net: ``omega`` (k,) rad/s ascending, ``frequency`` Hz,
     ``rigid_modes`` (zero-frequency rigid motions, not listed), ``vectors`` (N, k) mass-normalised
-    reduced mode vectors (u^T M u = 1), ``lin`` the Linearisation, ``net``."""
+    reduced mode vectors (u^T M u = 1), ``lin`` the Linearisation, ``net``; ``analytic``: the
+    exact modes main_modes set beside them, or None."""
+
+    analytic = None   # cosnet.lincos.Modes when main_modes computed them
 
     def __init__(self, net: Net, lin: Linearisation, omega, vectors, rigid_modes: int):
         self.net, self.lin = net, lin
@@ -461,6 +459,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
     collection ``mode_JJ.pvd``; point data "radius" (the section's, 0 on nodes) lets pictures
     draw the lines at their size. amplitude: peak translation (default 5 % of the net's size)."""
     import meshio
+
+    from .io import write_collection
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     lin = res.lin
@@ -478,8 +478,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
     rot_nd = np.einsum("nij,nj->ni", R, phi) * scale
     segs, eline, local, vline = _mode_mesh_parts(res)
     nv, nn = lin.x0.shape[0], refs.shape[0]
-    radius = np.concatenate([[l.section_at(u).radius for u in np.linspace(0, 1, l.elements + 1)]
-                             for l in res.net.lines] + [np.zeros(nn)])
+    radius = np.concatenate([np.array([l.section_at(u).radius for u in np.linspace(0, 1, l.elements + 1)],
+                                      dtype=float) for l in res.net.lines] + [np.zeros(nn)])
     verts = (nv + np.arange(nn))[:, None].astype(np.int64)
     period = 2 * math.pi / float(res.omega[j]) if res.omega[j] > 0 else 1.0
     entries = []
@@ -494,10 +494,8 @@ def write_mode_series(res: DiscreteModes, j: int, out_dir, frames: int = 16, amp
                                       "rotation": [s * rot_el, s * rot_nd]})
         name = f"mode_{j:02d}_{f:03d}.vtu"
         mesh.write(out / name, file_format="vtu", binary=True)
-        entries.append(f'    <DataSet timestep="{t!r}" group="" part="0" file="{name}"/>\n')
-    (out / f"mode_{j:02d}.pvd").write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
-        '  <Collection>\n' + "".join(entries) + '  </Collection>\n</VTKFile>\n')
+        entries.append((t, 0, name))
+    write_collection(out / f"mode_{j:02d}.pvd", entries)
     return out / f"mode_{j:02d}.pvd"
 
 
@@ -512,15 +510,12 @@ def spectrum_table(res: DiscreteModes) -> str:
     return "\n".join(lines)
 
 
-def main_modes(scene_or_net, count: int = 6, out_dir=None, frames: int = 16, sigma: float = 0.0,
-               amplitude: float | None = None, analytic: bool = False) -> DiscreteModes:
-    """Compute ``count`` modes of a scene (path to a TOML file, or a Scene) or a Net, print the
-    spectrum, and (if out_dir) write ``spectrum.csv`` and each mode as a VTK series
-    (``mode_JJ.pvd``, ``frames`` frames over one period). ``analytic``: also the exact modes
-    of the continuous net (§6, straight uniform lines), printed beside the discrete ones and
-    written as the columns analytic_omega_rad_s, analytic_frequency_hz, relative_difference
-    (mode j of each, in ascending order); they are kept as ``result.analytic``. Returns the
-    DiscreteModes."""
+def main_modes(scene_or_net, count: int = 6, sigma: float = 0.0, analytic: bool = False) -> DiscreteModes:
+    """The ``count`` modes of a scene (path to a TOML file, or a Scene) or a Net nearest to
+    ``sigma``, as ``cosnet modes`` lists them. ``analytic``: also the exact modes of the
+    continuous net (§6, straight uniform lines), kept as ``result.analytic`` (mode j of each,
+    in ascending order). ``spectrum_table``, ``comparison_table`` and ``write_modes`` show
+    and write the result."""
     net = scene_or_net
     if isinstance(net, (str, Path)):
         from .scene import load_scene
@@ -531,30 +526,47 @@ def main_modes(scene_or_net, count: int = 6, out_dir=None, frames: int = 16, sig
     if analytic:
         from .lincos import analytic_modes
         res.analytic = analytic_modes(net, count=len(res))
-    print(spectrum_table(res))
-    if res.analytic is not None:
-        print("mode  discrete (rad/s)  analytic (rad/s)  relative difference")
-        for j, (w, we) in enumerate(zip(res.omega, res.analytic.omega)):
-            print(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
-    if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        head = "mode,omega_rad_s,frequency_hz,stretch,shear,bend,twist"
-        rows = [head + (",analytic_omega_rad_s,analytic_frequency_hz,relative_difference"
-                        if res.analytic is not None else "")]
-        for j in range(len(res)):
-            sh = res.energy_shares(j)
-            row = f"{j},{float(res.omega[j])!r},{float(res.frequency[j])!r}," + \
-                ",".join(f"{sh[k]:.6g}" for k in ("stretch", "shear", "bend", "twist"))
-            if res.analytic is not None:
-                we = float(res.analytic.omega[j])
-                row += f",{we!r},{we / (2 * math.pi)!r},{(float(res.omega[j]) - we) / we:.6e}"
-            rows.append(row)
-        (out / "spectrum.csv").write_text("\n".join(rows) + "\n")
-        for j in range(len(res)):
-            write_mode_series(res, j, out, frames=frames, amplitude=amplitude)
-        print(f"wrote {len(res)} mode series to {out}")
     return res
+
+
+def comparison_table(res: DiscreteModes) -> str:
+    """The discrete and analytic frequencies side by side, one mode a line ("" without
+    analytic modes)."""
+    if res.analytic is None:
+        return ""
+    rows = ["mode  discrete (rad/s)  analytic (rad/s)  relative difference"]
+    for j, (w, we) in enumerate(zip(res.omega, res.analytic.omega)):
+        rows.append(f"{j:4d}  {w:16.8g}  {we:16.8g}  {(w - we) / we:+.2e}")
+    return "\n".join(rows)
+
+
+def spectrum_csv(res: DiscreteModes) -> str:
+    """``spectrum.csv``: mode, omega_rad_s, frequency_hz, the energy shares stretch, shear,
+    bend, twist, and with analytic modes analytic_omega_rad_s, analytic_frequency_hz,
+    relative_difference."""
+    head = "mode,omega_rad_s,frequency_hz,stretch,shear,bend,twist"
+    rows = [head + (",analytic_omega_rad_s,analytic_frequency_hz,relative_difference"
+                    if res.analytic is not None else "")]
+    for j in range(len(res)):
+        sh = res.energy_shares(j)
+        row = f"{j},{float(res.omega[j])!r},{float(res.frequency[j])!r}," + \
+            ",".join(f"{sh[k]:.6g}" for k in ("stretch", "shear", "bend", "twist"))
+        if res.analytic is not None:
+            we = float(res.analytic.omega[j])
+            row += f",{we!r},{we / (2 * math.pi)!r},{(float(res.omega[j]) - we) / we:.6e}"
+        rows.append(row)
+    return "\n".join(rows) + "\n"
+
+
+def write_modes(res: DiscreteModes, out_dir, frames: int = 16, amplitude: float | None = None) -> Path:
+    """Write ``spectrum.csv`` and each mode as a VTK series (``mode_JJ.pvd``, ``frames``
+    frames over one period, see write_mode_series) into out_dir; return out_dir."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "spectrum.csv").write_text(spectrum_csv(res))
+    for j in range(len(res)):
+        write_mode_series(res, j, out, frames=frames, amplitude=amplitude)
+    return out
 
 
 def bending_omegas(sim, count: int) -> np.ndarray:
@@ -563,7 +575,7 @@ def bending_omegas(sim, count: int) -> np.ndarray:
     and twist left out), one of each equal pair of a round section."""
     res = modes(sim, count=4 * count + 6)
     m, J = sim.model.vertex_mass, sim.model.element_inertia
-    out = []
+    out: list = []
     for j, w in enumerate(res.omega):
         dx, alpha, _, _ = res.lin.split(res.lin.T @ res.vectors[:, j])
         side = float(np.sum(m[:, None] * dx[:, 1:] ** 2))

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -270,7 +270,7 @@ class Net:
         p0 = start.position + start.frame @ xs
         p1 = end.position + end.frame @ xe
         if points is None:
-            if np.linalg.norm(p1 - p0) <= 1e-12 * max(1.0, np.linalg.norm(p0)):
+            if np.linalg.norm(p1 - p0) <= 1e-12 * max(1.0, float(np.linalg.norm(p0))):
                 raise ValueError(f"{who}: length must be positive; its ends coincide at {p0.tolist()}")
             s = np.linspace(0.0, 1.0, elements + 1)[:, None]
             pts = p0 + s * (p1 - p0)
@@ -359,7 +359,7 @@ class Net:
             m += sum(l.material.density * l.section_at(float(s)).A * d for s, d in zip(mids, seg))
         return float(m)
 
-    def contract(self, line=None, *, stiffer_than=None, name=None) -> "Net":
+    def contract(self, line=None, *, stiffer_than=None, name=None) -> Net:
         """A new net with ``line`` (or every line with E >= ``stiffer_than``) and its end nodes
         replaced by one extended rigid node (§7); see cosnet.contract."""
         from .contract import contract

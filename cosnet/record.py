@@ -10,7 +10,7 @@ land on t_k to the round-off of the clock's sum; only a last interval shorter th
 frame would change the step length periodically, and position Verlet near its stability limit
 is then parametrically unstable: its invariant energy depends on the step, and switching
 between two of them pumps the highest modes, as a chain of rigid links showed within a second.)
-Each interval is stepped in chunks of CHUNK counted from its start, so a run resumed from the
+Each interval is stepped in chunks of CHUNK_STEPS counted from its start, so a run resumed from the
 checkpoint of frame k (``resume=True``) reproduces an uninterrupted one bit for bit.
 
 Probes (``[run] probes``, ``probes=[...]``) are "NODE", "LINE@s" (the vertex nearest the arc
@@ -31,10 +31,10 @@ import numpy as np
 
 from .io import (LINE_FIELDS, NODE_FIELDS, PVD, SeriesWriter, node_point_fields, read_pvd,
                  replace_atomically)
+from .kernels.stepping import CHUNK_STEPS, steps_to
 
 CHECKPOINT = "checkpoint.npz"
 PROBES = "probes.csv"
-CHUNK = 2000  # steps per compiled call, counted from the start of each output interval
 PROBE_LINE_FIELDS = ("position",) + LINE_FIELDS
 PROBE_NODE_FIELDS = ("position",) + NODE_FIELDS
 
@@ -77,7 +77,7 @@ def parse_probe(text: str, net) -> Probe:
     nodes = {n.name for n in net.nodes}
     if point in nodes:
         probe = Probe(text, node=net.node(point))
-        valid = PROBE_NODE_FIELDS
+        valid: tuple[str, ...] = PROBE_NODE_FIELDS
     else:
         lname, _, frac = point.partition("@")
         try:
@@ -131,17 +131,17 @@ def frame_time(k: int, start: float, interval: float, until: float) -> float:
 def fit_step(sim, interval: float) -> float:
     """Update sim.dt to interval / n, n the fewest whole steps of at most sim.dt in an
     interval (the frames then need no shortened steps); return it."""
-    n = max(1, int(math.ceil(interval / sim.dt - 1e-9)))
+    n = max(1, steps_to(interval, sim.dt))
     sim.dt = interval / n
     return sim.dt
 
 
 def advance_to(sim, t: float, progress=None):
-    """Step ``sim`` to time ``t``: whole steps of dt in chunks of CHUNK, then one shortened
+    """Step ``sim`` to time ``t``: whole steps of dt in chunks of CHUNK_STEPS, then one shortened
     step that lands on t (none if the whole steps already end within 1e-9 dt of it)."""
-    whole = int(math.ceil((t - sim.time) / sim.dt - 1e-9)) - 1
+    whole = steps_to(t - sim.time, sim.dt) - 1
     while whole > 0:
-        n = min(whole, CHUNK)
+        n = min(whole, CHUNK_STEPS)
         sim.run(steps=n)
         whole -= n
         if progress is not None:
@@ -237,7 +237,7 @@ class Recorder:
         fit_step(sim, self.interval)   # before the checkpoint, whose model fingerprint holds dt
         if resume:
             sim.load_checkpoint(ckpt)
-        self.frames = int(math.ceil((self.until - self.start) / self.interval - 1e-9))
+        self.frames = steps_to(self.until - self.start, self.interval)
         if resume:
             self.k = self.frame_at(sim.time)
             if self.k is None:
@@ -262,7 +262,7 @@ class Recorder:
 
     def steps_left(self) -> int:
         """Steps still to run (whole steps and the shortened ones)."""
-        whole = max(0, int(math.ceil((self.until - self.sim.time) / self.sim.dt - 1e-9)))
+        whole = max(0, steps_to(self.until - self.sim.time, self.sim.dt))
         return whole + (self.frames - self.k)
 
     def write(self):
@@ -310,7 +310,7 @@ def run_with_output(sim, until, out=None, every=None, probes=(), callback=None, 
         raise ValueError(f"until = {until!r} s must be later than the start, t = {start!r} s")
     every = min(float(every), until - start)
     fit_step(sim, every)
-    frames = int(math.ceil((until - start) / every - 1e-9))
+    frames = steps_to(until - start, every)
     for k in range(frames + 1):
         advance_to(sim, frame_time(k, start, every, until))
         if callback is not None:

@@ -20,13 +20,15 @@ import os
 import sys
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Callable, NamedTuple
+from typing import Any, NamedTuple
+from collections.abc import Callable
 
 from .kernels.compose import FLOW_KERNELS, KERNELS, LOAD_KERNELS
 from .scene_values import Unit
 
 ENTRY_POINTS = "cosnet.effects"
-BUILTIN_MODULES = ("cosnet.effects", "cosnet.contact", "cosnet.obstacles", "cosnet.joints")  # in the order kinds are listed
+# in the order kinds are listed
+BUILTIN_MODULES = ("cosnet.effects", "cosnet.contact", "cosnet.obstacles", "cosnet.joints")
 REFERENCES = ("node", "line", "lines", "path")   # converters naming parts of the net, or a file
 
 
@@ -213,13 +215,13 @@ def _entry_points() -> tuple:
     """The entry points of the group cosnet.effects, read again only when sys.path or one of
     its folders changed (a package installed or removed): reading every installed
     distribution's metadata takes tens of milliseconds, and a scene names many effects."""
-    key = []
+    stamps: list = []
     for p in sys.path:
         try:
-            key.append((p, os.stat(p or ".").st_mtime_ns))
+            stamps.append((p, os.stat(p or ".").st_mtime_ns))
         except OSError:
-            key.append((p, None))
-    key = tuple(key)
+            stamps.append((p, None))
+    key = tuple(stamps)
     if key not in _SCANNED:
         _SCANNED.clear()
         _SCANNED[key] = tuple(metadata.entry_points(group=ENTRY_POINTS))

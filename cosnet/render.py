@@ -19,10 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-if not os.environ.get("DISPLAY"):
-    # go straight to VTK's EGL (headless GPU/software) window instead of failing on X first
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-
 from .io import LINE_FIELDS, _frame_files, read_output, read_pvd
 
 UNITS = {"velocity": "m/s", "force": "N", "torque": "N m", "strain": "", "curvature": "1/m",
@@ -133,6 +129,10 @@ class Picture:
 
     def __init__(self, directory, field="velocity", every=1, clim=None, view="iso", warp=1.0,
                  min_radius=None, window_size=(1024, 768), mode=None):
+        if not os.environ.get("DISPLAY"):
+            # go straight to VTK's EGL (headless GPU/software) window instead of failing on X
+            # first; VTK reads this when it opens its first window, so here is early enough
+            os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
         import pyvista as pv
         pv.OFF_SCREEN = True
         self.pv = pv
@@ -278,7 +278,8 @@ class Picture:
         a = np.array([lo[0], front[1], lo[2]]) if axis == 0 else np.array([front[0], lo[1], lo[2]])
         b = a.copy()
         b[axis] += length
-        self.plotter.add_ruler(a, b, number_labels=2, title=f"{length:g} m", label_format="%.0f" if length >= 1 else "%.2g",
+        self.plotter.add_ruler(a, b, number_labels=2, title=f"{length:g} m",
+                               label_format="%.0f" if length >= 1 else "%.2g",
                                font_size_factor=0.7, tick_color="black", label_color="black",
                                show_labels=False)
 

@@ -1,8 +1,9 @@
 """Rotation matrices, unit quaternions (w, x, y, z) and rotation vectors, vectorised in numpy.
 
 Stacks of any leading shape: matrices (..., 3, 3), quaternions (..., 4), rotation vectors
-(..., 3). Used when nets are built and read back; the kernels have their own scalar algebra
-(kernels/rotations.py). Kept here rather than taken from scipy.spatial.transform, whose import
+(..., 3); and the same algebra on column tuples, the form the diagnostics (cosnet.measure)
+use. Used when nets are built and read back, and between steps; the kernels have their own
+scalar algebra (kernels/rotations.py). Kept here rather than taken from scipy.spatial.transform, whose import
 alone costs about half a second at every start of the command line.
 """
 
@@ -23,14 +24,15 @@ def quat_from_matrix(m: np.ndarray) -> np.ndarray:
     tr = d.sum(axis=-1)
     choice = np.argmax(np.concatenate([d, tr[..., None]], axis=-1), axis=-1)
     # (x, y, z, w) of the four candidates, each scaled by 4 * (its chosen component)
+    a = lambda i, j: m[..., i, j]
     cand = [
-        (1 + 2 * m[..., 0, 0] - tr, m[..., 1, 0] + m[..., 0, 1], m[..., 2, 0] + m[..., 0, 2], m[..., 2, 1] - m[..., 1, 2]),
-        (m[..., 1, 0] + m[..., 0, 1], 1 + 2 * m[..., 1, 1] - tr, m[..., 2, 1] + m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0]),
-        (m[..., 2, 0] + m[..., 0, 2], m[..., 2, 1] + m[..., 1, 2], 1 + 2 * m[..., 2, 2] - tr, m[..., 1, 0] - m[..., 0, 1]),
-        (m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1], 1 + tr),
+        (1 + 2 * a(0, 0) - tr, a(1, 0) + a(0, 1), a(2, 0) + a(0, 2), a(2, 1) - a(1, 2)),
+        (a(1, 0) + a(0, 1), 1 + 2 * a(1, 1) - tr, a(2, 1) + a(1, 2), a(0, 2) - a(2, 0)),
+        (a(2, 0) + a(0, 2), a(2, 1) + a(1, 2), 1 + 2 * a(2, 2) - tr, a(1, 0) - a(0, 1)),
+        (a(2, 1) - a(1, 2), a(0, 2) - a(2, 0), a(1, 0) - a(0, 1), 1 + tr),
     ]
-    cand = np.stack([np.stack([w, x, y, z], axis=-1) for x, y, z, w in cand])   # (4, ..., 4)
-    q = np.take_along_axis(cand, choice[None, ..., None], axis=0)[0]
+    stacked = np.stack([np.stack([w, x, y, z], axis=-1) for x, y, z, w in cand])   # (4, ..., 4)
+    q = np.take_along_axis(stacked, choice[None, ..., None], axis=0)[0]
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
@@ -88,3 +90,71 @@ def rotvec_from_matrix(m: np.ndarray) -> np.ndarray:
 def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
     """Rotation matrix/matrices (..., 3, 3) of rotation vector(s) v (..., 3): exp of [v]x."""
     return matrix_from_quat(quat_from_rotvec(v))
+
+
+def skew(v) -> np.ndarray:
+    """Cross-product matrices [v]x (..., 3, 3) of vectors v (..., 3): [v]x a = v x a."""
+    v = np.asarray(v, dtype=float)
+    s = np.zeros(v.shape[:-1] + (3, 3))
+    s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
+    s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
+    s[..., 2, 0], s[..., 2, 1] = -v[..., 1], v[..., 0]
+    return s
+
+
+def inertia_shift(x: np.ndarray) -> np.ndarray:
+    """|x|^2 1 - x x^T: the inertia of a unit point mass at x about the origin (the
+    parallel-axis shift)."""
+    return np.dot(x, x) * np.eye(3) - np.outer(x, x)
+
+
+# --------------------------------------------------- quaternions and vectors as column tuples
+# A quaternion stack is a tuple of four 1-D arrays (w, x, y, z), a vector stack a tuple of
+# three: the per-element arrays of the model and state are column-major, so each component
+# runs contiguously and every operation below is a plain vectorised loop.
+def cols(a) -> tuple:
+    """The columns of a (n, k) array, as a tuple of k 1-D arrays."""
+    return tuple(a[:, k] for k in range(a.shape[1]))
+
+
+def qmul(a, b):
+    """Hamilton products a b."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def qrot(q, v, inverse=False):
+    """R(q) v (body -> lab), or R(q)^T v with inverse=True."""
+    w, u = (-q[0] if inverse else q[0]), q[1:]
+    t = tuple(2.0 * c for c in cross(u, v))
+    ut = cross(u, t)
+    return tuple(v[k] + w * t[k] + ut[k] for k in range(3))
+
+
+def qlog(q):
+    """Rotation vectors, |theta| <= pi, of unit quaternions q."""
+    sign = np.where(q[0] < 0.0, -1.0, 1.0)
+    w, x, y, z = (sign * c for c in q)
+    s = np.sqrt(x * x + y * y + z * z)
+    turned = s > 0.0
+    f = np.where(turned, 2.0 * np.arctan2(s, w) / np.where(turned, s, 1.0), 2.0 / w)
+    return f * x, f * y, f * z
+
+
+def qexp(theta):
+    """Unit quaternions exp(theta) of rotation vectors theta."""
+    tx, ty, tz = theta
+    a = np.sqrt(tx * tx + ty * ty + tz * tz)
+    turned = a > 0.0
+    s = np.where(turned, np.sin(0.5 * a) / np.where(turned, a, 1.0), 0.5)
+    return np.cos(0.5 * a), s * tx, s * ty, s * tz
+
+
+def conj(q):
+    return q[0], -q[1], -q[2], -q[3]

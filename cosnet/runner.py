@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.core import event
 
+from .kernels.stepping import steps_to
+
 
 @dataclass
 class ProbeSeries:
@@ -39,7 +41,7 @@ def schedule(scene, until: float | None = None) -> tuple[float, float, int]:
     if not until > 0:
         raise ValueError(f"--until must be positive, got {until}")
     interval = min(scene.run.interval, until)
-    return until, interval, int(math.ceil(until / interval - 1e-9))
+    return until, interval, steps_to(until, interval)
 
 
 def run_probes(scene, until: float | None = None, threads: int | None = None,

@@ -58,7 +58,7 @@ class Scale:
     def acceleration(self) -> float:
         return self.length / self.time**2
 
-    def _units(self):
+    def _units(self) -> tuple[float, float, float]:
         """Units of (length, mass, time) in which the scaled net is expressed."""
         return self.length, self.mass, self.time
 
@@ -92,7 +92,7 @@ def _convert(net: Net, L: float, M: float, T: float, inverse: bool) -> Net:
     for n in net.nodes:
         nodes[n.index] = out.add_node(n.position * length, frame=n.frame, mass=n.mass * mass,
                                       inertia=n.inertia * inertia, name=n.name)
-    mats = {}
+    mats: dict = {}
     for l in net.lines:
         m = mats.setdefault(id(l.material), material(l.material))
         sec = l.section

@@ -37,6 +37,7 @@ is checked here too, so that the message names the table at fault.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -80,7 +81,7 @@ def _material(t: Table, name) -> M.Material:
         raise t.err("G" if kw["G"] is not None else "poisson", _why(e)) from None
 
 
-SECTIONS = {  # kind -> (constructor, required keys)
+SECTIONS: dict[str, tuple[Callable[..., M.Section], tuple[str, ...]]] = {  # kind -> (constructor, required keys)
     "circle": (M.Circle, ("radius",)),
     "tube": (M.Tube, ("radius", "thickness")),
     "rectangle": (M.Rectangle, ("width", "height")),
@@ -282,7 +283,7 @@ class Initial:
 
     def apply(self, sim, where="[initial]"):
         """Set the simulation's velocities (call before running)."""
-        from .flatten import matrix_from_quat
+        from .rotmath import matrix_from_quat
         m, s = sim.model, sim.state
         if self.velocity is not None or self.angular_velocity is not None:
             if any(n.fixed_position or n.locked_axes.any() for n in sim.net.nodes):
@@ -318,7 +319,7 @@ def _line_velocity(sim, line, v, profile):
     """Set the interior vertex velocities of a line: ``uniform`` v, or ``half_sine``
     v sin(pi s / L) with every element turning with its tangent (w = t x dv / |t|^2), a smooth
     bending perturbation whose ends stay at rest."""
-    from .flatten import matrix_from_quat
+    from .rotmath import matrix_from_quat
     vel = sim.line_velocities(line)
     if profile == "uniform":
         vel[1:-1] = v
@@ -519,10 +520,10 @@ def _check_net_size(top: Table, data: dict):
     lines = data.get("lines")
     if not isinstance(lines, dict):
         return
-    counts = {name: t.get("elements") for name, t in lines.items() if isinstance(t, dict)}
+    counts: dict = {name: t.get("elements") for name, t in lines.items() if isinstance(t, dict)}
     counts = {n: c for n, c in counts.items() if isinstance(c, int) and not isinstance(c, bool) and c > 0}
     if counts:
-        big = max(counts, key=counts.get)
+        big = max(counts, key=lambda n: counts[n])
         check_elements(sum(counts.values()), f"{top.file}: [lines.{quote_key(big)}] elements")
 
 

@@ -10,6 +10,7 @@ import json
 import math
 import reprlib
 from typing import NamedTuple
+from typing import Literal, overload
 
 import numpy as np
 
@@ -61,7 +62,9 @@ class Table:
         self.label = f"[{name}]" if label is None else label   # how messages name the table
         if not isinstance(data, dict):
             raise ValueError(f"{file}: {self.label} must be a table, got {type(data).__name__}")
-        self.data, self.used, self.known = data, set(), None
+        self.data = data
+        self.used: set = set()
+        self.known: set | None = None
 
     def expect(self, *keys) -> Table:
         """Declare the table's keys, so a missing required key can be told from a misspelt one."""
@@ -86,6 +89,12 @@ class Table:
             return conv(self.data[key])
         except _Bad as e:
             raise self.err(key, str(e)) from None
+
+    @overload
+    def sub(self, key, optional: Literal[False] = False) -> Table: ...
+
+    @overload
+    def sub(self, key, optional: bool) -> Table | None: ...
 
     def sub(self, key, optional=False) -> Table | None:
         self.used.add(key)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from functools import lru_cache
+from typing import Any
 
 import numba
 import numpy as np
@@ -15,75 +15,28 @@ from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
 from .registry import Binding, Effect
-from .flatten import flatten, matrix_from_quat
+from .flatten import flatten
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
-from .bounds import table_error
-from .kernels.checksum import scan_state
-from .kernels.layout import empty_loads
+from .kernels.layout import Model, State, empty_loads
 from .kernels.motion import place_line_ends
-from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, advance_verlet
+from .kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, stability_interval, steps_to
 from .net import Line, Net, Node
+from .rotmath import matrix_from_quat
+from .watch import InstabilityError, Watch, locate  # noqa: F401  (InstabilityError: cosnet's export)
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
-CHUNK_STEPS = 2000  # steps between the watch's strain and energy checks within a run (non-finite values: every
-                    # run() call; all of them: before every write, see check())
 PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs more than it saves
-
-
-STRAIN_LIMIT = 1.0  # |v - d3| beyond this (100 % stretch or shear) means the run has blown up
-# what the instability watch calls each state array
-STATE_NAMES = {"x": "position", "v": "velocity", "q": "orientation", "w": "angular velocity",
-               "node_x": "node position", "node_v": "node velocity", "node_q": "node orientation",
-               "node_w": "node angular velocity", "node_hold": "node held momentum", "clock": "time"}
-ENERGY_GROWTH = 10.0  # energy rising by this many times its scale, with nothing feeding it in
-# a node turning against its line end (measure.node_wobble) by more than WOBBLE_FLOOR rad at
-# the grid scale, grown by WOBBLE_GROWTH times at each of two checks in a row, is fluttering
-WOBBLE_FLOOR = 1e-3
-WOBBLE_GROWTH = 3.0
 
 
 def check_threads(threads) -> int:
     """Return threads if it is an integer from 1 to the number of threads numba may use
     (NUMBA_NUM_THREADS), else raise ValueError saying so."""
-    available = numba.config.NUMBA_NUM_THREADS
+    available = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at numba import
     if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) \
             or not 1 <= threads <= available:
         raise ValueError(f"must be an integer from 1 to {available}, got {threads!r}")
     return int(threads)
-
-
-class InstabilityError(RuntimeError):
-    """The simulation blew up. Attributes: time, where (line/node and element), quantity,
-    safe_dt; the message says all four."""
-
-    def __init__(self, time, where, quantity, dt, safe_dt, advice=None):
-        self.time, self.where, self.quantity, self.safe_dt = time, where, quantity, safe_dt
-        advice = advice or f"a dt below {safe_dt:.4g} s should be stable"
-        super().__init__(f"unstable at t = {time:.6g} s: {quantity} at {where}; dt = {dt:.4g} s, {advice}")
-
-
-@lru_cache(maxsize=None)
-def stability_interval(stepper: str) -> float:
-    """Largest omega*h for which the scheme is stable on the harmonic oscillator."""
-    def step_matrix(wh):
-        drift = lambda c: np.array([[1.0, c], [0.0, 1.0]])
-        kick = lambda c: np.array([[1.0, 0.0], [-wh * wh * c, 1.0]])
-        if stepper == "verlet":
-            seq = [drift(0.5), kick(1.0), drift(0.5)]
-        else:
-            xi, lam, chi = PEFRL_XI, PEFRL_LAMBDA, PEFRL_CHI
-            seq = [drift(xi), kick(0.5 - lam), drift(chi), kick(lam), drift(1 - 2 * (chi + xi)),
-                   kick(lam), drift(chi), kick(0.5 - lam), drift(xi)]
-        m = np.eye(2)
-        for s in seq:
-            m = s @ m
-        return m
-    grid = np.linspace(1e-3, 8.0, 8000)
-    for wh in grid:
-        if abs(np.trace(step_matrix(wh))) > 2.0:
-            return float(wh)
-    return float(grid[-1])
 
 
 class Simulation:
@@ -102,6 +55,27 @@ class Simulation:
         "resolve" (as built), "rotary", "soften" or "auto"; a line's own setting overrides it
         (docs/fast_modes.md).
     """
+
+    # declared here: the modules this one imports import it back (fast_modes, record), and
+    # mypy types attributes first assigned in __init__ only after that cycle is resolved
+    net: Net
+    effects: list
+    stepper: str
+    safety: float
+    fast_modes: str
+    model: Model
+    state: State
+    grids: list
+    loads: Any
+    threads: int
+    dt: float
+    steps: int
+    watch: Watch
+    _params: list
+    _load_params: tuple
+    _flow_params: tuple
+    _advance: Any
+    _backend: Any
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
                  force_dt: bool = False, safety: float = 0.9, threads: int | None = None,
@@ -128,13 +102,6 @@ class Simulation:
         self._params = [e.bind(on) for e in self.effects]   # each effect's kernel record
         self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
         self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
-        self._watch_energy = all(not e.adds_energy for e in self.effects)   # nothing feeds energy in
-        self._e_start = None  # the energy watch's reference (None: taken at the next check)
-        self._scale = 0.0
-        self._watched_at = None   # step count at the last strain/energy check
-        self._wobble = []         # measure.node_wobble's angle at the last three checks
-        self._seal = None         # hash of the state as the last run() or check() saw it
-        self._passed = None       # hash of the last state that passed the full check
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -153,6 +120,7 @@ class Simulation:
                                  f"{est:.4g} s ({self.stiffest()}); pass force_dt=True to insist")
         self.dt = dt
         self.steps = 0
+        self.watch = Watch(self)
         self.fingerprint = fingerprint(self)   # before any step: the effects' counters are still zero
 
     # ------------------------------------------------------------------ stepping
@@ -185,11 +153,8 @@ class Simulation:
         if w2 <= 0:
             return "nowhere (nothing elastic)"
         if kind == 2:
-            return f"node {self.net.nodes[idx].name!r}"
-        offsets = self.model.line_vertex_offsets if kind == 0 else self.model.line_element_offsets
-        l = int(np.searchsorted(offsets, idx, side="right") - 1)
-        what = "vertex" if kind == 0 else "element"
-        return f"line {self.net.lines[l].name!r} {what} {idx - offsets[l]}"
+            return locate(self.net, self.model, "node", idx)
+        return locate(self.net, self.model, "vertex" if kind == 0 else "element", idx)
 
     @property
     def time(self) -> float:
@@ -219,15 +184,13 @@ class Simulation:
             if until <= self.time - self.dt:
                 raise ValueError(f"Simulation.run: until = {float(until):.9g} s is before the current "
                                  f"time {self.time:.9g} s")
-            steps = max(0, int(math.ceil((float(until) - self.time) / self.dt - 1e-9)))
+            steps = max(0, steps_to(float(until) - self.time, self.dt))
         elif isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise ValueError(f"Simulation.run: steps must be a non-negative integer, got {steps!r}")
         steps = int(steps)
-        self._watch_start()
+        self.watch.start()
         self._check_locked_axes()
-        problem = table_error(self.model, self.state, self.loads, self._params)
-        if problem:  # the kernels index by these tables unchecked
-            raise ValueError(f"Simulation.run: {problem}")
+        self.watch.check_tables("Simulation.run")
         place_line_ends(self.model, self.state)
         while steps > 0:
             n = min(steps, CHUNK_STEPS)
@@ -237,7 +200,7 @@ class Simulation:
                           self._flow_params, self.dt, n, self._backend)
             self.steps += n
             steps -= n
-            self._check_health()
+            self.watch.after_chunk()
         return self
 
     def _check_locked_axes(self):
@@ -249,111 +212,12 @@ class Simulation:
 
     def check(self):
         """Run every test of the watch on the current state now: non-finite values, runaway
-        strain, energy growth (InstabilityError on failure). A state that has already passed
-        costs one pass over its bits. Writers call this before anything is written, so no
-        frame, probe row or checkpoint holds a state that has not passed."""
+        strain, flutter, energy growth (InstabilityError on failure). A state that has already
+        passed costs one pass over its bits. Writers call this before anything is written, so
+        no frame, probe row or checkpoint holds a state that has not passed."""
         place_line_ends(self.model, self.state)
-        seal = self._scan()
-        if seal == self._passed:
-            return self
-        self._reseal(seal)
-        self._full_check()
+        self.watch.check()
         return self
-
-    def _scan(self) -> int:
-        """One pass over the state: stop on its first non-finite value; return its hash."""
-        seal, field, row = scan_state(self.state)
-        if field is not None:
-            self._fail(f"non-finite {STATE_NAMES[field]}", self._where(STATE_NAMES[field], row))
-        return seal
-
-    def _reseal(self, seal: int):
-        """Keep the energy watch's reference across run() calls, so slow growth over many
-        short runs is still seen; a state changed from outside since the watch last saw it
-        (found by its hash) starts a new reference at the next check."""
-        if self._seal is not None and self._seal != seal:
-            self._e_start = None
-            self._wobble = []
-        self._seal = seal
-
-    def _watch_start(self):
-        self._reseal(self._scan())
-
-    def _check_health(self):
-        """Stop with InstabilityError on non-finite values (every call), runaway strain or
-        energy growth (at most every CHUNK_STEPS steps, and on the first call)."""
-        # the hash tells the next run() or check() whether the state was changed in between
-        self._seal = self._scan()
-        if self._watched_at is not None and self.steps - self._watched_at < CHUNK_STEPS:
-            return
-        self._full_check()
-
-    def _full_check(self):
-        """The strain and energy tests on the state sealed in self._seal."""
-        self._watched_at = self.steps
-        _fast.check_strain(self)
-        worst, e = measure.worst_strain(self.model, self.state)
-        if worst > STRAIN_LIMIT:
-            quantity = f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})"
-            if self.dt <= self.stable_dt():
-                quantity += (" although dt is within the stable step: the loads likely exceed what "
-                             "the line can bear (a physical overload, not a time-step problem)")
-            self._fail(quantity, self._where("element", e))
-        self._watch_wobble()
-        if self._watch_energy:
-            self._watch_energy_growth()
-        self._passed = self._seal
-
-    def _watch_wobble(self):
-        """Stop a node whose vibration against its line end keeps growing at the grid scale:
-        a flutter of the discrete net that no smaller dt removes (docs/rolled_cantilever.md)."""
-        angle, rate, a = measure.node_wobble(self.model, self.state)
-        h = self._wobble = (self._wobble + [angle])[-3:]
-        if len(h) < 3 or angle < WOBBLE_FLOOR or not h[2] > WOBBLE_GROWTH * h[1] > WOBBLE_GROWTH ** 2 * h[0] > 0:
-            return
-        node = self.net.nodes[int(self.model.attach_node[a])]
-        line = self.net.lines[a // 2]
-        raise InstabilityError(
-            self.time, f"node {node.name!r}",
-            f"a flutter of the discretised net (it turns at {rate:.3g} rad/s against the end "
-            f"element of line {line.name!r}, a {angle:.2g} rad vibration at the grid scale grown "
-            f"{h[1] / h[0]:.3g} and {h[2] / h[1]:.3g} times over the last two checks; a dead, "
-            f"constant-direction torque on a node without rotary inertia of its own drives such flutter)",
-            self.dt, self.dt, advice="a smaller dt does not remove it; give the node a rotary "
-            "inertia of its own (a fitting) or use another number of elements (docs/rolled_cantilever.md)")
-
-    def _watch_energy_growth(self):
-        p = self.energy_parts()
-        e_now = p["kinetic"] + p["strain"] + p["potential"]
-        size = p["kinetic"] + p["strain"] + abs(p["potential"])
-        if self._e_start is None:
-            # floor: round-off of a net at rest must not count as growth (1e-6 strain energy),
-            # nor Verlet's error on the energy an effect can feed the motion (a net let go
-            # from rest under gravity: its weight times its size)
-            floor = 1e-12 * float(np.sum(self.model.element_stiffness[:, 2] * self.model.element_rest_length))
-            floor = max(floor, sum(e.energy_scale(self) for e in self.effects))
-            self._e_start, self._scale = e_now, max(size, floor)
-            return
-        if self._scale > 0 and e_now - self._e_start > ENERGY_GROWTH * self._scale:
-            worst, e = measure.worst_strain(self.model, self.state)
-            self._fail(f"energy grew from {self._e_start:.4g} J to {e_now:.4g} J with nothing "
-                       f"feeding it (largest strain {worst:.3g})", self._where("element", e))
-        self._scale = max(self._scale, size)
-
-    def _fail(self, quantity, where):
-        est = self.stable_dt()
-        safe = est if self.dt > est else 0.5 * self.dt
-        raise InstabilityError(self.time, where, quantity, self.dt, safe)
-
-    def _where(self, name: str, idx: int) -> str:
-        if name == "time":
-            return "the clock"
-        if name.startswith("node"):
-            return f"node {self.net.nodes[idx].name!r}"
-        on_elements = name in ("orientation", "angular velocity", "element")
-        offsets = self.model.line_element_offsets if on_elements else self.model.line_vertex_offsets
-        l = int(np.searchsorted(offsets, idx, side="right") - 1)
-        return f"line {self.net.lines[l].name!r} {'element' if on_elements else 'vertex'} {idx - offsets[l]}"
 
     # ------------------------------------------------------------------ access
     def effect_params(self, effect: Effect):
@@ -423,10 +287,23 @@ class Simulation:
         return self.state.node_w[node.index]
 
     # ------------------------------------------------------------------ diagnostics
+    def _placed(self):
+        """The state with every line end on its node (1.1), as the next step will see it; the
+        state itself is left alone (an end follows a node written from outside at run())."""
+        st = self.state._replace(x=self.state.x.copy(order="K"), v=self.state.v.copy(order="K"))
+        place_line_ends(self.model, st)
+        return st
+
     def energy_parts(self) -> dict:
-        place_line_ends(self.model, self.state)
-        kt, kr, u = measure.energies(self.model, self.state)
-        pot = sum(e.potential_energy(self) for e in self.effects)
+        """Energies by kind (J): kinetic (translational + rotational), strain, potential."""
+        placed = self._placed()
+        kt, kr, u = measure.energies(self.model, placed)
+        # the effects read self.state: show them the placed copy for the moment
+        state, self.state = self.state, placed
+        try:
+            pot = sum(e.potential_energy(self) for e in self.effects)
+        finally:
+            self.state = state
         return {"kinetic": kt + kr, "translational": kt, "rotational": kr, "strain": u, "potential": pot}
 
     def energy(self) -> float:
@@ -437,13 +314,11 @@ class Simulation:
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""
-        place_line_ends(self.model, self.state)
-        return measure.momenta(self.model, self.state)[0]
+        return measure.momenta(self.model, self._placed())[0]
 
     def angular_momentum(self) -> np.ndarray:
         """(3,) total angular momentum about the origin."""
-        place_line_ends(self.model, self.state)
-        return measure.momenta(self.model, self.state)[1]
+        return measure.momenta(self.model, self._placed())[1]
 
     def line_fields(self, line: Line) -> dict:
         """Per-vertex fields of a line, each (n+1, ...): position, velocity, d1, d2, d3, force
@@ -456,12 +331,12 @@ class Simulation:
         return self._fields(0, len(self.net.lines))
 
     def _fields(self, l0: int, l1: int) -> dict:
-        place_line_ends(self.model, self.state)
-        f = measure.vertex_fields(self.model, self.state, l0, l1)
+        st = self._placed()
+        f = measure.vertex_fields(self.model, st, l0, l1)
         d = matrix_from_quat(f.pop("frames"))
         o = self.model.line_vertex_offsets
         sl = slice(o[l0], o[l1])
-        return {"position": self.state.x[sl].copy(), "velocity": self.state.v[sl].copy(),
+        return {"position": st.x[sl].copy(), "velocity": st.v[sl].copy(),
                 "d1": d[:, :, 0], "d2": d[:, :, 1], "d3": d[:, :, 2], **f}
 
     # ------------------------------------------------------------------ checkpoints

@@ -27,6 +27,7 @@ import math
 import os
 import time
 from dataclasses import dataclass
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -176,7 +177,7 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
     scheds = {schedule(v.scene, until)[1:] for v in variants}
     frames = max(f for _, f in scheds)
     probes = _probe_names(variants)
-    coords = {"variant": np.arange(len(variants)),
+    coords: dict = {"variant": np.arange(len(variants)),
               "component": np.array(["x", "y", "z"], dtype=object)}
     for key in variants[0].values:
         coords[key] = ("variant", _coord([v.values[key] for v in variants]))
@@ -203,9 +204,9 @@ class _Store:
 
     def __init__(self, store: Path, probes: list[str]):
         import zarr
-        self.group = zarr.open_group(str(store), mode="r+")
-        self.probes = probes
-        self.nt = self.group["frame_time"].shape[1]
+        group: Any = zarr.open_group(str(store), mode="r+")   # its arrays, by name
+        self.group, self.probes = group, probes
+        self.nt = int(group["frame_time"].shape[1])
 
     def write(self, results: list):
         """Write finished variants [(index, record)]: one write per variable and per run of

@@ -75,7 +75,7 @@ def plot(ds, path, spec: str | None = None) -> Path:
     n = ds.sizes["variant"]
     x = np.asarray(ds[keys[0]].values) if keys else np.arange(n)
     xlabel = keys[0] if keys else "variant"
-    groups = {}
+    groups: dict = {}
     for i in range(n):
         tag = ", ".join(f"{k} = {_fmt(ds[k].values[i])}" for k in keys[1:])
         groups.setdefault(tag, []).append(i)

@@ -77,3 +77,17 @@ def hash_segments(words, width, offsets, tag, h):
         for i in range(a, b):
             x = mix(x, words[i])
         h[s] = mix(x, b - a)
+
+
+GOLDEN = np.uint64(0x9E3779B97F4A7C15)   # odd
+
+
+@njit(**CACHED)
+def weigh_words(words, h):
+    """Return h plus sum_i words[i] * (2 i + 1) GOLDEN (mod 2^64): a key of integer tables
+    that any change of one entry changes (every weight is odd, so invertible mod 2^64), at the
+    speed of a vectorised sum, several times cheaper than ``scan_words``' hash."""
+    s = np.uint64(0)
+    for i in range(words.shape[0]):
+        s += words[i] * ((np.uint64(2 * i + 1)) * GOLDEN)
+    return h + s

@@ -61,7 +61,7 @@ def _chain(registry, what):
         try:
             kernels = [registry[t.instance_class] for t in effects.types]
         except (AttributeError, KeyError):
-            raise TypeError(f"no {what} kernel registered for effect types {effects}")
+            raise TypeError(f"no {what} kernel registered for effect types {effects}") from None
         calls = []
         for kernel, t in zip(kernels, effects.types):
             fnty = typingctx.resolve_value_type(kernel)

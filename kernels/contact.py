@@ -44,6 +44,9 @@ COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away points)
 # the cell of a segment whose midpoint is not finite: no other cell neighbours it, so the
 # segment meets nothing (the instability watch reports the non-finite state)
 PARKED = -(2 ** 41)
+# cells a hair wider than the longest segment's reach: round-off never puts a touching pair
+# two cells apart
+CELL_MARGIN = 1.0000001
 
 
 class ContactParams(NamedTuple):
@@ -174,7 +177,7 @@ def build_grid(p, x):
         x1, y1, z1 = max(x1, mid[i, 0]), max(y1, mid[i, 1]), max(z1, mid[i, 2])
         reach[i] = 0.5 * math.sqrt(s2) + radius[e, 0]
         h = max(h, 2.0 * reach[i])
-    h = 1.0000001 * h + 1e-300
+    h = CELL_MARGIN * h + 1e-300
     size = p.cursor.shape[0]
     nx = ny = nz = 0
     cells = ((x1 - x0) / h + 1.0) * ((y1 - y0) / h + 1.0) * ((z1 - z0) / h + 1.0)

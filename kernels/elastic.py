@@ -5,7 +5,9 @@ The discrete strain energy of a line is
       + sum_k  L_k/2 (theta_k/L_k - u0_k)^T B_k (theta_k/L_k - u0_k)  theta_k = log(D_a^T D_b)
 where D_a, D_b are the frames on either side of Voronoi point k (at the line ends, the node's
 frame D(nu) X(nu, lambda) (1.3)). The forces and torques below are its exact gradient, so the
-discrete contact force is n = D K (v - d3) and the contact torque m = D B (u - u0) (3.22),
+discrete internal force across a section is n = D K (v - d3) and the internal torque
+m = D B (u - u0) (3.22) (the paper's "contact force" and "contact torque"; here contact is
+the rod-rod Contact effect),
 and the time stepper is variational: energy has no secular drift.
 """
 
@@ -101,7 +103,7 @@ def bend_large_span(v0, e0, j0, j1, vor, q, left, right):
 
 @njit(**INLINE)
 def stretch_span(v0, e0, j0, j1, x, q, stiff, inv_len, left, right, force, tau):
-    """Update force, the lab contact force n = D K (D^T r'/l - e3), and tau, the body torque
+    """Update force, the lab internal force n = D K (D^T r'/l - e3), and tau, the body torque
     r' x n plus the bending torques of the Voronoi points on either side, of elements
     j0 .. j1-1 of a line (as bend_span) (3.2)/(3.3), (3.22)."""
     for j in range(j0, j1):
@@ -121,7 +123,7 @@ def stretch_span(v0, e0, j0, j1, x, q, stiff, inv_len, left, right, force, tau):
 @njit(**INLINE)
 def vertex_span(v0, e0, j0, j1, force, f):
     """Update f at the interior vertices j0 .. j1-1 (1 <= j0, j1 <= n) of a line (as
-    bend_span) with the difference of the contact forces of the elements on either side (3.2)."""
+    bend_span) with the difference of the internal forces of the elements on either side (3.2)."""
     for j in range(j0, j1):
         v, e, d = v0 + uint(j), e0 + uint(j), e0 + uint(j - 1)
         f[0][v] = force[0][e] - force[0][d]

@@ -36,9 +36,7 @@ from numba import njit
 
 from .compose import load_kernel
 from .elastic import end_frame
-from .rotations import CACHED, cross, quat_mul, quat_rotate, relative_rotation
-
-OPTS = dict(CACHED, inline="always")
+from .rotations import CACHED, CACHED_INLINE, cross, quat_mul, quat_rotate, relative_rotation
 
 
 class SphericalJointParams(NamedTuple):
@@ -71,7 +69,7 @@ class FixedJointParams(NamedTuple):
     rest_rotation: np.ndarray  # (k, 4) quaternion R0 = E_a^T E_b at rest
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def end_motion(model, state, a):
     """Return position and velocity (lab) of line end a: r + D xi and its rate (1.1)."""
     nd = model.attach_node[a]
@@ -83,7 +81,7 @@ def end_motion(model, state, a):
     return x[0] + rx, x[1] + ry, x[2] + rz, v[0] + ux, v[1] + uy, v[2] + uz
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def end_spin(model, state, a):
     """Return the lab angular velocity of line end a (that of its node)."""
     nd = model.attach_node[a]
@@ -91,7 +89,7 @@ def end_spin(model, state, a):
     return quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def spring_stretch(p, j, model, state):
     """Return eps - eps0 (lab) of joint j."""
     xa = end_motion(model, state, p.attach_a[j])
@@ -99,7 +97,7 @@ def spring_stretch(p, j, model, state):
     return (xb[0] - xa[0] - p.rest[j, 0], xb[1] - xa[1] - p.rest[j, 1], xb[2] - xa[2] - p.rest[j, 2])
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def add_spring_force(p, j, model, state, loads):
     """Update loads.f at the two end vertices of joint j: f = k (eps - eps0) + nu (v_b - v_a)
     on end a, -f on end b (spherical joint of the seed page, with the damper of its contact)."""
@@ -113,7 +111,7 @@ def add_spring_force(p, j, model, state, loads):
         loads.f[vb, i] -= f
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def add_couple(p, j, model, state, loads, tx, ty, tz):
     """Update loads.node_tau: lab torque t minus nut (w_b - w_a) on end b of joint j, its
     opposite on end a."""
@@ -128,7 +126,7 @@ def add_couple(p, j, model, state, loads, tx, ty, tz):
         loads.node_tau[na, i] -= ti
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def hinge_offplane(p, j, model, state):
     """Return (s, t_b, n): the out-of-plane tangent component s = t_b . n of joint j."""
     ea = end_frame(model, state, p.attach_a[j])
@@ -139,7 +137,7 @@ def hinge_offplane(p, j, model, state):
     return tx * nx + ty * ny + tz * nz, tx, ty, tz, nx, ny, nz
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def fixed_deviation(p, j, model, state):
     """Return (theta, E_b): rotation vector (line-b end frame) of R0^T E_a^T E_b, and E_b."""
     ea = end_frame(model, state, p.attach_a[j])
@@ -187,7 +185,7 @@ def add_fixed_joints(p, model, state, loads):
         add_couple(p, j, model, state, loads, c * tx, c * ty, c * tz)
 
 
-@njit(**OPTS)
+@njit(**CACHED_INLINE)
 def spring_energy(p, j, model, state):
     e = spring_stretch(p, j, model, state)
     return 0.5 * p.k[j] * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])

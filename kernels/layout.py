@@ -88,7 +88,7 @@ class Loads(NamedTuple):
     end_tau: np.ndarray  # (na, 3) torques on the nodes through the boundary Voronoi points, line-end frame
     node_f: np.ndarray   # (nn, 3) node forces, lab frame
     node_tau: np.ndarray  # (nn, 3) node torques about the centre of mass, lab frame
-    elem_force: np.ndarray  # (ne, 3) scratch: contact force n of each element, lab frame
+    elem_force: np.ndarray  # (ne, 3) scratch: internal force n of each element, lab frame
     bend_left: np.ndarray   # (nv, 3) scratch: torque of Voronoi point k on its left frame, body frame
     bend_right: np.ndarray  # (nv, 3) scratch: torque of Voronoi point k on its right frame, body frame
 
@@ -96,7 +96,8 @@ class Loads(NamedTuple):
 @njit(cache=True, inline="always")
 def columns(a, start=0, stop=-1):
     """Return the three component columns of rows start .. stop (default: all) of a
-    column-major (n, 3) array as contiguous 1-D views, indexed from 0. LLVM vectorises loops over such views when they are indexed by a loop counter
+    column-major (n, 3) array as contiguous 1-D views, indexed from 0. LLVM vectorises loops
+    over such views when they are indexed by a loop counter
     or an unsigned offset plus one (``uint``); a signed offset index does not vectorise (numba
     wraps a possibly negative index, which hides the stride from LLVM)."""
     stop = a.shape[0] if stop < 0 else stop

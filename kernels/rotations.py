@@ -72,9 +72,13 @@ def _cache_options() -> dict:
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 
-# Options every kernel starts from (the contact, joint and checksum kernels use them as they
-# are: without fast-math)
+# Options every kernel starts from. The contact, joint and checksum kernels use them as they
+# are, without fast-math or numpy's error model: their results are pinned bit for bit (the
+# reproducibility tests, --resume), and reassociation would change them; the checksum's
+# integer passes gain nothing from either.
 CACHED = _cache_options()
+# the same, inlined by numba where called (the joints' helpers)
+CACHED_INLINE = dict(CACHED, inline="always")
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}
@@ -91,7 +95,7 @@ INNER = dict(KERNEL, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # vectorised passes by half). Numba types an inlined body afresh at every call site, so the
 # scalar helpers below are plain functions instead: compiled once, inlined by LLVM.
 INLINE = dict(INNER, inline="always")
-OPTS = INNER
+OPTS = INNER   # the scalar helpers below
 
 
 @njit(**OPTS)
@@ -164,6 +168,11 @@ def cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
+# |r_vec|^2 < SMALL_TURN2 r_w^2, i.e. tan(|theta|/2) < 0.1: |theta| below about 0.2 rad,
+# where small_rotation's series holds to round-off
+SMALL_TURN2 = 0.01
+
+
 @njit(**OPTS)
 def relative_quat(aw, ax, ay, az, bw, bx, by, bz):
     """Return (r, small): r = A^T B with r_w >= 0, and whether |theta| < 0.2 (the range of
@@ -171,7 +180,7 @@ def relative_quat(aw, ax, ay, az, bw, bx, by, bz):
     rw, rx, ry, rz = quat_mul(aw, -ax, -ay, -az, bw, bx, by, bz)
     sg = 1.0 if rw >= 0.0 else -1.0   # a select, not a branch: the loops stay vectorisable
     rw, rx, ry, rz = sg * rw, sg * rx, sg * ry, sg * rz
-    return rw, rx, ry, rz, rx * rx + ry * ry + rz * rz < 0.01 * rw * rw
+    return rw, rx, ry, rz, rx * rx + ry * ry + rz * rz < SMALL_TURN2 * rw * rw
 
 
 @njit(**OPTS)

@@ -4,8 +4,16 @@ A step alternates drifts (free flight, ``drift_state``) with kicks (loads, ``kic
 External loads are evaluated afresh at every kick, at the stage's own time, so a multi-stage
 scheme never applies them twice (free fall is exact for both schemes).
 Consecutive steps share their outer drift (first-same-as-last), so n steps cost n kicks.
+Each scheme's stage coefficients are in SCHEMES; the kernels below spell them out (a loop
+over a table would cost a kick's worth of bookkeeping per stage), and the stability
+interval (cosnet) and the convergence tests read the table.
 """
 
+import math
+from functools import cache
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit
 
 from .backend import ENTRY, STEP
@@ -17,6 +25,48 @@ from .motion import drift_state, gather_node_loads_on, kick_state
 PEFRL_XI = 0.1786178958448091
 PEFRL_LAMBDA = -0.2123418310626054
 PEFRL_CHI = -0.06626458266981849
+
+
+class Scheme(NamedTuple):
+    """A symmetric splitting step D(drifts[0]) K(kicks[0]) D(drifts[1]) ... K(kicks[-1])
+    D(drifts[-1]), coefficients in units of the step h (each row sums to 1)."""
+    order: int
+    drifts: tuple
+    kicks: tuple
+
+
+SCHEMES = {
+    "verlet": Scheme(2, (0.5, 0.5), (1.0,)),
+    "pefrl": Scheme(4, (PEFRL_XI, PEFRL_CHI, 1.0 - 2.0 * (PEFRL_CHI + PEFRL_XI), PEFRL_CHI, PEFRL_XI),
+                    (0.5 - PEFRL_LAMBDA, PEFRL_LAMBDA, PEFRL_LAMBDA, 0.5 - PEFRL_LAMBDA)),
+}
+CHUNK_STEPS = 2000  # steps per compiled call: a chunk boundary splits the shared outer drift
+                    # into two, so a resumed run is bit-identical only with the same chunks
+
+
+def steps_to(t: float, dt: float) -> int:
+    """The number of steps of dt that reach t (a remainder within 1e-9 dt of a whole step
+    is round-off, not one more step)."""
+    return int(math.ceil(t / dt - 1e-9))
+
+
+@cache
+def stability_interval(name: str) -> float:
+    """Largest omega*h for which scheme ``name`` is stable on the harmonic oscillator: where
+    the trace of its step's 2 x 2 transfer matrix first leaves [-2, 2]."""
+    scheme = SCHEMES[name]
+
+    def step_matrix(wh):
+        m = np.array([[1.0, scheme.drifts[0]], [0.0, 1.0]])
+        for kick, drift in zip(scheme.kicks, scheme.drifts[1:]):
+            m = np.array([[1.0, 0.0], [-wh * wh * kick, 1.0]]) @ m
+            m = np.array([[1.0, drift], [0.0, 1.0]]) @ m
+        return m
+    grid = np.linspace(1e-3, 8.0, 8000)
+    for wh in grid:
+        if abs(np.trace(step_matrix(wh))) > 2.0:
+            return float(wh)
+    return float(grid[-1])
 
 
 @njit(**ENTRY, inline="always")  # one caller: kick_loads (tests call it from Python)
@@ -41,7 +91,7 @@ def kick_loads(model, state, loads, load_effects, flow_effects, h, backend):
 
 @njit(**ENTRY)
 def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps, backend):
-    """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h."""
+    """Update state by ``steps`` position-Verlet steps of size h (SCHEMES["verlet"])."""
     drift_state(model, state, 0.5 * h, 2, backend)
     for s in range(steps):
         kick_loads(model, state, loads, load_effects, flow_effects, h, backend)
@@ -50,8 +100,7 @@ def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps, ba
 
 @njit(**ENTRY)
 def advance_pefrl(model, state, loads, load_effects, flow_effects, h, steps, backend):
-    """Update state by ``steps`` PEFRL steps (fourth order):
-    D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi)."""
+    """Update state by ``steps`` PEFRL steps of size h (SCHEMES["pefrl"], fourth order)."""
     xi, lam, chi = PEFRL_XI * h, PEFRL_LAMBDA * h, PEFRL_CHI * h
     drift_state(model, state, xi, 4, backend)
     for s in range(steps):

@@ -218,7 +218,8 @@ def test_an_out_that_is_a_file_is_refused_in_one_line(tiny, tmp_path, capsys):
      r"\[run\] output_interval: 1e-12 s is shorter than one step \(dt = [\d.e-]+ s\); frames would repeat"),
     (("output_interval = 0.01", "output_interval = 1e-9"), 1e-9, r"\[run\] until: 1e-09 s is shorter than one step"),
     (("[run]", "[run]\nlimits = false"), math.inf, r"--until must be a positive number of seconds, got inf"),
-    (("elements = 6", "elements = 1e9"), None, r"\[lines\.rod\] elements: must be a positive integer, got 1000000000\.0"),
+    (("elements = 6", "elements = 1e9"), None,
+     r"\[lines\.rod\] elements: must be a positive integer, got 1000000000\.0"),
     (("elements = 6", "elements = 1_000_000_000"), None,
      r"\[lines\.rod\] elements: 1,000,000,000 elements in the net need about 2e\+03 GB of memory"),
 ])

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.flatten import matrix_from_quat, quat_from_matrix
+from cosnet.rotmath import matrix_from_quat, quat_from_matrix
 from cosnet.kernels.backend import Parallel, Serial
 from cosnet.kernels.elastic import LONG_LINE
 from cosnet.kernels.motion import place_line_ends
@@ -25,7 +25,8 @@ def test_loads_are_the_exact_gradient_of_the_strain_energy():
     s.x[:] += 0.02 * rng.standard_normal(s.x.shape)
     for arr in (s.q, s.node_q):
         for i in range(arr.shape[0]):
-            arr[i] = quat_from_matrix(matrix_from_quat(arr[i]) @ Rotation.from_rotvec(0.2 * rng.standard_normal(3)).as_matrix())
+            turn = Rotation.from_rotvec(0.2 * rng.standard_normal(3)).as_matrix()
+            arr[i] = quat_from_matrix(matrix_from_quat(arr[i]) @ turn)
     place_line_ends(m, s)
     evaluate_loads(m, s, loads, (), Serial())
 
@@ -34,7 +35,11 @@ def test_loads_are_the_exact_gradient_of_the_strain_energy():
         return sim.energy_parts()["strain"]
 
     def slope(get, put, h=1e-6):
-        put(h); up = strain(); put(-2 * h); um = strain(); put(h)
+        put(h)
+        up = strain()
+        put(-2 * h)
+        um = strain()
+        put(h)
         return -(up - um) / (2 * h)
 
     pairs = []
@@ -51,10 +56,12 @@ def test_loads_are_the_exact_gradient_of_the_strain_energy():
             s.q[e] = q0
     for nd in range(s.node_x.shape[0]):
         for k in range(3):
-            pairs.append((slope(None, lambda d: s.node_x.__setitem__((nd, k), s.node_x[nd, k] + d)), loads.node_f[nd, k]))
+            move = lambda d: s.node_x.__setitem__((nd, k), s.node_x[nd, k] + d)
+            pairs.append((slope(None, move), loads.node_f[nd, k]))
             q0 = s.node_q[nd].copy()
             def put(d, nd=nd, k=k):
-                s.node_q[nd] = quat_from_matrix(Rotation.from_rotvec(d * np.eye(3)[k]).as_matrix() @ matrix_from_quat(s.node_q[nd]))
+                turn = Rotation.from_rotvec(d * np.eye(3)[k]).as_matrix()
+                s.node_q[nd] = quat_from_matrix(turn @ matrix_from_quat(s.node_q[nd]))
             pairs.append((slope(None, put), loads.node_tau[nd, k]))
             s.node_q[nd] = q0
     p = np.array(pairs)

@@ -208,7 +208,7 @@ def test_broad_phase_finds_every_overlap(far):
     the dense grid and in the hashed one (a rod far away makes the bounding box huge)."""
     rng = np.random.default_rng(7)
     net, r, k = cosnet.Net(), 0.02, 1e3
-    for i in range(30):
+    for _ in range(30):
         c, u = rng.uniform(0.0, 0.3, 3), rng.standard_normal(3)
         u *= 0.05 / np.linalg.norm(u)
         net.add_line(net.add_node(c - u), net.add_node(c + u), material=SOFT, section=cosnet.Circle(r),

@@ -165,7 +165,7 @@ def test_frequencies_approach_the_contracted_net_as_the_line_stiffens():
 
 def start_in_mode(sim, mode, amplitude):
     """Set every velocity to the mode's, scaled so the largest node displacement is 'amplitude'."""
-    from cosnet.flatten import matrix_from_quat
+    from cosnet.rotmath import matrix_from_quat
     w = mode.omega * amplitude / np.abs(mode.node_displacement).max()
     for line in sim.net.lines:
         n = line.elements

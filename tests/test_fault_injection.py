@@ -176,7 +176,7 @@ def test_a_corrupted_checkpoint_is_refused_in_one_line(scene, full, tmp_path, da
 CASES = sorted(p for p in (REPO / "cases").glob("*.toml") if p.stem != "bridge")
 EXTREMES = [math.nan, math.inf, -math.inf, -1.0, 0.0, -0.0, 1e300, -1e300, 1e-300, 10**30, -(10**30),
             2**63, 1e-12, 3]
-ODD_NAMES = ["λ1", "", "a\nb", "\u2028", "名前", "x" * 300, "\x00", "a.b", "'q'", '"'] 
+ODD_NAMES = ["λ1", "", "a\nb", "\u2028", "名前", "x" * 300, "\x00", "a.b", "'q'", '"']
 
 
 def paths_in(d, path=()):

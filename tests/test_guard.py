@@ -13,7 +13,7 @@ from cosnet import cli, measure
 from cosnet.io import SeriesWriter, read_output
 from cosnet.record import CHECKPOINT, PROBES, advance_to, fit_step, frame_time
 from cosnet.scene import load_scene
-from cosnet.simulation import STRAIN_LIMIT
+from cosnet.watch import STRAIN_LIMIT
 from nets import ROD_SCENE, STEEL, cantilever, free_net, smooth_motion
 
 REPO = Path(__file__).resolve().parents[1]
@@ -102,7 +102,7 @@ def test_check_runs_the_strain_test_between_chunk_checks():
     sim, line = steel_rod()
     sim.run(steps=1)                       # the first call checks everything
     sim.check()
-    assert sim._passed == sim._seal
+    assert sim.watch.passed == sim.watch.seal
     sim.line_positions(line)[1:-1] *= 3.0
     sim.run(steps=1)                       # within a chunk: no strain test
     with pytest.raises(cosnet.InstabilityError, match="strain"):
@@ -148,7 +148,8 @@ def test_checkpoint_names_dt_stepper_effects_and_size_differences(tmp_path):
     with pytest.raises(ValueError, match=r"effects \(Damping\(translational=0.2/s"):
         cosnet.Simulation(net, effects=[cosnet.Damping(0.2)], dt=sim.dt, force_dt=True).load_checkpoint(path)
     with pytest.raises(ValueError, match=r"effects \(1 in the checkpoint, 2 here\)"):
-        cosnet.Simulation(net, effects=[cosnet.Damping(0.1), cosnet.Gravity()], dt=sim.dt, force_dt=True).load_checkpoint(path)
+        other = cosnet.Simulation(net, effects=[cosnet.Damping(0.1), cosnet.Gravity()], dt=sim.dt, force_dt=True)
+        other.load_checkpoint(path)
     with pytest.raises(ValueError, match=r"stepper \(verlet in the checkpoint, pefrl here\)"):
         cosnet.Simulation(net, effects=[cosnet.Damping(0.1)], stepper="pefrl", dt=sim.dt,
                           force_dt=True).load_checkpoint(path)

@@ -88,7 +88,8 @@ def test_tip_mass_matches_classical_frequency_equation():
     res = analytic_modes(net, count=6)
 
     def f(bl):
-        return 1 + math.cos(bl) * math.cosh(bl) + ratio * bl * (math.cos(bl) * math.sinh(bl) - math.sin(bl) * math.cosh(bl))
+        return (1 + math.cos(bl) * math.cosh(bl)
+                + ratio * bl * (math.cos(bl) * math.sinh(bl) - math.sin(bl) * math.cosh(bl)))
 
     grid = np.linspace(0.1, 12.0, 2000)
     vals = [f(x) for x in grid]
@@ -156,7 +157,8 @@ def test_stocky_pinned_rod_shows_timoshenko_shear_correction():
     for n in (1, 2):    # sin(n pi s / L) exactly; lower root of the Timoshenko dispersion relation
         k = n * math.pi / L
         qa = rho * sec.A * rho * sec.I11
-        qb = kappa * G * sec.A * rho * sec.I11 * k**2 + rho * sec.A * E * sec.I11 * k**2 + rho * sec.A * kappa * G * sec.A
+        qb = (kappa * G * sec.A * rho * sec.I11 * k**2 + rho * sec.A * E * sec.I11 * k**2
+              + rho * sec.A * kappa * G * sec.A)
         qc = kappa * G * sec.A * E * sec.I11 * k**4
         timo.append(math.sqrt(2 * qc / (qb + math.sqrt(qb * qb - 4 * qa * qc))))
     print("\nstocky pinned rod: cosnet", bending, "\nTimoshenko", timo, "\nEuler-Bernoulli", w_eb)

@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import cosnet
 from cosnet import cli, record
 from cosnet.io import read_output
 from cosnet.scene import load_scene

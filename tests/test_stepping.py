@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import cosnet
+from cosnet.kernels.stepping import SCHEMES, stability_interval
 from nets import cantilever, free_net, perturb
 
 
@@ -19,11 +20,23 @@ def tip_run(stepper, dt, T):
     return sim.line_positions(line).copy()
 
 
-@pytest.mark.parametrize("stepper, order, divisors, span", [
-    ("verlet", 2, (8, 16, 32), 256),     # asymptotic once omega_max h is small
-    ("pefrl", 4, (1, 2, 4), 2000),       # smaller errors: a longer span keeps them above round-off
+def test_scheme_table_is_consistent_and_gives_the_known_stability_intervals():
+    """Each scheme's drifts and kicks sum to one step and read the same backwards; Verlet is
+    stable up to omega h = 2 exactly, PEFRL (four kicks a step) up to about 3."""
+    for scheme in SCHEMES.values():
+        assert math.isclose(sum(scheme.drifts), 1.0) and math.isclose(sum(scheme.kicks), 1.0)
+        assert len(scheme.drifts) == len(scheme.kicks) + 1
+        assert scheme.drifts == scheme.drifts[::-1] and scheme.kicks == scheme.kicks[::-1]  # symmetric
+    assert stability_interval("verlet") == pytest.approx(2.0, abs=1e-3)   # the grid's spacing
+    assert 2.9 < stability_interval("pefrl") < 3.1
+
+
+@pytest.mark.parametrize("stepper, divisors, span", [
+    ("verlet", (8, 16, 32), 256),     # asymptotic once omega_max h is small
+    ("pefrl", (1, 2, 4), 2000),       # smaller errors: a longer span keeps them above round-off
 ])
-def test_convergence_order_in_dt(stepper, order, divisors, span):
+def test_convergence_order_in_dt(stepper, divisors, span):
+    order = SCHEMES[stepper].order
     est = cosnet.Simulation(cantilever(n=4, length=0.5, radius=0.02, tip_mass=0.5)[0],
                             stepper="verlet").dt
     T = span * est

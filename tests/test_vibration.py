@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.flatten import matrix_from_quat
+from cosnet.rotmath import matrix_from_quat
 from nets import STEEL, cantilever
 
 BETA_L = (1.8751040687, 4.6940911330, 7.8547574382)

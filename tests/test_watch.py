@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.simulation import CHUNK_STEPS
+from cosnet.kernels.stepping import CHUNK_STEPS
 from nets import cantilever, free_net, smooth_motion
 
 
@@ -49,14 +49,14 @@ def test_energy_reference_survives_many_short_runs():
     sim = cosnet.Simulation(free_net(3))
     smooth_motion(sim)
     sim.run(steps=10)
-    e0 = sim._e_start
+    e0 = sim.watch.e_start
     assert e0 == pytest.approx(sim.energy(), rel=1e-6)
     for _ in range(5):
         sim.run(steps=CHUNK_STEPS // 2)
-    assert sim._e_start == e0
+    assert sim.watch.e_start == e0
     sim.state.v[:] *= 2.0
     sim.run(steps=CHUNK_STEPS)
-    assert sim._e_start == pytest.approx(sim.energy(), rel=1e-6) and sim._e_start > 1.5 * e0
+    assert sim.watch.e_start == pytest.approx(sim.energy(), rel=1e-6) and sim.watch.e_start > 1.5 * e0
 
 
 def test_short_runs_still_stop_at_the_first_non_finite_value():

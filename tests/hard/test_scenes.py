@@ -105,7 +105,8 @@ def reference(name, scene):
         assert scene.run.until >= times[-1]
     elif name in ("bent_triangle", "closed_ring"):
         EI = p["material"].E * p["section"].I11
-        w1 = math.sqrt(EI / (p["material"].density * p["section"].A)) / (len(p["lines"]) * p["side"] / (2 * math.pi)) ** 2
+        w1 = (math.sqrt(EI / (p["material"].density * p["section"].A))
+              / (len(p["lines"]) * p["side"] / (2 * math.pi)) ** 2)
         effects = [cosnet.Damping(w1)]                     # the test's damped run
         assert scene.run.until >= 40.0 / w1
     dt = 1e-3 if name == "lone_body" else None
