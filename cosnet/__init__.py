@@ -11,6 +11,7 @@ if not _os.path.isdir(_os.path.join(__path__[0], "kernels")):
         __path__.append(_root)
 
 from .effects import Damping, Effect, Gravity, LineLoad, NodeLoad
+from .drives import Drive, Path
 from .joints import FixedJoint, HingeJoint, SphericalJoint
 from .materials import Circle, Ellipse, Material, Rectangle, Section, Tube
 from .net import Line, Net, Node
@@ -27,7 +28,7 @@ from .sweep import sweep
 __all__ = [
     "Circle", "Ellipse", "Material", "Rectangle", "Section", "Tube",
     "Line", "Net", "Node",
-    "Damping", "Effect", "Gravity", "LineLoad", "NodeLoad",
+    "Damping", "Effect", "Gravity", "LineLoad", "NodeLoad", "Drive", "Path",
     "SphericalJoint", "HingeJoint", "FixedJoint",
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",

@@ -4,7 +4,8 @@ effects a simulation declares (see cosnet.kernels.compose).
 
 To add an effect: write a NamedTuple of parameters and a kernel registered with
 ``@load_kernel(Params)`` (adds to forces/torques) or ``@flow_kernel(Params)`` (an exact
-velocity flow), then a subclass of ``Effect`` whose ``bind`` returns the parameters.
+velocity flow), or a pair ``constraint_kernels(Params, after_drift, after_kick)`` (kinematic:
+a prescribed motion, stage "constraint"), then a subclass of ``Effect`` whose ``bind`` returns the parameters.
 """
 
 from __future__ import annotations
@@ -32,6 +33,10 @@ class Effect:
         """The parameter record this effect is bound to in ``sim`` (live: what its kernel
         reads and writes)."""
         return sim.effect_params(self)
+
+    def check_state(self, sim):
+        """Raise ValueError (one line) if the state contradicts this effect; run() asks
+        before it steps."""
 
     def potential_energy(self, sim) -> float:
         """Potential energy of a conservative effect (0 for others)."""

@@ -14,6 +14,7 @@ from . import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
+from .drives import Drive
 from .effects import Effect
 from .flatten import flatten, matrix_from_quat
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
@@ -22,7 +23,7 @@ from .bounds import table_error
 from .kernels.checksum import scan_state
 from .kernels.layout import empty_loads
 from .kernels.motion import place_line_ends
-from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, advance_verlet
+from .kernels.stepping import PEFRL_CHI, PEFRL_LAMBDA, PEFRL_XI, advance_pefrl, advance_verlet, evaluate_loads
 from .net import Line, Net, Node
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
@@ -127,6 +128,8 @@ class Simulation:
         self._params = [e.bind(self) for e in self.effects]   # each effect's kernel record
         self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
         self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
+        constraints = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "constraint")
+        self._step_effects = (self._load_params, self._flow_params, constraints)
         self._watch_energy = all(not e.adds_energy for e in self.effects)   # nothing feeds energy in
         self._e_start = None  # the energy watch's reference (None: taken at the next check)
         self._scale = 0.0
@@ -224,6 +227,8 @@ class Simulation:
         steps = int(steps)
         self._watch_start()
         self._check_locked_axes()
+        for e in self.effects:
+            e.check_state(self)
         problem = table_error(self.model, self.state, self.loads, self._params)
         if problem:  # the kernels index by these tables unchecked
             raise ValueError(f"Simulation.run: {problem}")
@@ -232,8 +237,8 @@ class Simulation:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
                 numba.set_num_threads(self.threads)
-            self._advance(self.model, self.state, self.loads, self._load_params,
-                          self._flow_params, self.dt, n, self._backend)
+            self._advance(self.model, self.state, self.loads, self._step_effects, self.dt, n,
+                          self._backend)
             self.steps += n
             steps -= n
             self._check_health()
@@ -435,6 +440,29 @@ class Simulation:
         and the potential of conservative effects (gravity)."""
         p = self.energy_parts()
         return p["kinetic"] + p["strain"] + p["potential"]
+
+    def _drive(self, node: Node):
+        self.check_node(node)
+        for e in self.effects:
+            if isinstance(e, Drive) and e.node is node:
+                return e
+        return None
+
+    def reaction(self, node: Node) -> tuple[np.ndarray, np.ndarray]:
+        """(force, torque), each (3,), lab frame: what the drive of ``node`` supplies now to keep
+        it on its prescription against the loads on it (m a - F; dL/dt - L about its centre of
+        mass); zeros for a node without a drive. Damping flows are not part of it."""
+        drive = self._drive(node)
+        if drive is None:
+            return np.zeros(3), np.zeros(3)
+        place_line_ends(self.model, self.state)
+        evaluate_loads(self.model, self.state, self.loads, self._load_params, self._backend)
+        return drive.reaction(self, self.loads)
+
+    def driver_work(self) -> float:
+        """Work done on the net by every drive so far (J): the kicks' quadrature of the
+        drivers' power R.v + T.w, so energy() - driver_work() is conserved to the scheme's order."""
+        return sum(e.work(self) for e in self.effects if isinstance(e, Drive))
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""

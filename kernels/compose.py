@@ -7,6 +7,11 @@ the step that runs contains exactly the declared effects: no flags, no loops ove
 
 Load kernels:  kernel(effect, model, state, loads)  -> add to loads (forces/torques)
 Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g. damping)
+Constraint kernels, a pair (kinematic effects: prescribed motion), run after every stage:
+  after a drift of h:  kernel(effect, model, state, h)          -> set the prescribed pose
+                       at the stage's end time state.clock[0], and its velocity
+  after a kick of h:   kernel(effect, model, state, (loads, h)) -> undo the kick on the
+                       prescribed components, given the loads that made it
 """
 
 from numba import njit
@@ -15,6 +20,8 @@ from numba.extending import intrinsic
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
+DRIFT_CONSTRAINTS: dict = {}
+KICK_CONSTRAINTS: dict = {}
 
 
 def _inner(kernel):
@@ -45,6 +52,12 @@ def flow_kernel(declaration):
     return register
 
 
+def constraint_kernels(declaration, after_drift, after_kick):
+    """Register the njit pair run after every drift and every kick for ``declaration``."""
+    DRIFT_CONSTRAINTS[declaration] = _inner(after_drift)
+    KICK_CONSTRAINTS[declaration] = _inner(after_kick)
+
+
 def _chain(registry, what):
     """Return an intrinsic f(effects, model, state, arg) emitting, into its caller, one call
     kernel(effects[i], model, state, arg) per effect in order (the kernel of each effect's
@@ -73,3 +86,7 @@ def _chain(registry, what):
 apply_loads = _chain(LOAD_KERNELS, "load")
 # apply_flows(effects, model, state, h): the velocity flow of every effect for time h
 apply_flows = _chain(FLOW_KERNELS, "flow")
+# apply_drift_constraints(effects, model, state, h): every prescribed pose after a drift
+apply_drift_constraints = _chain(DRIFT_CONSTRAINTS, "drift constraint")
+# apply_kick_constraints(effects, model, state, (loads, h)): every prescribed velocity after a kick
+apply_kick_constraints = _chain(KICK_CONSTRAINTS, "kick constraint")
