@@ -16,9 +16,12 @@ from .effects import Effect
 from .kernels.drives import ACROSS_AXIS, FREE, PRESCRIBED, DriveParams, eval_path, place_drive, reaction_now
 from .net import Node
 
-# the scene keys of a drive and of a path, with what each converts to (cosnet.scene)
-DRIVE_KEYS = ("node", "position", "rotation", "axis", "slide")
+# the keys of a path (a scene's inline table) and their units by the path they belong to:
+# (length, mass, time) exponents, cosnet.scene converts them from a [scale]
 PATH_KEYS = ("rate", "amplitude", "omega", "phase", "times", "values")
+PATH_DIMS = {"position": {"rate": (1, 0, -1), "amplitude": (1, 0, 0), "values": (1, 0, 0),
+                          "times": (0, 0, 1), "omega": (0, 0, -1)},
+             "rotation": {"rate": (0, 0, -1), "times": (0, 0, 1), "omega": (0, 0, -1)}}
 # relative mismatch above which a driven node's state contradicts its drive
 MISMATCH = 1e-9
 
@@ -119,6 +122,10 @@ class Drive(Effect):
             if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
                 raise ValueError(f"{who}: axis must be a nonzero 3-vector, got {axis!r}")
             self.axis = a / np.linalg.norm(a)
+        if node.fixed_position:
+            raise ValueError(f"{who}: the node is fixed (infinite mass); a drive holds it: give it a finite mass")
+        if self.rotation is not None and np.any(node.locked_axes):
+            raise ValueError(f"{who}: the node has infinite inertia; a drive turning it needs a finite one")
         self._pos = (self.position or Path()).arrays(3, f"{who}: position")
         self._ang = (self.rotation or Path()).arrays(1, f"{who}: rotation")
 

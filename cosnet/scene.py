@@ -16,7 +16,7 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
                                     rotary_inertia, rotary_inertia_scale, fast_modes
     [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping |
                                     spherical_joint | hinge_joint | fixed_joint |
-                                    contact
+                                    contact | drive (docs/drives.md)
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
@@ -214,6 +214,30 @@ class EffectKind:
     required: tuple = ()
 
 
+def path_table(v):
+    """An inline table of Path keywords: numbers or (nested) lists of numbers."""
+    from .drives import PATH_KEYS
+    if not isinstance(v, dict):
+        raise _Bad(f"must be an inline table of {', '.join(PATH_KEYS)}, got {_show(v)}")
+    out = {}
+    for k, x in v.items():
+        if k not in PATH_KEYS:
+            raise _Bad(f"unknown key {k!r} in the path; a path has {', '.join(PATH_KEYS)}")
+        if isinstance(x, list):
+            try:
+                out[k] = np.array(x, dtype=float)
+            except (ValueError, TypeError):
+                raise _Bad(f"{k} must be numbers or lists of numbers, got {_show(x)}") from None
+            if not np.all(np.isfinite(out[k])):
+                raise _Bad(f"{k} must be finite, got {_show(x)}")
+        else:
+            try:
+                out[k] = number(x)
+            except _Bad as e:
+                raise _Bad(f"{k} {e}") from None
+    return out
+
+
 _AMPLITUDE = {"times": floats, "values": floats, "omega": number, "phase": number}
 _JOINT = {"line_a": "line", "end_a": choice("start", "end"), "line_b": "line",
           "end_b": choice("start", "end"), "k": positive, "nu": nonnegative, "rest_offset": vec3}
@@ -227,6 +251,8 @@ EFFECTS = {
                                          "torque_per_length": vec3, **_AMPLITUDE}, ("line",)),
     "damping": EffectKind("Damping", {"translational": nonnegative, "rotational": nonnegative},
                           ("translational",)),
+    "drive": EffectKind("Drive", {"node": "node", "position": path_table, "rotation": path_table,
+                                  "axis": direction, "slide": boolean}, ("node",)),
     "contact": EffectKind("Contact", {"k": positive, "gamma": nonnegative, "self_contact": boolean,
                                       "lines": string_list, "self_gap": nonnegative}, ("k",)),
     "spherical_joint": EffectKind("SphericalJoint", _JOINT, _JOINT_REQUIRED),
@@ -267,6 +293,10 @@ def _effect(t: Table, net: Net, units: Units):
         if key not in t.data and key not in kind.required:
             continue
         kw[key] = _ref(t, key, conv, net) if isinstance(conv, str) else _si(units, key, t.get(key, conv))
+        if isinstance(kw[key], dict):   # a path: its keys carry the units of the path they belong to
+            from .drives import PATH_DIMS
+            dims = PATH_DIMS.get(key, {})
+            kw[key] = {k: x * units.factor(*dims[k]) if k in dims else x for k, x in kw[key].items()}
     t.done()
     if kw.get("lines") is not None:
         have = [x.name for x in net.lines]
