@@ -85,7 +85,9 @@ class Path:
         return rate, amp, wave, t, np.ascontiguousarray(np.transpose(spline.c, (1, 0, 2)))
 
     def __repr__(self):
-        parts = [f"{n}={getattr(self, n)!r}" for n in PATH_KEYS if getattr(self, n) not in (None, 0.0)]
+        given = {n: getattr(self, n) for n in PATH_KEYS}
+        parts = [f"{n}={np.asarray(v).tolist()!r}" for n, v in given.items()
+                 if v is not None and not (n in ("omega", "phase") and v == 0.0)]
         return f"Path({', '.join(parts)})"
 
 
