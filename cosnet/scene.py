@@ -16,7 +16,7 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
                                     rotary_inertia, rotary_inertia_scale, fast_modes
     [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping |
                                     spherical_joint | hinge_joint | fixed_joint |
-                                    contact | drive (docs/drives.md)
+                                    contact | drive | muscle_torque (docs/drives.md)
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
@@ -238,6 +238,10 @@ def path_table(v):
     return out
 
 
+def _number_or_floats(v):
+    return floats(v) if isinstance(v, list) else number(v)
+
+
 _AMPLITUDE = {"times": floats, "values": floats, "omega": number, "phase": number}
 _JOINT = {"line_a": "line", "end_a": choice("start", "end"), "line_b": "line",
           "end_b": choice("start", "end"), "k": positive, "nu": nonnegative, "rest_offset": vec3}
@@ -253,6 +257,10 @@ EFFECTS = {
                           ("translational",)),
     "drive": EffectKind("Drive", {"node": "node", "position": path_table, "rotation": path_table,
                                   "axis": direction, "slide": boolean}, ("node",)),
+    "muscle_torque": EffectKind("MuscleTorque", {"line": "line", "moment": _number_or_floats, "points": floats,
+                                                 "direction": direction, "period": nonnegative,
+                                                 "wavelength": positive, "phase": number,
+                                                 "ramp_time": nonnegative}, ("line", "moment")),
     "contact": EffectKind("Contact", {"k": positive, "gamma": nonnegative, "self_contact": boolean,
                                       "lines": string_list, "self_gap": nonnegative}, ("k",)),
     "spherical_joint": EffectKind("SphericalJoint", _JOINT, _JOINT_REQUIRED),
