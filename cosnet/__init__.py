@@ -12,7 +12,7 @@ if not _os.path.isdir(_os.path.join(__path__[0], "kernels")):
 
 from .effects import Damping, Effect, Gravity, LineLoad, NodeLoad
 from .drives import Drive, Path
-from .active import MuscleTorque
+from .active import ActiveCurvature, MuscleTorque
 from .joints import FixedJoint, HingeJoint, SphericalJoint
 from .materials import Circle, Ellipse, Material, Rectangle, Section, Tube
 from .net import Line, Net, Node
@@ -29,7 +29,7 @@ from .sweep import sweep
 __all__ = [
     "Circle", "Ellipse", "Material", "Rectangle", "Section", "Tube",
     "Line", "Net", "Node",
-    "Damping", "Effect", "Gravity", "LineLoad", "NodeLoad", "Drive", "Path", "MuscleTorque",
+    "Damping", "Effect", "Gravity", "LineLoad", "NodeLoad", "Drive", "Path", "MuscleTorque", "ActiveCurvature",
     "SphericalJoint", "HingeJoint", "FixedJoint",
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",

@@ -16,7 +16,8 @@ Python are identical. Tables (all numbers SI unless a [scale] table is present):
                                     rotary_inertia, rotary_inertia_scale, fast_modes
     [[effects]] or [effects.NAME]   kind = gravity | node_load | line_load | damping |
                                     spherical_joint | hinge_joint | fixed_joint |
-                                    contact | drive | muscle_torque (docs/drives.md)
+                                    contact | drive | muscle_torque |
+                                    active_curvature (docs/drives.md)
     [initial]                       velocity, angular_velocity, center; [initial.nodes.NAME],
                                     [initial.lines.NAME]; [initial.perturbation]
     [run]                           until, dt ("auto" or s), stepper, output_interval, probes,
@@ -242,6 +243,10 @@ def _number_or_floats(v):
     return floats(v) if isinstance(v, list) else number(v)
 
 
+def _vec3_or_rows(v):
+    return array((-1, 3))(v) if isinstance(v, list) and v and isinstance(v[0], list) else vec3(v)
+
+
 _AMPLITUDE = {"times": floats, "values": floats, "omega": number, "phase": number}
 _JOINT = {"line_a": "line", "end_a": choice("start", "end"), "line_b": "line",
           "end_b": choice("start", "end"), "k": positive, "nu": nonnegative, "rest_offset": vec3}
@@ -261,6 +266,10 @@ EFFECTS = {
                                                  "direction": direction, "period": nonnegative,
                                                  "wavelength": positive, "phase": number,
                                                  "ramp_time": nonnegative}, ("line", "moment")),
+    "active_curvature": EffectKind("ActiveCurvature", {"line": "line", "curvature": _vec3_or_rows,
+                                                       "points": floats, "period": nonnegative,
+                                                       "wavelength": positive, "phase": number,
+                                                       "ramp_time": nonnegative}, ("line", "curvature")),
     "contact": EffectKind("Contact", {"k": positive, "gamma": nonnegative, "self_contact": boolean,
                                       "lines": string_list, "self_gap": nonnegative}, ("k",)),
     "spherical_joint": EffectKind("SphericalJoint", _JOINT, _JOINT_REQUIRED),

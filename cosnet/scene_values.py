@@ -270,7 +270,7 @@ DIM = {"g": (1, 0, -2), "force": (1, 1, -2), "torque": (2, 1, -2), "force_per_le
        "angular_velocity": (0, 0, -1), "center": (1, 0, 0), "k": (0, 1, -2), "nu": (0, 1, -1),
        "kt": (2, 1, -2), "nut": (2, 1, -1), "rest_offset": (1, 0, 0),
        "gamma": (0, 1, -1), "moment": (2, 1, -2), "period": (0, 0, 1), "wavelength": (1, 0, 0),
-       "ramp_time": (0, 0, 1)}
+       "ramp_time": (0, 0, 1), "curvature": (-1, 0, 0)}
 
 
 def _si(units: Units, key, value):

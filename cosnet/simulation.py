@@ -14,6 +14,7 @@ from . import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
+from .active import ActiveCurvature
 from .drives import Drive
 from .effects import Effect
 from .flatten import flatten, matrix_from_quat
@@ -460,9 +461,10 @@ class Simulation:
         return drive.reaction(self, self.loads)
 
     def driver_work(self) -> float:
-        """Work done on the net by every drive so far (J): the kicks' quadrature of the
-        drivers' power R.v + T.w, so energy() - driver_work() is conserved to the scheme's order."""
-        return sum(e.work(self) for e in self.effects if isinstance(e, Drive))
+        """Work done on the net by every drive (the kicks' quadrature of the drivers' power
+        R.v + T.w) and active curvature so far (J), so energy() - driver_work() is conserved to
+        the scheme's order."""
+        return sum(e.work(self) for e in self.effects if isinstance(e, (Drive, ActiveCurvature)))
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""
