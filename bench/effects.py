@@ -66,7 +66,7 @@ def bare_run(net, dt, steps):
     """A closure running ``steps`` steps of advance_verlet directly, with no effects."""
     model, state, _ = flatten(net)
     loads = empty_loads(model)
-    return lambda: advance_verlet(model, state, loads, (), (), dt, steps, Serial())
+    return lambda: advance_verlet(model, state, loads, ((), (), ()), dt, steps, Serial())
 
 
 def stable_steps(ks):

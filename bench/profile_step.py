@@ -101,7 +101,7 @@ def profile(n):
     h = 0.0   # zero-length drifts/kicks: the same work, the state stays put
     k = max(200, int(2e6 / n))
     stages = {
-        "whole step (advance_verlet)": lambda: advance_verlet(m, s, l, eff, sim._flow_params, sim.dt, k, be),
+        "whole step (advance_verlet)": lambda: advance_verlet(m, s, l, sim._step_effects, sim.dt, k, be),
         "evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
         "  internal loads": lambda: loop_internal(m, s, l, k),
         "  effects (gravity)": lambda: loop_effects(m, s, l, eff, k),

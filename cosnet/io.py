@@ -29,7 +29,7 @@ import meshio
 import numpy as np
 
 LINE_FIELDS = ("velocity", "d1", "d2", "d3", "force", "torque", "strain", "curvature")
-NODE_FIELDS = ("velocity", "angular_velocity", "d1", "d2", "d3")
+NODE_FIELDS = ("velocity", "angular_velocity", "d1", "d2", "d3", "reaction", "reaction_torque")
 PVD = "series.pvd"
 META = "meta.json"
 
@@ -148,12 +148,15 @@ def write_collection(path: Path, datasets) -> None:
 
 def node_point_fields(sim, node) -> dict:
     """NODE_FIELDS of a node, each (3,): velocity of its reference point, angular velocity
-    (lab) and its frame's d1, d2, d3."""
+    (lab), its frame's d1, d2, d3 and the force and torque its drive supplies (zero for a node
+    without a drive, sim.reaction)."""
     r = sim.node_rotation(node)
     x = sim.node_position(node)
     w_lab = r @ _node_body_w(sim, node)
     v = sim.node_velocity(node) + np.cross(w_lab, x - sim.state.node_x[node.index])
-    return {"velocity": v, "angular_velocity": w_lab, "d1": r[:, 0], "d2": r[:, 1], "d3": r[:, 2]}
+    force, torque = sim.reaction(node)
+    return {"velocity": v, "angular_velocity": w_lab, "d1": r[:, 0], "d2": r[:, 1], "d3": r[:, 2],
+            "reaction": force, "reaction_torque": torque}
 
 
 def _node_body_w(sim, node) -> np.ndarray:

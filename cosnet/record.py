@@ -163,7 +163,7 @@ def kernels_compiled(sim) -> bool:
     try:
         if disp.signatures:
             return True
-        args = (sim.model, sim.state, sim.loads, sim._load_params, sim._flow_params, sim.dt, 1,
+        args = (sim.model, sim.state, sim.loads, sim._step_effects, sim.dt, 1,
                 sim._backend)
         sig = tuple(disp.typeof_pyval(a) for a in args)
         index = disp._cache._cache_file._load_index()   # {} when absent or stale

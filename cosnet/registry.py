@@ -23,12 +23,13 @@ from importlib import metadata
 from typing import Any, NamedTuple
 from collections.abc import Callable
 
-from .kernels.compose import FLOW_KERNELS, KERNELS, LOAD_KERNELS
+from .kernels.compose import DRIFT_CONSTRAINTS, FLOW_KERNELS, KERNELS, LOAD_KERNELS
 from .scene_values import Unit
 
 ENTRY_POINTS = "cosnet.effects"
 # in the order kinds are listed
-BUILTIN_MODULES = ("cosnet.effects", "cosnet.contact", "cosnet.obstacles", "cosnet.joints")
+BUILTIN_MODULES = ("cosnet.effects", "cosnet.drives", "cosnet.active", "cosnet.contact", "cosnet.obstacles",
+                   "cosnet.joints")
 REFERENCES = ("node", "line", "lines", "path")   # converters naming parts of the net, or a file
 
 
@@ -42,18 +43,23 @@ class Key:
 
     name: str
     convert: Callable | str
-    unit: Unit | None = None
+    unit: Unit | dict | None = None   # a dict: an inline table's unit per key
     required: bool = False
     doc: str = ""
 
 
 class Binding(NamedTuple):
-    """What an effect binds to: the net as declared, its flattened ``model`` and the ``state``
-    as built (cosnet.flatten)."""
+    """What an effect binds to: the net as declared, its flattened ``model``, the ``state``
+    as built (cosnet.flatten) and the ``effects`` declared with it."""
 
     net: Any
     model: Any
     state: Any
+    effects: tuple = ()
+
+    @property
+    def time(self) -> float:
+        return float(self.state.clock[0])
 
     def check_node(self, node, who: str) -> int:
         """The index of ``node``, refused in one line unless it is a node of this net."""
@@ -118,6 +124,10 @@ class Effect:
         effect adds no stiffness."""
         return 0.0
 
+    def check_state(self, sim):
+        """Raise ValueError (one line) if the state contradicts this effect (a driven node
+        moving against its drive); run() asks before it steps."""
+
     def state_arrays(self, sim) -> dict:
         """The arrays of its parameter record that change as the net moves (friction anchors):
         a checkpoint saves and restores them with the state. Empty for most effects."""
@@ -155,7 +165,8 @@ class Effect:
 def _stage_of(cls) -> tuple[str, Callable]:
     """(stage, kernel) of the kernel registered for cls.record."""
     rec = cls.record
-    stages = [s for s, reg in (("load", LOAD_KERNELS), ("flow", FLOW_KERNELS)) if rec in reg]
+    stages = [s for s, reg in (("load", LOAD_KERNELS), ("flow", FLOW_KERNELS), ("constraint", DRIFT_CONSTRAINTS))
+              if rec in reg]
     name = getattr(rec, "__name__", repr(rec))
     if len(stages) != 1:
         why = "no kernel is" if not stages else "both a load and a flow kernel are"

@@ -59,7 +59,10 @@ def effect_section(cls: type[Effect]) -> str:
             "| key | type | unit | required | default | meaning |",
             "|---|---|---|---|---|---|"]
     for k in cls.keys:
-        unit = k.unit.symbol if k.unit is not None else ""
+        if isinstance(k.unit, dict):   # an inline table: a unit per key of it
+            unit = ", ".join(f"{name}: {u.symbol}" for name, u in k.unit.items())
+        else:
+            unit = k.unit.symbol if k.unit is not None else ""
         rows.append(f"| `{k.name}` | {_type(k.convert)} | {unit} | {'yes' if k.required else ''} | "
                     f"{_default(cls, k)} | {k.doc} |")
     return "\n".join(rows) + "\n"

@@ -293,6 +293,7 @@ FORCE_PER_LENGTH = Unit("N/m", 0, 1, -2)
 TORQUE_PER_LENGTH = Unit("N m/m", 1, 1, -2)
 STIFFNESS = Unit("N/m", 0, 1, -2)              # a spring: force per displacement
 DAMPING = Unit("N s/m", 0, 1, -1)
+CURVATURE = Unit("1/m", -1)
 ROTARY_STIFFNESS = Unit("N m/rad", 2, 1, -2)   # a torque spring: torque per angle
 ROTARY_DAMPING = Unit("N m s/rad", 2, 1, -1)
 
@@ -306,8 +307,10 @@ class Units:
     def factor(self, length=0, mass=0, time=0) -> float:
         return self.L**length * self.M**mass * self.T**time
 
-    def si(self, unit: Unit | None, value):
+    def si(self, unit: Unit | dict | None, value):
         """``value`` (scaled units) in SI; None and unit-less values pass unchanged."""
         if unit is None or value is None:
             return value
+        if isinstance(unit, dict):   # an inline table: a unit per key of it
+            return {k: self.si(unit.get(k), x) for k, x in value.items()}
         return value * self.factor(unit.length, unit.mass, unit.time)

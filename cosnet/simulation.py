@@ -14,13 +14,16 @@ from . import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
+from .active import ActiveCurvature
+from .drives import Drive
 from .registry import Binding, Effect
 from .flatten import flatten
 from .kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from .kernels.backend import Parallel, Serial
 from .kernels.layout import Model, State, empty_loads
 from .kernels.motion import place_line_ends
-from .kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, stability_interval, steps_to
+from .kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, evaluate_loads, stability_interval,
+                               steps_to)
 from .net import Line, Net, Node
 from .rotmath import matrix_from_quat
 from .watch import InstabilityError, Watch, locate  # noqa: F401  (InstabilityError: cosnet's export)
@@ -74,6 +77,7 @@ class Simulation:
     _params: list
     _load_params: tuple
     _flow_params: tuple
+    _step_effects: tuple   # (load, flow, constraint) records, as the stepper takes them
     _advance: Any
     _backend: Any
 
@@ -98,10 +102,12 @@ class Simulation:
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
-        on = Binding(net, self.model, self.state)
+        on = Binding(net, self.model, self.state, tuple(self.effects))
         self._params = [e.bind(on) for e in self.effects]   # each effect's kernel record
         self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
         self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
+        constraints = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "constraint")
+        self._step_effects = (self._load_params, self._flow_params, constraints)
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)
         self._backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -190,14 +196,16 @@ class Simulation:
         steps = int(steps)
         self.watch.start()
         self._check_locked_axes()
+        for e in self.effects:
+            e.check_state(self)
         self.watch.check_tables("Simulation.run")
         place_line_ends(self.model, self.state)
         while steps > 0:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
                 numba.set_num_threads(self.threads)
-            self._advance(self.model, self.state, self.loads, self._load_params,
-                          self._flow_params, self.dt, n, self._backend)
+            self._advance(self.model, self.state, self.loads, self._step_effects, self.dt, n,
+                          self._backend)
             self.steps += n
             steps -= n
             self.watch.after_chunk()
@@ -311,6 +319,30 @@ class Simulation:
         and the potential of conservative effects (gravity)."""
         p = self.energy_parts()
         return p["kinetic"] + p["strain"] + p["potential"]
+
+    def _drive(self, node: Node):
+        self.check_node(node)
+        for e in self.effects:
+            if isinstance(e, Drive) and e.node is node:
+                return e
+        return None
+
+    def reaction(self, node: Node) -> tuple[np.ndarray, np.ndarray]:
+        """(force, torque), each (3,), lab frame: what the drive of ``node`` supplies now to keep
+        it on its prescription against the loads on it (m a - F; dL/dt - L about its centre of
+        mass); zeros for a node without a drive. Damping flows are not part of it."""
+        drive = self._drive(node)
+        if drive is None:
+            return np.zeros(3), np.zeros(3)
+        place_line_ends(self.model, self.state)
+        evaluate_loads(self.model, self.state, self.loads, self._load_params, self._backend)
+        return drive.reaction(self, self.loads)
+
+    def driver_work(self) -> float:
+        """Work done on the net by every drive (the kicks' quadrature of the drivers' power
+        R.v + T.w) and active curvature so far (J), so energy() - driver_work() is conserved to
+        the scheme's order."""
+        return sum(e.work(self) for e in self.effects if isinstance(e, (Drive, ActiveCurvature)))
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""

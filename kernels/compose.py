@@ -7,6 +7,11 @@ the step that runs contains exactly the declared effects: no flags, no loops ove
 
 Load kernels:  kernel(effect, model, state, loads)  -> add to loads (forces/torques)
 Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g. damping)
+Constraint kernels, a pair (kinematic effects: prescribed motion), run after every stage:
+  after a drift of h:  kernel(effect, model, state, h)          -> set the prescribed pose
+                       at the stage's end time state.clock[0], and its velocity
+  after a kick of h:   kernel(effect, model, state, (loads, h)) -> undo the kick on the
+                       prescribed components, given the loads that made it
 """
 
 import io
@@ -20,6 +25,8 @@ from numba.extending import intrinsic
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
 KERNELS: dict = {}   # declaration -> the kernel as decorated (callable from Python), either stage
+DRIFT_CONSTRAINTS: dict = {}
+KICK_CONSTRAINTS: dict = {}
 
 
 def _inner(kernel):
@@ -50,6 +57,13 @@ def flow_kernel(declaration):
         KERNELS[declaration] = kernel
         return kernel
     return register
+
+
+def constraint_kernels(declaration, after_drift, after_kick):
+    """Register the njit pair run after every drift and every kick for ``declaration``."""
+    DRIFT_CONSTRAINTS[declaration] = _inner(after_drift)
+    KICK_CONSTRAINTS[declaration] = _inner(after_kick)
+    KERNELS[declaration] = after_drift
 
 
 def _chain(registry, what):
@@ -113,3 +127,7 @@ def _tolerate_unresolved_records():
 
 
 _tolerate_unresolved_records()
+# apply_drift_constraints(effects, model, state, h): every prescribed pose after a drift
+apply_drift_constraints = _chain(DRIFT_CONSTRAINTS, "drift constraint")
+# apply_kick_constraints(effects, model, state, (loads, h)): every prescribed velocity after a kick
+apply_kick_constraints = _chain(KICK_CONSTRAINTS, "kick constraint")

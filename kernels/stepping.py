@@ -7,6 +7,8 @@ Consecutive steps share their outer drift (first-same-as-last), so n steps cost 
 Each scheme's stage coefficients are in SCHEMES; the kernels below spell them out (a loop
 over a table would cost a kick's worth of bookkeeping per stage), and the stability
 interval (cosnet) and the convergence tests read the table.
+Kinematic effects (driven nodes) follow every drift and every kick (compose.py): a driven
+component is set from its prescription at the stage's end time, never integrated.
 """
 
 import math
@@ -17,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .backend import ENTRY, STEP
-from .compose import apply_flows, apply_loads
+from .compose import apply_drift_constraints, apply_flows, apply_kick_constraints, apply_loads
 from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads_on, kick_state
 
@@ -81,34 +83,46 @@ def evaluate_loads(model, state, loads, load_effects, backend):
 
 
 @njit(**STEP)
-def kick_loads(model, state, loads, load_effects, flow_effects, h, backend):
-    """Update velocities by a kick of length h, wrapped in half flows of the velocity effects."""
+def kick_loads(model, state, loads, effects, h, backend):
+    """Update velocities by a kick of length h, wrapped in half flows of the velocity effects,
+    then restore the prescribed ones. effects = (load, flow, constraint) effect tuples."""
+    load_effects, flow_effects, constraint_effects = effects
     apply_flows(flow_effects, model, state, 0.5 * h)
     evaluate_loads(model, state, loads, load_effects, backend)
     kick_state(model, state, loads, h, backend)
     apply_flows(flow_effects, model, state, 0.5 * h)
+    apply_kick_constraints(constraint_effects, model, state, (loads, h))
+
+
+@njit(**STEP, inline="always")
+def drift(model, state, effects, h, order, backend):
+    """Update state by the free flight of time h, then set the prescribed poses at its end."""
+    drift_state(model, state, h, order, backend)
+    apply_drift_constraints(effects[2], model, state, h)
 
 
 @njit(**ENTRY)
-def advance_verlet(model, state, loads, load_effects, flow_effects, h, steps, backend):
-    """Update state by ``steps`` position-Verlet steps of size h (SCHEMES["verlet"])."""
-    drift_state(model, state, 0.5 * h, 2, backend)
+def advance_verlet(model, state, loads, effects, h, steps, backend):
+    """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h;
+    effects = (load, flow, constraint) tuples of effect parameter records."""
+    drift(model, state, effects, 0.5 * h, 2, backend)
     for s in range(steps):
-        kick_loads(model, state, loads, load_effects, flow_effects, h, backend)
-        drift_state(model, state, h if s < steps - 1 else 0.5 * h, 2, backend)
+        kick_loads(model, state, loads, effects, h, backend)
+        drift(model, state, effects, h if s < steps - 1 else 0.5 * h, 2, backend)
 
 
 @njit(**ENTRY)
-def advance_pefrl(model, state, loads, load_effects, flow_effects, h, steps, backend):
-    """Update state by ``steps`` PEFRL steps of size h (SCHEMES["pefrl"], fourth order)."""
+def advance_pefrl(model, state, loads, effects, h, steps, backend):
+    """Update state by ``steps`` PEFRL steps (fourth order):
+    D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi)."""
     xi, lam, chi = PEFRL_XI * h, PEFRL_LAMBDA * h, PEFRL_CHI * h
-    drift_state(model, state, xi, 4, backend)
+    drift(model, state, effects, xi, 4, backend)
     for s in range(steps):
-        kick_loads(model, state, loads, load_effects, flow_effects, 0.5 * h - lam, backend)
-        drift_state(model, state, chi, 4, backend)
-        kick_loads(model, state, loads, load_effects, flow_effects, lam, backend)
-        drift_state(model, state, h - 2.0 * (chi + xi), 4, backend)
-        kick_loads(model, state, loads, load_effects, flow_effects, lam, backend)
-        drift_state(model, state, chi, 4, backend)
-        kick_loads(model, state, loads, load_effects, flow_effects, 0.5 * h - lam, backend)
-        drift_state(model, state, 2.0 * xi if s < steps - 1 else xi, 4, backend)
+        kick_loads(model, state, loads, effects, 0.5 * h - lam, backend)
+        drift(model, state, effects, chi, 4, backend)
+        kick_loads(model, state, loads, effects, lam, backend)
+        drift(model, state, effects, h - 2.0 * (chi + xi), 4, backend)
+        kick_loads(model, state, loads, effects, lam, backend)
+        drift(model, state, effects, chi, 4, backend)
+        kick_loads(model, state, loads, effects, 0.5 * h - lam, backend)
+        drift(model, state, effects, 2.0 * xi if s < steps - 1 else xi, 4, backend)

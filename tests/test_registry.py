@@ -103,8 +103,9 @@ def test_unknown_kind_lists_the_declared_kinds():
     data = {"nodes": {"a": {"position": [0, 0, 0], "mass": 1.0, "inertia": [1, 1, 1]}},
             "effects": [{"kind": "magnetism"}], "run": {"until": 1.0}}
     with pytest.raises(ValueError, match=r"\[\[effects\]\] #1 kind: must be one of \['gravity', 'node_load', "
-                                         r"'line_load', 'damping', 'contact', 'obstacle', 'spherical_joint', "
-                                         r"'hinge_joint', 'fixed_joint'.*\], got 'magnetism'"):
+                                         r"'line_load', 'damping', 'drive', 'muscle_torque', 'active_curvature', "
+                                         r"'contact', 'obstacle', 'spherical_joint', 'hinge_joint', "
+                                         r"'fixed_joint'.*\], got 'magnetism'"):
         build_scene(data, "s.toml")
 
 
@@ -113,8 +114,8 @@ def test_stage_and_kernel_follow_from_the_registration():
     assert (cosnet.Damping.stage, cosnet.Damping.kernel) == ("flow", K.damp_velocities)
     assert (cosnet.Gravity.stage, cosnet.Gravity.kernel) == ("load", K.add_gravity)
     assert set(registry.builtin_effects().values()) == {getattr(cosnet, n) for n in (
-        "Gravity", "NodeLoad", "LineLoad", "Damping", "Contact", "Obstacle", "SphericalJoint", "HingeJoint",
-        "FixedJoint")}
+        "Gravity", "NodeLoad", "LineLoad", "Damping", "Drive", "MuscleTorque", "ActiveCurvature", "Contact",
+        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint")}
 
     from typing import NamedTuple
 

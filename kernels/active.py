@@ -1,0 +1,99 @@
+"""Kernels of active lines: muscle torques, an internal bending moment prescribed along a line
+and in time (PyElastica's MuscleTorques: a travelling wave with a spline amplitude), and a
+rest curvature changing in time (ActiveCurvature), set after every drift at the stage's time
+like a driven node's pose (compose.constraint_kernels): the energy that change puts into the
+strain energy at the current shape is the work of the actuation.
+
+The moment M(s, t) d acts at the interior Voronoi points as an extra internal moment: element
+k - 1 and element k receive the couple -M, +M about the body direction d, so a line with free
+ends and a constant M takes the shape B (u - u0) = M d (curvature M / EI about d).
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .backend import STEP
+from .compose import constraint_kernels, load_kernel
+from .rotations import relative_rotation
+
+
+class MuscleTorqueParams(NamedTuple):
+    line: int
+    direction: np.ndarray   # (3,) unit body-frame direction of the moment
+    amplitude: np.ndarray   # (n+1,) A(s) at the line's Voronoi points (ends unused)
+    s: np.ndarray           # (n+1,) their arc length from the line's start
+    wave: np.ndarray        # (4,) 2 pi / period (0: no wave, factor 1), 2 pi / wavelength, phase, ramp time
+
+
+@njit(**STEP)
+def muscle_factor(p, t, s):
+    """Return ramp(t) sin(2 pi (t / T - s / lambda) + phase), or ramp(t) without a wave."""
+    ramp = 1.0 if p.wave[3] <= 0.0 else min(1.0, t / p.wave[3])
+    if p.wave[0] == 0.0:
+        return ramp
+    return ramp * math.sin(p.wave[0] * t - p.wave[1] * s + p.wave[2])
+
+
+@load_kernel(MuscleTorqueParams)
+@njit(**STEP)
+def add_muscle_torques(p, model, state, loads):
+    """Update loads.tau (ne,3) given the muscle moment M(s, t) d at the interior Voronoi points
+    of the line: -M d on the element before each point, +M d on the one after (body frames)."""
+    t = state.clock[0]
+    e0 = model.line_element_offsets[p.line]
+    n = model.line_element_offsets[p.line + 1] - e0
+    d = p.direction
+    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
+        m = p.amplitude[k] * muscle_factor(p, t, p.s[k])
+        for c in range(3):
+            loads.tau[e0 + k - 1, c] -= m * d[c]
+            loads.tau[e0 + k, c] += m * d[c]
+
+
+class ActiveCurvatureParams(NamedTuple):
+    line: int
+    base: np.ndarray        # (n+1, 3) the line's rest curvature as built, principal frame
+    amplitude: np.ndarray   # (n+1, 3) A(s) at the Voronoi points (ends unused)
+    s: np.ndarray           # (n+1,) their arc length from the line's start
+    wave: np.ndarray        # (4,) as MuscleTorqueParams.wave
+    work: np.ndarray        # (1,) work done by the actuation so far
+    last: np.ndarray        # (n+1, 3) curvature theta / l at the end of the previous drift
+
+
+@njit(**STEP)
+def set_rest_curvature(p, model, state, h):
+    """Update model.voronoi_rest_curvature at the line's interior Voronoi points to
+    u0 = base + A(s) factor(s, t) at t = state.clock[0], and p.work by the strain energy that
+    change adds, sum 1/2 l B ((u - u0_new)^2 - (u - u0_old)^2), averaged over the shapes u at
+    the drift's two ends (p.last, then now): the splitting holds u0 from one kick to the
+    middle of the next drift, so a change taken at either end alone is first order."""
+    t = state.clock[0]
+    v0 = model.line_vertex_offsets[p.line]
+    e0 = model.line_element_offsets[p.line]
+    n = model.line_element_offsets[p.line + 1] - e0
+    q = state.q
+    u0 = model.voronoi_rest_curvature
+    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
+        a, b, vt = e0 + k - 1, e0 + k, v0 + k
+        theta = relative_rotation(q[a, 0], q[a, 1], q[a, 2], q[a, 3], q[b, 0], q[b, 1], q[b, 2], q[b, 3])
+        f = muscle_factor(p, t, p.s[k])
+        lv = model.voronoi_rest_length[vt]
+        inv = model.voronoi_inv_rest_length[vt]
+        for c in range(3):
+            new, old = p.base[k, c] + p.amplitude[k, c] * f, u0[vt, c]
+            u, w = theta[c] * inv, p.last[k, c]
+            bk = model.voronoi_stiffness[vt, c]
+            p.work[0] += 0.25 * lv * bk * ((u - new) ** 2 - (u - old) ** 2 + (w - new) ** 2 - (w - old) ** 2)
+            u0[vt, c] = new
+            p.last[k, c] = u
+
+
+@njit(**STEP)
+def keep_rest_curvature(p, model, state, arg):
+    """Leave everything as it is: a kick does not change the rest curvature."""
+
+
+constraint_kernels(ActiveCurvatureParams, set_rest_curvature, keep_rest_curvature)

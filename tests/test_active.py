@@ -1,0 +1,119 @@
+"""Active lines: a steady muscle torque bends a free line to the curvature M / EI."""
+
+import math
+
+import numpy as np
+import pytest
+
+import cosnet
+from cosnet.scene import build_scene
+
+RUBBER = cosnet.Material(E=1e6, G=4e5, density=1000.0, name="rubber")
+
+
+def test_steady_muscle_torque_bends_a_free_line_to_curvature_m_over_ei():
+    """M = EI kappa at every interior Voronoi point once the motion has died out (exact for the
+    discrete line: the elastic moment balances the active one point by point), and the line is
+    an arc of that circle: its chord 2 sin(kappa L / 2) / kappa, to the discretisation's O(n^-2)."""
+    net = cosnet.Net()
+    a = net.add_node((0.0, 0.0, 0.0), name="a")
+    b = net.add_node((1.0, 0.0, 0.0), name="b")
+    line = net.add_line(a, b, material=RUBBER, section=cosnet.Circle(0.02), elements=12, name="rod")
+    ei = RUBBER.E * math.pi * 0.02 ** 4 / 4
+    kappa = 1.5
+    muscle = cosnet.MuscleTorque(line, moment=ei * kappa, direction=(1.0, 0.0, 0.0), ramp_time=1.0)
+    sim = cosnet.Simulation(net, [muscle, cosnet.Damping(5.0)])
+    sim.run(until=10.0)
+    u = sim.line_fields(line)["curvature"][1:-1]
+    np.testing.assert_allclose(u[:, 0], kappa, rtol=1e-6)
+    np.testing.assert_allclose(u[:, 1:], 0.0, atol=1e-6 * kappa)
+    x = sim.line_positions(line)
+    chord = np.linalg.norm(x[-1] - x[0])
+    assert chord == pytest.approx(2 * math.sin(kappa / 2) / kappa, rel=0.01)
+
+
+def test_muscle_torque_scene_errors_name_the_key():
+    scene = """
+[materials.m]
+E = 1e6
+G = 4e5
+density = 1000.0
+[nodes.a]
+position = [0, 0, 0]
+[nodes.b]
+position = [1, 0, 0]
+[lines.rod]
+start = "a"
+end = "b"
+material = "m"
+section = { kind = "circle", radius = 0.02 }
+elements = 4
+[run]
+until = 0.01
+[[effects]]
+kind = "muscle_torque"
+line = "rod"
+moment = [1.0, 2.0]
+points = [0.0, 0.5, 1.0]
+"""
+    import tomllib
+    with pytest.raises(ValueError, match=r"\(muscle_torque\) (moment|points): .*one finite value per point") as e:
+        build_scene(tomllib.loads(scene))
+    assert "\n" not in str(e.value)
+
+
+def free_rod(n):
+    net = cosnet.Net()
+    a = net.add_node((0.0, 0.0, 0.0), name="a")
+    b = net.add_node((1.0, 0.0, 0.0), name="b")
+    return net, net.add_line(a, b, material=RUBBER, section=cosnet.Circle(0.02), elements=n, name="rod")
+
+
+def chord_after_curving(n, kappa=2.0):
+    net, line = free_rod(n)
+    curve = cosnet.ActiveCurvature(line, curvature=(kappa, 0.0, 0.0), ramp_time=1.0)
+    sim = cosnet.Simulation(net, [curve, cosnet.Damping(5.0)])
+    sim.run(until=10.0)
+    x = sim.line_positions(line)
+    return np.linalg.norm(x[-1] - x[0])
+
+
+def test_rest_curvature_switched_on_slowly_makes_a_free_line_a_circle():
+    """u0 = kappa (about d1) at the interior Voronoi points, switched on over 1 s with damping:
+    the line becomes a polygon inscribed in the circle of curvature kappa (n^-2 from the arc:
+    its chord is h sin(kappa L / 2) / sin(kappa h / 2), not 2 sin(kappa L / 2) / kappa)."""
+    kappa = 2.0
+    exact = 2 * math.sin(kappa / 2) / kappa
+    errors = []
+    for n in (8, 16):
+        chord = chord_after_curving(n, kappa)
+        h = 1.0 / n
+        assert chord == pytest.approx(h * math.sin(kappa / 2) / math.sin(kappa * h / 2), rel=1e-6)
+        errors.append(abs(chord - exact))
+    assert 3.6 < errors[0] / errors[1] < 4.4
+
+
+def actuation_energy_error(fraction):
+    """max |E - W - E(0)| and max |W| over 1000 stable steps of a travelling wave of rest curvature on a
+    free line, no damping, at ``fraction`` of the stable step."""
+    net, line = free_rod(8)
+    wave = cosnet.ActiveCurvature(line, curvature=[[0.0, 0.0, 0.0], [3.0, 1.0, 0.5], [0.0, 0.0, 0.0]],
+                                  points=[0.0, 0.5, 1.0], period=0.5, wavelength=0.7)
+    dt = cosnet.Simulation(net, [wave, cosnet.Damping(0.0)]).dt * fraction
+    sim = cosnet.Simulation(net, [wave, cosnet.Damping(0.0)], dt=dt)
+    e0 = sim.energy()
+    worst, most = 0.0, 0.0
+    for _ in range(20):     # the same sample times at every dt
+        sim.run(steps=round(50 / fraction))
+        worst = max(worst, abs(sim.energy() - sim.driver_work() - e0))
+        most = max(most, abs(sim.driver_work()))
+    return worst, most
+
+
+def test_energy_minus_actuation_work_is_conserved_to_second_order():
+    """The work the actuation does (the strain energy each change of u0 adds) balances the
+    energy to Verlet's order: halving dt quarters the error."""
+    e1, most = actuation_energy_error(0.5)
+    e2, _ = actuation_energy_error(0.25)
+    assert e1 < 1e-3 * most
+    assert 3.4 < e1 / e2 < 4.8
