@@ -30,14 +30,19 @@ scheme's over three swing periods, bench/fast_modes.json); the wall-time ratio p
 second is what a user feels at matched (1 %) accuracy.
 
 Usage: python bench/pyelastica_compare.py [--quick]       writes bench/pyelastica_compare.json
+       python bench/pyelastica_compare.py --cable       the cable only, into the same JSON
+                                                        (its other entries kept)
 """
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
 import warnings
+
+from pathlib import Path
 
 import numpy as np
 
@@ -297,6 +302,7 @@ def main():
     quick = "--quick" in sys.argv
     load0 = os.getloadavg()[0]
     cab = cable_compare(quick)
+    cab["load_average_1min"] = [load0, os.getloadavg()[0]]
     table("cable L = 10 m, r = 1 mm, 100 elements, pinned, swinging: wall time per simulated second "
           "(best of rounds, each timed over a fixed number of steps and extrapolated)",
           ["code", "dt (s)", "wall s / sim s", "PyElastica / this"],
@@ -304,6 +310,14 @@ def main():
            ["cosnet resolve", cab["dt_resolve"], cab["wall_per_sim_s"]["resolve"],
             cab["ratio_pyelastica_over_resolve"]],
            ["cosnet auto", cab["dt_auto"], cab["wall_per_sim_s"]["auto"], cab["ratio_pyelastica_over_auto"]]])
+    if "--cable" in sys.argv:
+        path = Path(__file__).with_suffix(".json")
+        if os.environ.get("COSNET_BENCH_OUT"):
+            path = Path(os.environ["COSNET_BENCH_OUT"]) / path.name
+        old = json.loads(path.read_text()) if path.exists() else {}
+        old.pop("machine", None)
+        write_json(__file__, {**old, "cable": cab})
+        return
     rows = speed(quick)
     table("cosnet vs PyElastica 1.0 (position Verlet, gravity, same dt, 1 thread, best of N, "
           "CPU time per step; wall ratio alongside)",
