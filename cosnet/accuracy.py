@@ -22,8 +22,10 @@ settings that were not run.
 Fast modes (docs/fast_modes.md): every ``fast_modes`` setting is run on the base mesh with
 Verlet at its own stable step. Its error is its distance from the full scheme ("resolve",
 the limit of a Verlet time series on the base mesh: the scene's own series when the scene
-resolves its fast modes, else one run for the purpose) plus the base mesh's space error, so
-that it is measured against the same answer as the other settings.
+resolves its fast modes, else one series run for the purpose) plus the base mesh's space
+error. When the scene itself treats its fast modes, the distance between its own limit and
+the full scheme's is added to the errors of its own settings, so that every setting is
+measured against the same answer.
 
 The errors of a setting (element factor f, stepper, dt) are then estimated as the sum of its
 space error (from the space series) and its time error ``C dt^p`` (fitted on the time
@@ -211,15 +213,15 @@ def time_series(scene: Scene, stepper: str, window: float, probes=None, log=None
     return richardson(stepper, runs)
 
 
-def fast_mode_settings(scene: Scene, window: float, probes, verlet: Series, space_error: float,
+def fast_mode_settings(scene: Scene, window: float, probes, full: Series, space_error: float,
                        log=None) -> list[Setting]:
-    """One Setting per fast_modes setting but the scene's own: the base mesh, Verlet at that setting's stable step,
-    its error measured against the full scheme's limit (``verlet`` when the scene resolves its
-    fast modes, else a Verlet series run here with "resolve") plus ``space_error``."""
+    """One Setting per fast_modes setting but the scene's own: the base mesh, Verlet at that
+    setting's stable step, its error measured against ``full`` (the limit of a Verlet series
+    with "resolve") plus ``space_error``."""
     say = log or (lambda msg: None)
-    full = verlet if scene.run.fast_modes == "resolve" else time_series(
-        scene, "verlet", window, probes, log, fast_modes="resolve")
     pr = resolve_probes(scene, probes)
+    # a series without credible extrapolation: its finest run may be off by its own error
+    slack = full.runs[-1].error if full.nominal else 0.0
     out = []
     for fm in FAST_MODES:
         if fm == scene.run.fast_modes:
@@ -228,8 +230,6 @@ def fast_mode_settings(scene: Scene, window: float, probes, verlet: Series, spac
         steps = _steps_for(window, dt)
         say(f"  verlet dt = {window / steps:.4g} s, fast_modes {fm}")
         r = run_window(scene, pr, "verlet", steps, window, fm)
-        # a series without credible extrapolation: its finest run may be off by its own error
-        slack = full.runs[-1].error if full.nominal else 0.0
         err = float(np.linalg.norm(r.value - full.limit)) + slack
         out.append(Setting(1, "verlet", r.dt, r.elements, space_error + err, r.cost, True, fm))
     return out
@@ -266,8 +266,14 @@ def study(path, window: float | None = None, probes=None, factors=FACTORS, log=N
         runs.append(r)
     series["space"] = richardson("space", runs)
     settings = _settings(scenes, factors, series, window)
-    settings += fast_mode_settings(base, window, probes, series["verlet"],
-                                   series["space"].runs[0].error, say)
+    full = series["verlet"]
+    if base.run.fast_modes != "resolve":
+        full = time_series(base, "verlet", window, probes, say, fast_modes="resolve")
+        # the scene's own treatment moves its answer away from the full scheme's
+        model = float(np.linalg.norm(series["verlet"].limit - full.limit))
+        for s in settings:
+            s.error += model
+    settings += fast_mode_settings(base, window, probes, full, series["space"].runs[0].error, say)
     settings.sort(key=lambda s: s.cost)
     return Study(base, window, resolve_probes(base, probes), series, settings)
 
