@@ -112,18 +112,22 @@ until = 0.04
 """
 
 
-def test_fast_modes_settings_are_listed_and_the_cheapest_one_within_tol_is_recommended(tmp_path):
-    """A slender wire (l/r = 100): every fast_modes setting is listed, measured against the
-    full scheme; the softened ones take longer steps; the recommendation meets tol and no
-    cheaper listed setting does."""
+@pytest.mark.parametrize("own", ["resolve", "auto"])
+def test_fast_modes_settings_are_listed_and_the_cheapest_one_within_tol_is_recommended(tmp_path, own):
+    """A slender wire (l/r = 100), resolving or treating its own fast modes: every fast_modes
+    setting is listed, measured against the full scheme; the softened ones take longer steps;
+    the recommendation meets tol and no cheaper listed setting does."""
     from cosnet.accuracy import study
     from cosnet.fast_modes import FAST_MODES
     path = tmp_path / "wire.toml"
-    path.write_text(WIRE_SCENE)
+    path.write_text(WIRE_SCENE + f'fast_modes = "{own}"\n')
     st = study(path, window=0.0005, probes=["tip"])
-    fm = {s.fast_modes: s for s in st.settings if s.factor == 1 and s.stepper == "verlet"}
+    fm = {}
+    for s in st.settings:       # each setting at its longest step on the scene's mesh
+        if s.factor == 1 and s.stepper == "verlet" and s.dt > getattr(fm.get(s.fast_modes), "dt", 0.0):
+            fm[s.fast_modes] = s
     assert set(fm) == set(FAST_MODES)
-    assert fm["soften"].dt > 20 * fm["resolve"].dt
+    assert fm["soften"].dt > 4 * fm["resolve"].dt
     assert all(s.measured and math.isfinite(s.error) and s.error > 0 for s in fm.values())
     for tol in sorted({s.error for s in st.settings})[::3]:
         best = st.recommend(tol)
