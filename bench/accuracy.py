@@ -18,15 +18,29 @@ Cases (reference in brackets):
   energy    energy error of a free net (three lines and a rigid body, smooth start) over
             30 periods of its slowest mode (10 with --quick) [conservation: E(t) = E(0)]
 
+With --fast-modes, instead: the work-precision panel of the ``fast_modes`` settings (resolve,
+rotary, soften, auto; docs/fast_modes.md), Verlet at each setting's stable step:
+  bending   lowest five bending frequencies of a clamped-free steel rod, L = 1 m, r = 1 mm,
+            25/50/100 elements (l/r = 40/20/10) [Euler-Bernoulli; the discrete modes of the
+            treated mass and stiffness with Verlet's frequency error at that step]; wall time
+            per simulated second timed over a fixed number of steps
+  elastica  the large-deflection cantilever above (P L^2 / EI = 3) made slender: r = 5 mm,
+            10/20 elements (l/r = 20/10), damped to rest [the same elastica reference]
+  cable     the swinging 10 m cable of bench/fast_modes.py: midpoint path over three swing
+            periods against "resolve" at the same mesh, and wall-time ratios, read from
+            bench/fast_modes.json (its reference run takes half an hour)
+Writes bench/accuracy_fast_modes.json and bench/figures/accuracy_fast_modes.png.
+
 Observed orders are least-squares slopes of log(error) against log(elements) (space) or
 log(dt) (time). Prints a table, writes bench/accuracy.json and bench/figures/accuracy.png
 (one work-precision panel per case) and bench/figures/accuracy_orders.png.
 
-    python bench/accuracy.py [--quick]
+    python bench/accuracy.py [--quick] [--fast-modes]
 """
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
@@ -38,6 +52,7 @@ from scipy.optimize import minimize_scalar
 from scipy.special import ellipk
 
 import cosnet
+from cosnet.fast_modes import FAST_MODES
 from cosnet.rotmath import matrix_from_quat
 from cosnet.lincos import analytic_modes
 from harness import table, write_json
@@ -143,13 +158,13 @@ def settle(sim, omega1, periods=24.0) -> float:
     return timed(sim, until=periods / omega1)
 
 
-def loaded_cantilevers(ns, L, r, P, omega1, periods=24.0):
+def loaded_cantilevers(ns, L, r, P, omega1, periods=24.0, steppers=STEPPERS, fast_modes="resolve"):
     """(n, stepper, sim, tip, wall) for each element count and stepper: the cantilever under a
     dead tip load P along -z, damped to rest over ``periods`` / omega1."""
     for n in ns:
         net, line, tip = cantilever(n, L, r)
-        for stepper in STEPPERS:
-            make = lambda: cosnet.Simulation(net, stepper=stepper, effects=[
+        for stepper in steppers:
+            make = lambda: cosnet.Simulation(net, stepper=stepper, fast_modes=fast_modes, effects=[
                 cosnet.NodeLoad(tip, force=(0, 0, -P)), cosnet.Damping(2.0 * omega1)])
             warm(make)
             sim = make()
@@ -198,8 +213,10 @@ def elastica_reference(alpha, EI, EA, kGA, L=1.0):
     return 1.0 - x, -z
 
 
-def elastica_case(ns, alpha=3.0):
-    L, r = 1.0, 0.02
+def elastica_case(ns, alpha=3.0, r=0.02, fast_modes=None):
+    """Points of the large-deflection cantilever for both steppers, or with fast_modes given,
+    Verlet with that setting (the point's stepper names it)."""
+    L = 1.0
     sec = cosnet.Circle(r)
     EI, EA, kGA = STEEL.E * sec.I11, STEEL.E * sec.A, sec.shear_coefficient * STEEL.G * sec.A
     # the inextensible, unshearable limit reproduces Bisshopp & Drucker's table
@@ -208,11 +225,13 @@ def elastica_case(ns, alpha=3.0):
     P = alpha * EI / L**2
     omega1 = BETA1**2 * math.sqrt(EI / (STEEL.density * sec.A)) / L**2
     out = []
-    for n, stepper, sim, tip, wall in loaded_cantilevers(ns, L, r, P, omega1, periods=40.0):
+    steppers = STEPPERS if fast_modes is None else ("verlet",)
+    for n, stepper, sim, tip, wall in loaded_cantilevers(ns, L, r, P, omega1, 40.0, steppers,
+                                                         fast_modes or "resolve"):
         p = sim.node_position(tip)
         dh, dv = (L - p[0]) / L, -p[2] / L
         err = math.hypot(dh - ref[0], dv - ref[1]) / math.hypot(*ref)
-        out.append(point("elastica", stepper, n, sim.dt, err, wall, sim.time,
+        out.append(point("elastica", fast_modes or stepper, n, sim.dt, err, wall, sim.time,
                          tip=[dh, dv], exact=list(ref)))
     return out, {"alpha": alpha, "reference_tip": list(ref), "bisshopp_drucker_alpha1": list(bd)}
 
@@ -351,6 +370,77 @@ def energy_case(dt_divs, periods=100.0):
     return out
 
 
+# ---------------------------------------------------------------------- fast modes
+def bending_panel(ns, steps):
+    from fast_modes import CLAMPED_FREE, bending_errors, eb, straight
+    exact = eb(CLAMPED_FREE, 1.0, 1e-3)
+    out = []
+    for n in ns:
+        for fm in FAST_MODES:
+            sim = cosnet.Simulation(straight(1.0, 1e-3, n, clamped=True), fast_modes=fm)
+            err, each = bending_errors(straight(1.0, 1e-3, n, clamped=True), fm, exact, sim.dt)
+            sim.run(steps=10)
+            wall = timed(sim, steps=steps)
+            out.append(point("bending", fm, n, sim.dt, err, wall, steps * sim.dt, errors=each))
+    return out
+
+
+def cable_panel():
+    """The cable's points from bench/fast_modes.json: wall time per simulated second timed in
+    alternation with "resolve", path error against "resolve"."""
+    path = Path(__file__).resolve().with_name("fast_modes.json")
+    cab = json.loads(path.read_text())["cable"]
+    out = []
+    for fm in FAST_MODES:
+        c = cab[fm]
+        out.append(point("cable", fm, 100, c["dt"], c["path_error_over_amplitude"],
+                         c["wall_per_sim_s"], 1.0, wall_ratio=c["wall_ratio"], source=path.name))
+    return out
+
+
+def fast_modes_plot(points):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    FIGURES.mkdir(exist_ok=True)
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.5))
+    titles = {"bending": "5 bending frequencies, rod L/r = 1000 (rel.)",
+              "elastica": "large-deflection cantilever, r = 5 mm (rel.)",
+              "cable": "cable midpoint path / amplitude, 3 periods"}
+    for ax, case in zip(axes, titles):
+        for fm, colour in zip(FAST_MODES, ("tab:blue", "tab:green", "tab:red", "tab:purple")):
+            ps = sorted((p for p in points if p["case"] == case and p["stepper"] == fm),
+                        key=lambda p: p["elements"])
+            if case == "cable" and fm == "resolve":      # the reference: error 0 by definition
+                ax.axvline(ps[0]["wall_per_sim_s"], color=colour, ls="--", label="resolve (reference)")
+                continue
+            ax.loglog([p["wall_per_sim_s"] for p in ps], [p["error"] for p in ps],
+                      "o-", color=colour, label=fm, alpha=0.8)
+        ax.set_title(titles[case], fontsize=9)
+        ax.set_xlabel("wall time per simulated second [s] (under load)")
+        ax.set_ylabel("error")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(FIGURES / "accuracy_fast_modes.png", dpi=110)
+    plt.close(fig)
+
+
+def fast_modes_main(quick):
+    points = bending_panel((25, 50) if quick else (25, 50, 100), 2000 if quick else 20000)
+    for fm in FAST_MODES:
+        points += elastica_case((10,) if quick else (10, 20), r=5e-3, fast_modes=fm)[0]
+    points += cable_panel()
+    table("fast_modes work-precision (Verlet at each setting's stable step; bending: worst of 5 "
+          "frequencies; elastica: tip; cable: path / amplitude; measured under load)",
+          ["case", "fast_modes", "elements", "dt [s]", "error", "wall s / sim s"],
+          [[p["case"], p["stepper"], p["elements"], f"{p['dt']:.3g}", f"{p['error']:.3g}",
+            f"{p['wall_per_sim_s']:.3g}"] for p in points])
+    fast_modes_plot(points)
+    write_json(str(Path(__file__).with_name("accuracy_fast_modes.py")),
+               {"quick": quick, "under_load": True, "points": points})
+
+
 # ---------------------------------------------------------------------- report
 def orders(points):
     """Observed orders per case and stepper: in space (slope against elements, at the base dt)
@@ -457,6 +547,8 @@ def plot(points, ords):
 
 def main():
     quick = "--quick" in sys.argv
+    if "--fast-modes" in sys.argv:
+        return fast_modes_main(quick)
     ns_freq = (4, 8, 16) if quick else (4, 8, 16, 32)
     ns_pend = (1, 2) if quick else (1, 2, 4)
     ns_static = (4, 8, 16) if quick else (4, 8, 16, 32)

@@ -14,7 +14,16 @@ Cases:
           Euler-Bernoulli
   stubby  the same rod with r = 10 mm (l = r): the step must not shrink
 
-    python bench/fast_modes.py [--quick]      (--quick: one swing period, fewer rounds)
+The midpoint is sampled every 1/30.8 s (240 samples over 7.8 s); the swing period is taken
+from the zero crossings of the reference ("resolve") path, and the path error is the largest
+over the samples within three periods.
+
+    python bench/fast_modes.py [--quick] [--save-reference FILE.npy | --reference FILE.npy]
+
+--quick: one swing period, fewer rounds. The "resolve" path takes about half an hour (35
+million steps); --save-reference keeps it, --reference reuses one saved by an earlier run of
+this script with the same --quick setting (it is deterministic: the same code gives the same
+path), which bench/fast_modes.json then records.
 """
 
 from __future__ import annotations
@@ -94,55 +103,87 @@ def midpoint_path(fm, until, samples):
     return out, time.perf_counter() - t0, sim
 
 
-def swing_period(fm, probe_time=6.0, samples=600):
-    path, _, _ = midpoint_path(fm, probe_time, samples)
+SAMPLE_DT = 7.8 / 240.0
+PERIOD_WINDOW = 2.6           # s simulated per swing period asked for (the period is ~2.57 s)
+
+
+def swing_period(path) -> float:
+    """Twice the mean interval between the sideways (y) zero crossings of a midpoint path
+    sampled every SAMPLE_DT."""
     y = path[:, 1]
-    t = np.linspace(0.0, probe_time, samples + 1)
+    t = SAMPLE_DT * np.arange(len(y))
     cross = [t[k] - y[k] * (t[k + 1] - t[k]) / (y[k + 1] - y[k])
-             for k in range(samples) if y[k] > 0 >= y[k + 1] or y[k] < 0 <= y[k + 1]]
+             for k in range(len(y) - 1) if y[k] > 0 >= y[k + 1] or y[k] < 0 <= y[k + 1]]
     return 2.0 * float(np.mean(np.diff(cross))) if len(cross) > 2 else 2.0 * cross[0]
 
 
 def wall_ratio(fm, rounds, steps):
-    """Wall time per simulated second of "resolve" over that of fm, per round (alternating)."""
+    """Wall time per simulated second of "resolve" over that of fm, per round (alternating),
+    and the median wall time per simulated second of each."""
     sims = {s: cosnet.Simulation(cable(), effects=[cosnet.Gravity()], fast_modes=s) for s in ("resolve", fm)}
     for s in sims.values():
         s.run(steps=100)
-    ratios = []
+    ratios, each = [], {name: [] for name in sims}
     for _ in range(rounds):
         per = {}
         for name, s in sims.items():
             t0 = time.perf_counter()
             s.run(steps=steps)
             per[name] = (time.perf_counter() - t0) / (steps * s.dt)
+            each[name].append(per[name])
         ratios.append(per["resolve"] / per[fm])
-    return ratios
+    return ratios, {name: float(np.median(v)) for name, v in each.items()}
 
 
-def main(quick=False):
+def option(argv, name):
+    return argv[argv.index(name) + 1] if name in argv else None
+
+
+def main(argv):
+    quick = "--quick" in argv
     periods = 1 if quick else 3
     rounds, steps = (2, 2000) if quick else (5, 5000)
     result = {"periods": periods, "under_load": True}
 
     # cable: steps, wall time, midpoint path
-    T = swing_period("soften")
+    samples = int(round(periods * PERIOD_WINDOW / SAMPLE_DT))
+    window = samples * SAMPLE_DT
+    ref_sim = cosnet.Simulation(cable(), effects=[cosnet.Gravity()], fast_modes="resolve")
+    loaded = option(argv, "--reference")
+    if loaded:
+        ref, ref_wall = np.load(loaded), None
+        if ref.shape != (samples + 1, 3):
+            raise SystemExit(f"{loaded}: a path of {ref.shape[0]} samples, not {samples + 1} "
+                             f"(saved with another --quick setting?)")
+    else:
+        ref, ref_wall, ref_sim = midpoint_path("resolve", window, samples)
+        if option(argv, "--save-reference"):
+            np.save(option(argv, "--save-reference"), ref)
+    T = swing_period(ref)
     until = periods * T
-    samples = 60 * periods
-    ref, ref_wall, ref_sim = midpoint_path("resolve", until, samples)
-    amp = float(np.max(np.abs(ref[:, 1])))
-    rows, cab = [], {"swing_period_s": T, "simulated_s": until, "swing_amplitude_m": amp}
+    within = SAMPLE_DT * np.arange(samples + 1) <= until + 1e-9
+    amp = float(np.max(np.abs(ref[within, 1])))
+    rows, cab = [], {"swing_period_s": T, "simulated_s": until, "swing_amplitude_m": amp,
+                     "sample_interval_s": SAMPLE_DT,
+                     "reference": f"loaded from {Path(loaded).name}, saved by an earlier run of this "
+                                  f"script" if loaded else "computed in this run"}
     exact_pp = eb([math.pi * k for k in range(1, 6)], 10.0, 1e-3)
     for fm in SETTINGS:
-        path, wall, sim = (ref, ref_wall, ref_sim) if fm == "resolve" else midpoint_path(fm, until, samples)
-        dev = float(np.max(np.linalg.norm(path - ref, axis=1))) / amp
-        ratios = [1.0] if fm == "resolve" else wall_ratio(fm, rounds, steps)
+        path, wall, sim = (ref, ref_wall, ref_sim) if fm == "resolve" else midpoint_path(fm, window, samples)
+        dev = float(np.max(np.linalg.norm(path - ref, axis=1)[within])) / amp
+        if fm == "resolve":
+            ratios, per = [1.0], {}
+        else:
+            ratios, per = wall_ratio(fm, rounds, steps)
+            cab["resolve"].setdefault("wall_per_sim_s_rounds", []).append(per["resolve"])
         freq, _ = bending_errors(straight(10.0, 1e-3, 100, clamped=False), fm, exact_pp, sim.dt)
         f = sim.line_factors[0]
         cab[fm] = {"dt": sim.dt, "dt_gain": sim.dt / ref_sim.dt, "wall_ratio_rounds": ratios,
                    "wall_ratio": float(np.median(ratios)), "path_error_over_amplitude": dev,
                    "bending_freq_error": freq, "factors": vars(f) if hasattr(f, "__dict__") else str(f),
-                   "wall_s": wall}
+                   "wall_s": wall, **({"wall_per_sim_s": per[fm]} if per else {})}
         rows.append([fm, sim.dt, sim.dt / ref_sim.dt, float(np.median(ratios)), dev, freq])
+    cab["resolve"]["wall_per_sim_s"] = float(np.median(cab["resolve"]["wall_per_sim_s_rounds"]))
     table(f"cable L = 10 m, r = 1 mm, 100 elements, {periods} swing period(s) of {T:.3g} s (under load)",
           ["setting", "dt (s)", "dt gain", "wall ratio", "path err / amp", "freq err (5 modes)"], rows)
     result["cable"] = cab
@@ -166,4 +207,4 @@ def main(quick=False):
 
 
 if __name__ == "__main__":
-    main(quick="--quick" in sys.argv)
+    main(sys.argv[1:])

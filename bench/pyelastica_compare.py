@@ -18,15 +18,31 @@ Trajectory: the 100-element rod released from straight, positions over 0.05 s co
 common times; the difference is quoted relative to the largest tip deflection, next to each
 code's own discretisation change (n vs 2 n elements).
 
+Cable: the steel cable of bench/fast_modes.py (L = 10 m, r = 1 mm, 100 elements, pinned at both
+ends 9 m apart, released in a plane turned 40 degrees sideways, straight at rest), built in
+PyElastica from cosnet's own vertices and directors (rest curvature set to zero, ends pinned
+by GeneralConstraint on positions only, gravity). PyElastica's stable step is the largest of a
+sequence of steps (cosnet's "resolve" step times 2^(k/2)) that stays finite and bounded over a
+fixed number of steps; its cost per simulated second is timed over a fixed number of steps at
+that step and extrapolated (a 3-period run would take hours). cosnet is timed at "resolve"
+and at "auto" (which softens this cable: its midpoint path stays within ~1 % of the full
+scheme's over three swing periods, bench/fast_modes.json); the wall-time ratio per simulated
+second is what a user feels at matched (1 %) accuracy.
+
 Usage: python bench/pyelastica_compare.py [--quick]       writes bench/pyelastica_compare.json
+       python bench/pyelastica_compare.py --cable       the cable only, into the same JSON
+                                                        (its other entries kept)
 """
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
 import warnings
+
+from pathlib import Path
 
 import numpy as np
 
@@ -211,9 +227,97 @@ def trajectory(quick):
     return res
 
 
+# --------------------------------------------------------------------------- the cable
+def pe_cable(positions, directors):
+    sim = PESim()
+    n = positions.shape[0] - 1
+    normal = directors[0, 0].copy()
+    rod = ea.CosseratRod.straight_rod(n, positions[0].copy(), np.array([1.0, 0, 0]), normal, 10.0,
+                                      1e-3, RHO, youngs_modulus=E, shear_modulus=G,
+                                      position=positions.T.copy(),
+                                      directors=np.ascontiguousarray(directors.transpose(1, 2, 0)))
+    rod.rest_kappa[:] = 0.0          # straight at rest, as cosnet's cable
+    sim.append(rod)
+    sim.constrain(rod).using(ea.GeneralConstraint, constrained_position_idx=(0, -1),
+                             translational_constraint_selector=np.array([True, True, True]))
+    sim.add_forcing_to(rod).using(ea.GravityForces, acc_gravity=GRAV)
+    sim.finalize()
+    return sim, rod
+
+
+def pe_stable_dt(positions, directors, dt0, steps):
+    """The largest dt0 * 2^(k/2) (k from 4 down) with which PyElastica stays finite and within
+    1 m of its start over ``steps`` steps."""
+    tried = []
+    for k in range(4, -9, -1):
+        dt = dt0 * 2.0 ** (k / 2)
+        sim, rod = pe_cable(positions, directors)
+        PERunner(sim, dt).run(steps)
+        ok = bool(np.isfinite(rod.position_collection).all()
+                  and np.abs(rod.position_collection.T - positions).max() < 1.0)
+        tried.append({"dt": dt, "stable": ok})
+        if ok:
+            return dt, tried
+    raise RuntimeError(f"PyElastica cable: no stable step found ({tried})")
+
+
+def cable_compare(quick):
+    from fast_modes import cable
+    sims = {fm: cosnet.Simulation(cable(), effects=[cosnet.Gravity(tuple(GRAV))], fast_modes=fm,
+                                  threads=1) for fm in ("resolve", "auto")}
+    ref = sims["resolve"]
+    line = ref.net.lines[0]
+    positions = ref.line_positions(line).copy()
+    q = ref.state.q[ref.model.line_element_offsets[0]:ref.model.line_element_offsets[1]]
+    from cosnet.flatten import matrix_from_quat
+    directors = np.array([matrix_from_quat(qq).T for qq in q])   # rows d1, d2, d3
+    check = 2000 if quick else 20000
+    dt_pe, tried = pe_stable_dt(positions, directors, ref.dt, check)
+    steps_pe = 500 if quick else 2000
+    sim, rod = pe_cable(positions, directors)
+    runner = PERunner(sim, dt_pe)
+    runner.run(5)
+    steps_cn = {"resolve": 2000 if quick else 20000, "auto": 2000 if quick else 20000}
+    for s in sims.values():
+        s.run(steps=10)
+    best = {"pyelastica": np.inf, "resolve": np.inf, "auto": np.inf}
+    for _ in range(3 if quick else 5):
+        t0 = time.perf_counter()
+        runner.run(steps_pe)
+        best["pyelastica"] = min(best["pyelastica"], (time.perf_counter() - t0) / (steps_pe * dt_pe))
+        for fm, s in sims.items():
+            t0 = time.perf_counter()
+            s.run(steps=steps_cn[fm])
+            best[fm] = min(best[fm], (time.perf_counter() - t0) / (steps_cn[fm] * s.dt))
+    return {"dt_pyelastica": dt_pe, "stability_check_steps": check, "tried": tried,
+            "dt_resolve": ref.dt, "dt_auto": sims["auto"].dt,
+            "timed_steps": {"pyelastica": steps_pe, **steps_cn},
+            "wall_per_sim_s": best, "extrapolated": True,
+            "ratio_pyelastica_over_auto": best["pyelastica"] / best["auto"],
+            "ratio_pyelastica_over_resolve": best["pyelastica"] / best["resolve"],
+            "ratio_resolve_over_auto": best["resolve"] / best["auto"]}
+
+
 def main():
     quick = "--quick" in sys.argv
     load0 = os.getloadavg()[0]
+    cab = cable_compare(quick)
+    cab["load_average_1min"] = [load0, os.getloadavg()[0]]
+    table("cable L = 10 m, r = 1 mm, 100 elements, pinned, swinging: wall time per simulated second "
+          "(best of rounds, each timed over a fixed number of steps and extrapolated)",
+          ["code", "dt (s)", "wall s / sim s", "PyElastica / this"],
+          [["PyElastica 1.0", cab["dt_pyelastica"], cab["wall_per_sim_s"]["pyelastica"], 1.0],
+           ["cosnet resolve", cab["dt_resolve"], cab["wall_per_sim_s"]["resolve"],
+            cab["ratio_pyelastica_over_resolve"]],
+           ["cosnet auto", cab["dt_auto"], cab["wall_per_sim_s"]["auto"], cab["ratio_pyelastica_over_auto"]]])
+    if "--cable" in sys.argv:
+        path = Path(__file__).with_suffix(".json")
+        if os.environ.get("COSNET_BENCH_OUT"):
+            path = Path(os.environ["COSNET_BENCH_OUT"]) / path.name
+        old = json.loads(path.read_text()) if path.exists() else {}
+        old.pop("machine", None)
+        write_json(__file__, {**old, "cable": cab})
+        return
     rows = speed(quick)
     table("cosnet vs PyElastica 1.0 (position Verlet, gravity, same dt, 1 thread, best of N, "
           "CPU time per step; wall ratio alongside)",
@@ -231,7 +335,7 @@ def main():
                   ["at 200 elements: max |x_cosnet - x_PyElastica| / tip", tr["relative_difference_2n"]]]
     table(f"Trajectory, clamped rod {tr['elements']} elements, 0-{tr['until_s']} s, dt = {tr['dt']:.4g} s",
           ["quantity", "value"], lines)
-    write_json(__file__, {"speed": rows, "trajectory": tr, "quick": quick,
+    write_json(__file__, {"speed": rows, "trajectory": tr, "cable": cab, "quick": quick,
                           "load_average_1min": [load0, os.getloadavg()[0]]})
     print(f"1-minute load average at start and end: {load0:.2f}, {os.getloadavg()[0]:.2f} "
           f"(cores: {os.cpu_count()})")

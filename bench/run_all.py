@@ -26,7 +26,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
-# name, quick arguments (None: full runs only), full arguments, time limit (s) in quick mode
+# name, quick arguments (None: full runs only), full arguments, time limit (s) in quick mode;
+# a name SCRIPT@PANEL runs SCRIPT.py with --PANEL added to both argument lists
 SCRIPTS = [
     ("throughput", ["--quick"], [], 120),
     ("scaling", ["--quick"], [], 300),
@@ -34,6 +35,8 @@ SCRIPTS = [
     ("effects", ["--quick"], [], 120),
     ("contact_scaling", ["--quick"], [], 120),
     ("accuracy", ["--quick"], [], 120),
+    ("accuracy@fast-modes", ["--quick"], [], 300),     # reads bench/fast_modes.json for the cable
+    ("fast_modes", None, [], None),                     # about 40 minutes: full runs only
     ("long_run", ["200000"], [], 60),
     ("modes_convergence", ["20", "40", "80", "160", "320"], [], 120),
     ("cosseratbench_run", None, [], None),        # about 6 minutes: full runs only
@@ -66,13 +69,16 @@ def accepts_quick(path: Path) -> bool:
 
 
 def run(name, args, limit, logs, env):
-    path = HERE / f"{name}.py"
+    script, _, panel = name.partition("@")
+    path = HERE / f"{script}.py"
     if not path.exists():
         return {"script": name, "status": "missing", "seconds": 0.0}
     if args is None:
         return {"script": name, "status": "skipped (--full only)", "seconds": 0.0}
     if "--quick" in args and not accepts_quick(path):
         args = [a for a in args if a != "--quick"]
+    if panel:
+        args = [*args, f"--{panel}"]
     print(f"\n===== {name} {' '.join(args)} =====", flush=True)
     t0 = time.perf_counter()
     lines = []
@@ -99,7 +105,7 @@ def run(name, args, limit, logs, env):
     wall = time.perf_counter() - t0
     if logs:
         Path(logs).mkdir(parents=True, exist_ok=True)
-        (Path(logs) / f"{name}.txt").write_text("".join(lines))
+        (Path(logs) / f"{name.replace('@', '_')}.txt").write_text("".join(lines))
     tail = [l.rstrip() for l in lines if l.strip()][-1:] if lines else []
     return {"script": name, "args": args, "status": status, "seconds": wall,
             "last_line": tail[0] if tail else ""}
@@ -120,7 +126,7 @@ def main(argv=None):
         out = Path(opts.out or tempfile.mkdtemp(prefix="cosnet_bench_quick_"))
         env["COSNET_BENCH_OUT"] = str(out)
         print(f"quick run: JSON files go to {out}")
-    known = {s[0] for s in SCRIPTS}
+    known = {s[0].partition("@")[0] for s in SCRIPTS}
     for name, quick, full, limit in SCRIPTS:
         if opts.only and name not in opts.only:
             continue

@@ -19,6 +19,14 @@ error is its distance from the finest run, and the finest run's error its distan
 one before it. The nominal order (2, 4; 2 in space) is then used for extrapolating to
 settings that were not run.
 
+Fast modes (docs/fast_modes.md): every ``fast_modes`` setting is run on the base mesh with
+Verlet at its own stable step. Its error is its distance from the full scheme ("resolve",
+the limit of a Verlet time series on the base mesh: the scene's own series when the scene
+resolves its fast modes, else one series run for the purpose) plus the base mesh's space
+error. When the scene itself treats its fast modes, the distance between its own limit and
+the full scheme's is added to the errors of its own settings, so that every setting is
+measured against the same answer.
+
 The errors of a setting (element factor f, stepper, dt) are then estimated as the sum of its
 space error (from the space series) and its time error ``C dt^p`` (fitted on the time
 series of that stepper on the base mesh; the time error at a fixed dt is taken to depend
@@ -38,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from .kernels.stepping import steps_to
+from .fast_modes import FAST_MODES
 from .record import parse_probe
 from .scene import Probe, Scene, build_scene, load_scene, read_toml
 
@@ -106,10 +115,13 @@ class Run:
         return self.wall / (self.steps * self.dt)
 
 
-def run_window(scene: Scene, probes, stepper: str, steps: int, window: float) -> Run:
-    """Run ``scene`` from its initial state over ``window`` in exactly ``steps`` steps."""
+def run_window(scene: Scene, probes, stepper: str, steps: int, window: float,
+               fast_modes: str | None = None) -> Run:
+    """Run ``scene`` from its initial state over ``window`` in exactly ``steps`` steps (with
+    another fast_modes setting if given)."""
     dt = window / steps
-    sim = scene.simulation(stepper=stepper, dt=dt, force_dt=True)
+    extra = {} if fast_modes is None else {"fast_modes": fast_modes}
+    sim = scene.simulation(stepper=stepper, dt=dt, force_dt=True, **extra)
     t0 = time.perf_counter()
     sim.run(steps=steps)
     wall = time.perf_counter() - t0
@@ -165,6 +177,7 @@ class Setting:
     error: float
     cost: float
     measured: bool
+    fast_modes: str = "resolve"
 
 
 @dataclass
@@ -186,18 +199,41 @@ def _steps_for(window: float, dt: float) -> int:
 
 
 def time_series(scene: Scene, stepper: str, window: float, probes=None, log=None,
-                dt: float | None = None) -> Series:
+                dt: float | None = None, fast_modes: str | None = None) -> Series:
     """Runs at dt, dt/2, dt/4 (dt: the scene's step, shortened to divide the window) and
-    their Richardson estimates."""
+    their Richardson estimates (with another fast_modes setting if given)."""
     say = log or (lambda msg: None)
-    dt0 = scene.simulation(stepper=stepper).dt if dt is None else dt
+    extra = {} if fast_modes is None else {"fast_modes": fast_modes}
+    dt0 = scene.simulation(stepper=stepper, **extra).dt if dt is None else dt
     n0 = _steps_for(window, dt0)
     pr = resolve_probes(scene, probes)
     runs = []
     for k in range(3):
-        say(f"  {stepper:6s} dt = {window / (n0 * 2**k):.4g} s")
-        runs.append(run_window(scene, pr, stepper, n0 * 2**k, window))
+        say(f"  {stepper:6s} dt = {window / (n0 * 2**k):.4g} s" + (f", fast_modes {fast_modes}" if extra else ""))
+        runs.append(run_window(scene, pr, stepper, n0 * 2**k, window, fast_modes))
     return richardson(stepper, runs)
+
+
+def fast_mode_settings(scene: Scene, window: float, probes, full: Series, space_error: float,
+                       log=None) -> list[Setting]:
+    """One Setting per fast_modes setting but the scene's own: the base mesh, Verlet at that
+    setting's stable step, its error measured against ``full`` (the limit of a Verlet series
+    with "resolve") plus ``space_error``."""
+    say = log or (lambda msg: None)
+    pr = resolve_probes(scene, probes)
+    # a series without credible extrapolation: its finest run may be off by its own error
+    slack = full.runs[-1].error if full.nominal else 0.0
+    out = []
+    for fm in FAST_MODES:
+        if fm == scene.run.fast_modes:
+            continue            # the scene's own setting is in the time series already
+        dt = scene.simulation(stepper="verlet", fast_modes=fm).dt
+        steps = _steps_for(window, dt)
+        say(f"  verlet dt = {window / steps:.4g} s, fast_modes {fm}")
+        r = run_window(scene, pr, "verlet", steps, window, fm)
+        err = float(np.linalg.norm(r.value - full.limit)) + slack
+        out.append(Setting(1, "verlet", r.dt, r.elements, space_error + err, r.cost, True, fm))
+    return out
 
 
 def study(path, window: float | None = None, probes=None, factors=FACTORS, log=None) -> Study:
@@ -231,6 +267,15 @@ def study(path, window: float | None = None, probes=None, factors=FACTORS, log=N
         runs.append(r)
     series["space"] = richardson("space", runs)
     settings = _settings(scenes, factors, series, window)
+    full = series["verlet"]
+    if base.run.fast_modes != "resolve":
+        full = time_series(base, "verlet", window, probes, say, fast_modes="resolve")
+        # the scene's own treatment moves its answer away from the full scheme's
+        model = float(np.linalg.norm(series["verlet"].limit - full.limit))
+        for s in settings:
+            s.error += model
+    settings += fast_mode_settings(base, window, probes, full, series["space"].runs[0].error, say)
+    settings.sort(key=lambda s: s.cost)
     return Study(base, window, resolve_probes(base, probes), series, settings)
 
 
@@ -259,7 +304,8 @@ def _settings(scenes, factors, series, window) -> list[Setting]:
                     e_time = math.exp(logc + ts.order * math.log(dt))
                 err = space[f] + e_time
                 cost = r.cost if r is not None else per * sc.net.element_count / dt
-                out.append(Setting(f, stepper, dt, sc.net.element_count, err, cost, r is not None))
+                out.append(Setting(f, stepper, dt, sc.net.element_count, err, cost, r is not None,
+                                   sc.run.fast_modes))
     out.sort(key=lambda s: s.cost)
     return out
 
@@ -287,10 +333,10 @@ def report(st: Study, tol: float | None) -> tuple[str, Setting | None]:
         errs = ", ".join(_fmt(r.error) for r in s.runs)
         lines.append(f"  {kind:6s} {what:34s} order {s.order:.2f}{flag}; errors {errs}")
     lines.append("")
-    head = ["elements", "stepper", "dt [s]", "est. error [m]", "wall s / sim s", ""]
+    head = ["elements", "stepper", "fast modes", "dt [s]", "est. error [m]", "wall s / sim s", ""]
     rows = []
     for s in st.settings:
-        rows.append([f"x{s.factor} ({s.elements})", s.stepper, f"{s.dt:.4g}", _fmt(s.error),
+        rows.append([f"x{s.factor} ({s.elements})", s.stepper, s.fast_modes, f"{s.dt:.4g}", _fmt(s.error),
                      _fmt(s.cost), "run" if s.measured else "estimated"])
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
     fmt = lambda r: "  ".join(c.rjust(w) for c, w in zip(r, widths)).rstrip()
@@ -304,11 +350,12 @@ def report(st: Study, tol: float | None) -> tuple[str, Setting | None]:
         if best is None:
             top = min(st.settings, key=lambda s: s.error)
             lines.append(f"no setting reaches tol = {tol:g} m; the most accurate is x{top.factor} "
-                         f"elements, {top.stepper}, dt = {top.dt:.4g} s (est. error "
+                         f"elements, {top.stepper}, fast_modes {top.fast_modes}, dt = {top.dt:.4g} s (est. error "
                          f"{_fmt(top.error)} m): refine further or relax --tol")
         else:
             lines.append(f"recommended for tol = {tol:g} m: x{best.factor} elements "
-                         f"({best.elements}), stepper {best.stepper}, dt = {best.dt:.4g} s "
+                         f"({best.elements}), stepper {best.stepper}, fast_modes {best.fast_modes}, "
+                         f"dt = {best.dt:.4g} s "
                          f"(est. error {_fmt(best.error)} m, {_fmt(best.cost)} s of wall time "
                          f"per simulated second)")
     return "\n".join(lines), best

@@ -2,6 +2,7 @@
 observed orders of the two steppers, element-count refinement of a scene, and the
 ``cosnet accuracy`` command."""
 
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -82,3 +83,53 @@ def test_cli_refuses_a_bad_tolerance(scene_file):
         assert r.returncode == 2
         assert "--tol must be a positive number" in r.stderr
         assert "Traceback" not in r.stderr
+
+
+WIRE_SCENE = """
+title = "steel wire"
+[materials.steel]
+E = 2.1e11
+G = 8.1e10
+density = 7850.0
+[sections.wire]
+kind = "circle"
+radius = 0.001
+[nodes.root]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [0.4, 0.0, 0.0]
+[lines.wire]
+start = "root"
+end = "tip"
+material = "steel"
+section = "wire"
+elements = 4
+[[effects]]
+kind = "gravity"
+[run]
+until = 0.04
+"""
+
+
+@pytest.mark.parametrize("own", ["resolve", "auto"])
+def test_fast_modes_settings_are_listed_and_the_cheapest_one_within_tol_is_recommended(tmp_path, own):
+    """A slender wire (l/r = 100), resolving or treating its own fast modes: every fast_modes
+    setting is listed, measured against the full scheme; the softened ones take longer steps;
+    the recommendation meets tol and no cheaper listed setting does."""
+    from cosnet.accuracy import study
+    from cosnet.fast_modes import FAST_MODES
+    path = tmp_path / "wire.toml"
+    path.write_text(WIRE_SCENE + f'fast_modes = "{own}"\n')
+    st = study(path, window=0.0005, probes=["tip"])
+    fm = {}
+    for s in st.settings:       # each setting at its longest step on the scene's mesh
+        if s.factor == 1 and s.stepper == "verlet" and s.dt > getattr(fm.get(s.fast_modes), "dt", 0.0):
+            fm[s.fast_modes] = s
+    assert set(fm) == set(FAST_MODES)
+    assert fm["soften"].dt > 4 * fm["resolve"].dt
+    assert all(s.measured and math.isfinite(s.error) and s.error > 0 for s in fm.values())
+    for tol in sorted({s.error for s in st.settings})[::3]:
+        best = st.recommend(tol)
+        assert best is not None and best.error <= tol
+        assert not [s for s in st.settings if s.cost < best.cost and s.error <= tol]

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.fast_modes import FastModesError, MODE_TOLERANCE, STRAIN_GUARD, _Rows, auto_rotary_scale
+from cosnet.fast_modes import (FastModesError, MODE_TOLERANCE, MODES_KEPT, ROTARY_SHARE, STRAIN_GUARD,
+                               _Rows, auto_rotary_scale)
 from cosnet.flatten import build_line_grid, flatten
 from cosnet.modes import bending_omegas
 from cosnet.scene import build_scene
@@ -89,6 +90,22 @@ def test_treated_rod_keeps_its_bending_frequencies(fm):
     # the treatment's own share of the error stays within its stated tolerance on omega^2
     assert np.all(np.abs(w ** 2 / w0 ** 2 - 1.0) < MODE_TOLERANCE)
     assert np.all(np.abs(w / exact - 1.0) < 0.01)
+
+
+@pytest.mark.parametrize("fm", ["rotary", "soften"])
+def test_scaled_rotary_inertia_moves_the_fifth_mode_by_its_share_of_the_tolerance(fm):
+    """A long slender line, where the rotary scale is capped: the rotary term alpha k^2 I / A of
+    the fifth bending mode is exactly ROTARY_SHARE of MODE_TOLERANCE, and the fifth discrete
+    frequency moves by about half of that (rotary inertia only, so under "rotary")."""
+    L, r = 10.0, 1e-3
+    sim = cosnet.Simulation(rod(n=100, r=r, L=L), fast_modes=fm)
+    alpha = sim.line_factors[0].rotary
+    k2 = (MODES_KEPT * math.pi / L) ** 2
+    assert alpha * k2 * r * r / 4.0 == pytest.approx(ROTARY_SHARE * MODE_TOLERANCE, rel=1e-9)
+    if fm == "rotary":
+        w0 = bending_omegas(cosnet.Simulation(rod(n=100, r=r, L=L)), 5)
+        w = bending_omegas(sim, 5)
+        assert 1.0 - w[4] / w0[4] == pytest.approx(0.5 * ROTARY_SHARE * MODE_TOLERANCE, rel=0.1)
 
 
 def test_scaled_line_bending_frequencies_converge_as_n_minus_2():
