@@ -20,10 +20,6 @@ from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .kernels.obstacles import ObstacleParams
 
-# the arrays whose entries table_error reads (of all others it reads only the shape)
-INDEX_TABLES = {"line_vertex_offsets", "line_element_offsets", "node_attach_offsets", "attach_vertex",
-                "attach_element", "attach_node", "node_attach_list", "attach_a", "attach_b", "nodes",
-                "lines", "elements", "elem_index"}
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
 # 0 lines + 1, 1 vertices, 2 elements, 3 line ends, 4 nodes, 5 nodes + 1, 6 one row
@@ -178,15 +174,16 @@ def table_error(model, state, loads, params):
 
 def table_seal(model, state, loads, params) -> tuple:
     """Return a key that changes whenever what table_error reads may have changed: the shape
-    of every array of the records and a weighted sum of the index tables' entries, which
-    any change of one entry changes (kernels.checksum.weigh_words)."""
+    of every array of the records and a weighted sum of the entries of every integer array
+    (the index tables, whatever effect declares them), which any change of one entry changes
+    (kernels.checksum.weigh_words)."""
     shapes, h = [], np.uint64(0)
     for record in (model, state, loads, *params):
-        for name, a in zip(record._fields, record):
+        for a in record:
             if not isinstance(a, np.ndarray):
                 continue
             shapes.append(a.shape)
-            if name in INDEX_TABLES:
+            if a.dtype.kind in "iu":
                 words = a if a.dtype.itemsize == 8 else a.astype(np.int64)
                 h = np.uint64(weigh_words(np.ravel(words, order="K").view(np.uint64), h))
     return int(h), tuple(shapes)
