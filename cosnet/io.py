@@ -131,8 +131,9 @@ class SeriesWriter:
 
     def _write_pvd(self):
         """Rewrite the ParaView collection listing every frame written so far (atomically)."""
-        write_collection(self.dir / PVD, [(t, p, name) for k, t in enumerate(self.times)
-                                          for p, name in enumerate(_frame_files(k))])
+        # a generator: a list of every frame's entries, made anew per frame, grew the peak
+        write_collection(self.dir / PVD, ((t, p, name) for k, t in enumerate(self.times)
+                                          for p, name in enumerate(_frame_files(k))))
 
 
 def write_collection(path: Path, datasets) -> None:
