@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .net import Line, Net, frame_from_tangent, node_groups
-from .rotmath import skew
+from .net import Line, Net, node_groups
+from .rotmath import frame_from_tangent, skew
 
 _SAFETY = 0.4          # omega <= _SAFETY x (lower estimate of a segment's first clamped frequency)
 _GAUSS = np.polynomial.legendre.leggauss(4)

@@ -19,6 +19,7 @@ import numpy as np
 
 from .fast_modes import fast_modes_value
 from .materials import Material, Section, rotary_inertia_scale_value, rotary_inertia_triple
+from .rotmath import frame_from_tangent as frame_from_tangent  # kept importable from cosnet.net
 
 
 def _vector(owner: str, name: str, value, shape=(3,)) -> np.ndarray:
@@ -41,22 +42,6 @@ def _rotation(owner: str, name: str, value) -> np.ndarray:
     # re-orthonormalise to round-off so kernels see an exact rotation
     u, _, vt = np.linalg.svd(r)
     return u @ vt
-
-
-def frame_from_tangent(t: np.ndarray, d1_hint: np.ndarray | None = None) -> np.ndarray:
-    """Return a rotation whose third column is the unit tangent t and whose first column is
-    the hint projected perpendicular to t (or a fixed perpendicular when no hint)."""
-    d3 = t / np.linalg.norm(t)
-    if d1_hint is None:
-        # the lab axis least aligned with d3 gives a well-conditioned perpendicular
-        d1_hint = np.eye(3)[int(np.argmin(np.abs(d3)))]
-    d1 = d1_hint - np.dot(d1_hint, d3) * d3
-    n = np.linalg.norm(d1)
-    if n < 1e-9:
-        raise ValueError("d1 hint is parallel to the line's tangent")
-    d1 /= n
-    d2 = np.cross(d3, d1)
-    return np.column_stack([d1, d2, d3])
 
 
 @dataclass(eq=False)
