@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .flatten import flatten
+from .lincos import allowed_rigid_motions
 from .rotmath import matrix_from_quat, rotvec_from_matrix, skew
 from .kernels.layout import Model, State
 from .kernels.motion import place_line_ends
@@ -269,13 +270,7 @@ def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
             masks = (vm, em, nm, nm)
             cols.append(np.concatenate([(q * m[:, None]).ravel() for q, m in zip(parts, masks)]))
         raw = np.column_stack(cols)
-        C = raw[clamped]
-        if C.size and np.abs(C).max() > 0:
-            _, s, vt = np.linalg.svd(C)
-            rank = int(np.sum(s > 1e-9 * s[0]))
-            null = vt[rank:].T
-        else:
-            null = np.eye(6)
+        null = allowed_rigid_motions(raw[clamped])
         if null.shape[1]:
             basis.append(raw[lin.reduced] @ null)
     return np.column_stack(basis) if basis else np.zeros((lin.reduced.size, 0))
