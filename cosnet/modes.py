@@ -34,6 +34,7 @@ import numpy as np
 
 from .flatten import flatten
 from .lincos import allowed_rigid_motions
+from .measure import block_of, line_strains
 from .rotmath import matrix_from_quat, rotvec_from_matrix, skew
 from .kernels.layout import Model, State
 from .kernels.motion import place_line_ends
@@ -152,15 +153,9 @@ def _geometry(model, state: State) -> _Geometry:
     D, R, Xp = _matrices(st.q), _matrices(st.node_q), _matrices(model.attach_frame)
     eo = model.line_element_offsets
     eline = np.repeat(np.arange(eo.shape[0] - 1), np.diff(eo))
-    left_v = np.arange(D.shape[0]) + eline            # vo[l] = eo[l] + l
-    r = st.x[left_v + 1] - st.x[left_v]
-    eps = np.einsum("eji,ej->ei", D, r) * model.element_inv_rest_length[:, None] - np.array([0.0, 0.0, 1.0])
-    line_v, start, end, e_left, e_right = sides = _voronoi_sides(model)
-    E = R[model.attach_node] @ Xp
-    FA = np.where(start[:, None, None], E[2 * line_v], D[np.maximum(e_left, 0)])
-    FB = np.where(end[:, None, None], E[2 * line_v + 1], D[np.minimum(e_right, D.shape[0] - 1)])
-    theta = rotvec_from_matrix(np.einsum("kji,kjl->kil", FA, FB))
-    return _Geometry(st, D, R, Xp, eline, sides, eps, theta)
+    strains = line_strains(model, st, block_of(model))
+    eps, theta = np.column_stack(strains.stretch), np.column_stack(strains.theta)
+    return _Geometry(st, D, R, Xp, eline, _voronoi_sides(model), eps, theta)
 
 
 def check_stress_free(model, geo: _Geometry, net: Net, hint: str):
