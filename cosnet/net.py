@@ -126,6 +126,17 @@ class Net:
             index = self._by_name[kind] = {item.name: item for item in items}
         return index
 
+    def _new_name(self, items: list, kind: str, name) -> tuple[int, str, str, dict]:
+        """(index, name, owner for messages, name index) of the next item of ``kind``; refuses
+        a name already taken."""
+        idx = len(items)
+        name = f"{kind}{idx}" if name is None else str(name)
+        who = f"{kind} {name!r}"
+        names = self._named(items, kind)
+        if name in names:
+            raise ValueError(f"{who}: a {kind} with this name already exists")
+        return idx, name, who, names
+
     # ------------------------------------------------------------------ nodes
     def add_node(self, position, *, frame=None, mass: float = 0.0, inertia=None,
                  fixed: bool = False, name: str | None = None) -> Node:
@@ -139,12 +150,7 @@ class Net:
             its diagonal; ``np.inf`` on a diagonal entry fixes the rotation about that body axis.
         fixed: shorthand for infinite mass and inertia (a clamp).
         """
-        idx = len(self.nodes)
-        name = f"node{idx}" if name is None else str(name)
-        who = f"node {name!r}"
-        names = self._named(self.nodes, "node")
-        if name in names:
-            raise ValueError(f"{who}: a node with this name already exists")
+        idx, name, who, names = self._new_name(self.nodes, "node", name)
         pos = _vector(who, "position", position)
         frm = np.eye(3) if frame is None else _rotation(who, "frame", frame)
         if fixed:
@@ -223,12 +229,7 @@ class Net:
         fast_modes: this line's treatment of its fast modes, overriding the simulation's
             (one of cosnet.fast_modes.FAST_MODES; None: the simulation's).
         """
-        idx = len(self.lines)
-        name = f"line{idx}" if name is None else str(name)
-        who = f"line {name!r}"
-        names = self._named(self.lines, "line")
-        if name in names:
-            raise ValueError(f"{who}: a line with this name already exists")
+        idx, name, who, names = self._new_name(self.lines, "line", name)
         for role, node in (("start", start), ("end", end)):
             if not isinstance(node, Node) or node.index >= len(self.nodes) or self.nodes[node.index] is not node:
                 raise ValueError(f"{who}: unknown {role} node {node!r} (not a node of this net)")
