@@ -43,3 +43,12 @@ def vec3(owner: str, name: str, value) -> np.ndarray:
 def is_positive(x) -> bool:
     """Whether x is a Python int or float, finite and > 0 (a time, a scale, ...)."""
     return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
+
+
+def direction(owner: str, name: str, value) -> np.ndarray:
+    """Return value scaled to unit length, or raise unless it is 3 finite numbers of nonzero
+    length (a length that underflows to 0 is refused: it cannot be normalised)."""
+    a = np.array(value, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
+        raise ValueError(f"{owner}: {name} must be a nonzero 3-vector, got {value!r}")
+    return a / np.linalg.norm(a)
