@@ -7,6 +7,7 @@ import math
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from . import checks
 from .registry import Binding, Effect, Key
 from .scene_values import CURVATURE, LENGTH, TIME, TORQUE, array, direction, floats, nonnegative, number, positive, vec3
 from .kernels.active import ActiveCurvatureParams, MuscleTorqueParams
@@ -92,10 +93,7 @@ class MuscleTorque(_Travelling):
     def __init__(self, line: Line, moment, points=None, direction=(1.0, 0.0, 0.0), period=0.0,
                  wavelength=math.inf, phase=0.0, ramp_time=0.0):
         self._wave(line, "moment", moment, 1, points, period, wavelength, phase, ramp_time)
-        d = np.array(direction, dtype=float)
-        if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.any(d):
-            raise ValueError(f"MuscleTorque on {line!r}: direction must be a nonzero 3-vector, got {direction!r}")
-        self.direction = d / np.linalg.norm(d)
+        self.direction = checks.direction(f"MuscleTorque on {line!r}", "direction", direction)
 
     def bind(self, on: Binding):
         amp, s = self._along(on)

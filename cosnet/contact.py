@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from . import checks
 from .kernels.contact import ContactParams, contact_energy
 from .net import Line
 from .registry import Binding, Effect, Key
@@ -69,13 +70,9 @@ class Contact(Effect):
 
     def __init__(self, k: float, gamma: float = 0.0, self_contact: bool = True, lines=None,
                  self_gap: float = 0.5 * math.pi):
-        k, gamma, self_gap = float(k), float(gamma), float(self_gap)
-        if not math.isfinite(k) or k <= 0:
-            raise ValueError(f"Contact: stiffness k must be a finite number > 0, got {k}")
-        if not math.isfinite(gamma) or gamma < 0:
-            raise ValueError(f"Contact: damping gamma must be a finite number >= 0, got {gamma}")
-        if not math.isfinite(self_gap) or self_gap < 0:
-            raise ValueError(f"Contact: self_gap must be a finite number >= 0, got {self_gap}")
+        k = checks.positive("Contact", "stiffness k", float(k))
+        gamma = checks.nonnegative("Contact", "damping gamma", float(gamma))
+        self_gap = checks.nonnegative("Contact", "self_gap", float(self_gap))
         if not isinstance(self_contact, (bool, np.bool_)):
             raise ValueError(f"Contact: self_contact must be true or false, got {self_contact!r}")
         if lines is not None:

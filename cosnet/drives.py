@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from . import checks
 from .registry import Binding, Effect, Key
 from .scene_values import (ANGULAR_VELOCITY, LENGTH, RATE, TIME, VELOCITY, _Bad, _show, boolean, direction,
                            number)
@@ -152,10 +153,7 @@ class Drive(Effect):
                 raise ValueError(f"{who}: axis is needed for a rotation or slide=True")
             self.axis = np.array([0.0, 0.0, 1.0])
         else:
-            a = np.array(axis, dtype=float)
-            if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
-                raise ValueError(f"{who}: axis must be a nonzero 3-vector, got {axis!r}")
-            self.axis = a / np.linalg.norm(a)
+            self.axis = checks.direction(who, "axis", axis)
         if node.fixed_position:
             raise ValueError(f"{who}: the node is fixed (infinite mass); a drive holds it: give it a finite mass")
         if self.rotation is not None and np.any(node.locked_axes):

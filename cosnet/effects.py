@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from . import checks
 from .kernels.effects import DampingParams, GravityParams, LineLoadParams, NodeLoadParams
 from .net import Line, Node
 from .registry import Binding, Effect, Key
@@ -25,13 +26,6 @@ AMPLITUDE = (Key("times", floats, TIME, doc="abscissae of the amplitude table (i
              Key("values", floats, doc="amplitude table (interpolated linearly, held at its ends)"),
              Key("omega", number, RATE, doc="angular frequency of the factor sin(omega t + phase)"),
              Key("phase", number, doc="phase of the harmonic factor (rad)"))
-
-
-def _vec3(owner, name, value):
-    a = np.array(value, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"{owner}: {name} must be 3 finite numbers, got {value!r}")
-    return a
 
 
 def _amplitude(owner, times, values, omega, phase):
@@ -57,7 +51,7 @@ class Gravity(Effect):
     record = GravityParams
 
     def __init__(self, g=(0.0, 0.0, -9.81)):
-        self.g = _vec3("Gravity", "g", g)
+        self.g = checks.vec3("Gravity", "g", g)
 
     def bind(self, on: Binding):
         return GravityParams(self.g.copy())
@@ -102,8 +96,8 @@ class NodeLoad(Effect):
         if not isinstance(node, Node):
             raise ValueError(f"NodeLoad: node must be a cosnet Node, got {node!r}")
         self.node = node
-        self.force = _vec3(who, "force", force)
-        self.torque = _vec3(who, "torque", torque)
+        self.force = checks.vec3(who, "force", force)
+        self.torque = checks.vec3(who, "torque", torque)
         self.amp = _amplitude(who, times, values, omega, phase)
 
     def bind(self, on: Binding):
@@ -129,8 +123,8 @@ class LineLoad(Effect):
             raise ValueError(f"LineLoad: line must be a cosnet Line, got {line!r}")
         who = f"LineLoad on {line!r}"
         self.line = line
-        self.force = _vec3(who, "force_per_length", force_per_length)
-        self.torque = _vec3(who, "torque_per_length", torque_per_length)
+        self.force = checks.vec3(who, "force_per_length", force_per_length)
+        self.torque = checks.vec3(who, "torque_per_length", torque_per_length)
         self.amp = _amplitude(who, times, values, omega, phase)
 
     def bind(self, on: Binding):
@@ -152,8 +146,7 @@ class Damping(Effect):
         nu = float(translational)
         nr = nu if rotational is None else float(rotational)
         for name, x in (("translational", nu), ("rotational", nr)):
-            if not math.isfinite(x) or x < 0:
-                raise ValueError(f"Damping: {name} rate must be a finite number >= 0, got {x}")
+            checks.nonnegative("Damping", f"{name} rate", x)
         self.translational, self.rotational = nu, nr
 
     def bind(self, on: Binding):

@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from .fast_modes import Factors, apply_factors, line_factors
 from .kernels.layout import Model, State, column_major
-from .net import Line, Net, frame_from_tangent
-from .rotmath import inertia_shift, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix
+from .rotmath import frame_from_tangent, inertia_shift, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix
+
+if TYPE_CHECKING:
+    from .net import Line, Net
 
 
 NODE_ROTARY_SHARE = 0.25

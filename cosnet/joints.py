@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from .effects import _vec3
+from . import checks
 from .rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
 from .kernels import joints as _joint_kernels
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
@@ -42,19 +42,8 @@ TORQUE_KEYS = (Key("kt", positive, ROTARY_STIFFNESS, required=True, doc="torque 
                Key("nut", nonnegative, ROTARY_DAMPING, doc="damping of the relative angular velocity"))
 
 
-def _stiffness(owner, name, value, allow_zero=False):
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{owner}: {name} must be a number, got {value!r}") from None
-    if not math.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
-        need = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{owner}: {name} must be a finite number {need}, got {value!r}")
-    return x
-
-
 def _unit(owner, name, value):
-    v = _vec3(owner, name, value)
+    v = checks.vec3(owner, name, value)
     size = float(np.linalg.norm(v))
     if size == 0:
         raise ValueError(f"{owner}: {name} must be a non-zero vector")
@@ -83,9 +72,9 @@ class SphericalJoint(Effect):
             raise ValueError(f"{name}: joins the {end_a} of {line_a!r} to itself; give two different line ends")
         self.line_a, self.end_a, self.line_b, self.end_b = line_a, end_a, line_b, end_b
         self.who = f"{name}({line_a.name!r} {end_a}, {line_b.name!r} {end_b})"
-        self.k = _stiffness(self.who, "k", k)
-        self.nu = _stiffness(self.who, "nu", nu, allow_zero=True)
-        self.rest_offset = _vec3(self.who, "rest_offset", rest_offset)
+        self.k = checks.positive(self.who, "k", k)
+        self.nu = checks.nonnegative(self.who, "nu", nu)
+        self.rest_offset = checks.vec3(self.who, "rest_offset", rest_offset)
 
     # -------------------------------------------------------------- binding
     def _attachments(self, on: Binding):
@@ -144,8 +133,8 @@ class _TorqueJoint(SphericalJoint):
 
     def __init__(self, line_a, end_a, line_b, end_b, *, k, kt, nu=0.0, nut=0.0, rest_offset=(0.0, 0.0, 0.0)):
         super().__init__(line_a, end_a, line_b, end_b, k=k, nu=nu, rest_offset=rest_offset)
-        self.kt = _stiffness(self.who, "kt", kt)
-        self.nut = _stiffness(self.who, "nut", nut, allow_zero=True)
+        self.kt = checks.positive(self.who, "kt", kt)
+        self.nut = checks.nonnegative(self.who, "nut", nut)
 
     def describe(self):
         return f"{self.who}, k = {self.k:g} N/m, kt = {self.kt:g} N m"

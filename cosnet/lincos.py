@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .net import Line, Net, frame_from_tangent, node_groups
-from .rotmath import skew
+from .net import Line, Net, node_groups
+from .rotmath import frame_from_tangent, skew
 
 _SAFETY = 0.4          # omega <= _SAFETY x (lower estimate of a segment's first clamped frequency)
 _GAUSS = np.polynomial.legendre.leggauss(4)
@@ -225,6 +225,17 @@ class _Assembly:
         return s[:, None] * T * s[None, :], s
 
 
+def allowed_rigid_motions(C: np.ndarray) -> np.ndarray:
+    """(6, r) orthonormal basis of the rigid motions (v, w) of one connected part that the
+    clamps allow: the null space of C (m, 6), the clamped coordinates' rows of the 6 unit
+    motions (r = 6 without clamps)."""
+    if C.size and np.abs(C).max() > 0:
+        _, s, vt = np.linalg.svd(C)
+        rank = int(np.sum(s > 1e-9 * s[0]))
+        return vt[rank:].T
+    return np.eye(6)
+
+
 def rigid_mode_count(net: Net) -> int:
     """Number of zero-frequency (rigid-body) modes: 6 per connected part, less those removed by
     fixed nodes and locked inertia axes."""
@@ -233,14 +244,13 @@ def rigid_mode_count(net: Net) -> int:
     for r in {root(i) for i in range(len(net.nodes))}:
         members = [n for n in net.nodes if root(n.index) == r]
         c = np.mean([n.position for n in members], axis=0)
-        rows = []
+        rows = [np.zeros((0, 6))]
         for n in members:
             if n.fixed_position:     # v + w x (x - c) = 0
                 rows.append(np.hstack([np.eye(3), -skew(n.position - c)]))
             for k in np.flatnonzero(n.locked_axes):
                 rows.append(np.hstack([np.zeros((1, 3)), n.frame[:, k][None, :]]))
-        rank = np.linalg.matrix_rank(np.vstack(rows), tol=1e-9) if rows else 0
-        total += 6 - rank
+        total += allowed_rigid_motions(np.vstack(rows)).shape[1]
     return total
 
 

@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .flatten import flatten
+from .lincos import allowed_rigid_motions
+from .measure import block_of, line_strains
 from .rotmath import matrix_from_quat, rotvec_from_matrix, skew
 from .kernels.layout import Model, State
 from .kernels.motion import place_line_ends
@@ -151,15 +153,9 @@ def _geometry(model, state: State) -> _Geometry:
     D, R, Xp = _matrices(st.q), _matrices(st.node_q), _matrices(model.attach_frame)
     eo = model.line_element_offsets
     eline = np.repeat(np.arange(eo.shape[0] - 1), np.diff(eo))
-    left_v = np.arange(D.shape[0]) + eline            # vo[l] = eo[l] + l
-    r = st.x[left_v + 1] - st.x[left_v]
-    eps = np.einsum("eji,ej->ei", D, r) * model.element_inv_rest_length[:, None] - np.array([0.0, 0.0, 1.0])
-    line_v, start, end, e_left, e_right = sides = _voronoi_sides(model)
-    E = R[model.attach_node] @ Xp
-    FA = np.where(start[:, None, None], E[2 * line_v], D[np.maximum(e_left, 0)])
-    FB = np.where(end[:, None, None], E[2 * line_v + 1], D[np.minimum(e_right, D.shape[0] - 1)])
-    theta = rotvec_from_matrix(np.einsum("kji,kjl->kil", FA, FB))
-    return _Geometry(st, D, R, Xp, eline, sides, eps, theta)
+    strains = line_strains(model, st, block_of(model))
+    eps, theta = np.column_stack(strains.stretch), np.column_stack(strains.theta)
+    return _Geometry(st, D, R, Xp, eline, _voronoi_sides(model), eps, theta)
 
 
 def check_stress_free(model, geo: _Geometry, net: Net, hint: str):
@@ -269,13 +265,7 @@ def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
             masks = (vm, em, nm, nm)
             cols.append(np.concatenate([(q * m[:, None]).ravel() for q, m in zip(parts, masks)]))
         raw = np.column_stack(cols)
-        C = raw[clamped]
-        if C.size and np.abs(C).max() > 0:
-            _, s, vt = np.linalg.svd(C)
-            rank = int(np.sum(s > 1e-9 * s[0]))
-            null = vt[rank:].T
-        else:
-            null = np.eye(6)
+        null = allowed_rigid_motions(raw[clamped])
         if null.shape[1]:
             basis.append(raw[lin.reduced] @ null)
     return np.column_stack(basis) if basis else np.zeros((lin.reduced.size, 0))

@@ -19,6 +19,7 @@ import numpy as np
 
 from .fast_modes import fast_modes_value
 from .materials import Material, Section, rotary_inertia_scale_value, rotary_inertia_triple
+from .rotmath import frame_from_tangent as frame_from_tangent  # kept importable from cosnet.net
 
 
 def _vector(owner: str, name: str, value, shape=(3,)) -> np.ndarray:
@@ -41,22 +42,6 @@ def _rotation(owner: str, name: str, value) -> np.ndarray:
     # re-orthonormalise to round-off so kernels see an exact rotation
     u, _, vt = np.linalg.svd(r)
     return u @ vt
-
-
-def frame_from_tangent(t: np.ndarray, d1_hint: np.ndarray | None = None) -> np.ndarray:
-    """Return a rotation whose third column is the unit tangent t and whose first column is
-    the hint projected perpendicular to t (or a fixed perpendicular when no hint)."""
-    d3 = t / np.linalg.norm(t)
-    if d1_hint is None:
-        # the lab axis least aligned with d3 gives a well-conditioned perpendicular
-        d1_hint = np.eye(3)[int(np.argmin(np.abs(d3)))]
-    d1 = d1_hint - np.dot(d1_hint, d3) * d3
-    n = np.linalg.norm(d1)
-    if n < 1e-9:
-        raise ValueError("d1 hint is parallel to the line's tangent")
-    d1 /= n
-    d2 = np.cross(d3, d1)
-    return np.column_stack([d1, d2, d3])
 
 
 @dataclass(eq=False)
@@ -141,6 +126,17 @@ class Net:
             index = self._by_name[kind] = {item.name: item for item in items}
         return index
 
+    def _new_name(self, items: list, kind: str, name) -> tuple[int, str, str, dict]:
+        """(index, name, owner for messages, name index) of the next item of ``kind``; refuses
+        a name already taken."""
+        idx = len(items)
+        name = f"{kind}{idx}" if name is None else str(name)
+        who = f"{kind} {name!r}"
+        names = self._named(items, kind)
+        if name in names:
+            raise ValueError(f"{who}: a {kind} with this name already exists")
+        return idx, name, who, names
+
     # ------------------------------------------------------------------ nodes
     def add_node(self, position, *, frame=None, mass: float = 0.0, inertia=None,
                  fixed: bool = False, name: str | None = None) -> Node:
@@ -154,12 +150,7 @@ class Net:
             its diagonal; ``np.inf`` on a diagonal entry fixes the rotation about that body axis.
         fixed: shorthand for infinite mass and inertia (a clamp).
         """
-        idx = len(self.nodes)
-        name = f"node{idx}" if name is None else str(name)
-        who = f"node {name!r}"
-        names = self._named(self.nodes, "node")
-        if name in names:
-            raise ValueError(f"{who}: a node with this name already exists")
+        idx, name, who, names = self._new_name(self.nodes, "node", name)
         pos = _vector(who, "position", position)
         frm = np.eye(3) if frame is None else _rotation(who, "frame", frame)
         if fixed:
@@ -238,12 +229,7 @@ class Net:
         fast_modes: this line's treatment of its fast modes, overriding the simulation's
             (one of cosnet.fast_modes.FAST_MODES; None: the simulation's).
         """
-        idx = len(self.lines)
-        name = f"line{idx}" if name is None else str(name)
-        who = f"line {name!r}"
-        names = self._named(self.lines, "line")
-        if name in names:
-            raise ValueError(f"{who}: a line with this name already exists")
+        idx, name, who, names = self._new_name(self.lines, "line", name)
         for role, node in (("start", start), ("end", end)):
             if not isinstance(node, Node) or node.index >= len(self.nodes) or self.nodes[node.index] is not node:
                 raise ValueError(f"{who}: unknown {role} node {node!r} (not a node of this net)")

@@ -9,6 +9,7 @@ from collections import deque
 
 import numpy as np
 
+from . import checks
 from .contact import chosen_lines, smallest_mass
 from .net import Line
 from .registry import Binding, Effect, Key
@@ -28,20 +29,6 @@ def _coefficients(who, name, value):
         raise ValueError(f"{who}: {name} must be a number or [forward, backward, lateral], got {value!r}")
     if np.any(a < 0):
         raise ValueError(f"{who}: {name} must be >= 0, got {value!r}")
-    return a
-
-
-def _positive(who, name, value):
-    x = float(value)
-    if not math.isfinite(x) or x <= 0:
-        raise ValueError(f"{who}: {name} must be a finite number > 0, got {value!r}")
-    return x
-
-
-def _point(who, name, value):
-    a = np.array(value, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"{who}: {name} must be 3 finite numbers, got {value!r}")
     return a
 
 
@@ -189,10 +176,8 @@ class Obstacle(Effect):
             raise ValueError(f"Obstacle: shape must be one of {list(SHAPES)}, got {shape!r}")
         who = f"Obstacle {name!r} ({shape})" if name else f"Obstacle ({shape})"
         self.shape, self.name, self.who = shape, name, who
-        self.k = _positive(who, "k", k)
-        self.gamma = float(gamma)
-        if not math.isfinite(self.gamma) or self.gamma < 0:
-            raise ValueError(f"{who}: gamma must be a finite number >= 0, got {gamma!r}")
+        self.k = checks.positive(who, "k", k)
+        self.gamma = checks.nonnegative(who, "gamma", gamma)
         if mu_s is None:   # only a kinetic coefficient: the contact holds up to the same
             mu_s = 0.0 if mu_k is None else mu_k
         self.mu_s = _coefficients(who, "mu_s", mu_s)
@@ -224,19 +209,19 @@ class Obstacle(Effect):
         self.origin, self.axis, self.size, self.rot = np.zeros(3), np.zeros(3), np.zeros(3), np.eye(3)
         self.points, self.triangles = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
         if shape == "plane":
-            self.origin, n = _point(who, "point", point), _point(who, "normal", normal)
+            self.origin, n = checks.vec3(who, "point", point), checks.vec3(who, "normal", normal)
             if not np.linalg.norm(n) > 0:
                 raise ValueError(f"{who}: normal must not be zero")
             self.axis = n / np.linalg.norm(n)
         elif shape == "sphere":
-            self.origin, self.size[0] = _point(who, "center", center), _positive(who, "radius", radius)
+            self.origin, self.size[0] = checks.vec3(who, "center", center), checks.positive(who, "radius", radius)
         elif shape == "capsule":
-            self.origin, self.axis = _point(who, "start", start), _point(who, "end", end)
-            self.size[0] = _positive(who, "radius", radius)
+            self.origin, self.axis = checks.vec3(who, "start", start), checks.vec3(who, "end", end)
+            self.size[0] = checks.positive(who, "radius", radius)
         elif shape == "box":
-            self.origin = _point(who, "center", center)
-            half = _point(who, "half_size", half_size)
-            self.size = np.array([_positive(who, "half_size", x) for x in half])
+            self.origin = checks.vec3(who, "center", center)
+            half = checks.vec3(who, "half_size", half_size)
+            self.size = np.array([checks.positive(who, "half_size", x) for x in half])
             if axes is not None:
                 r = np.array(axes, dtype=float)
                 if r.shape != (3, 3) or not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:

@@ -21,7 +21,6 @@ PROBE_x, PROBE_y, PROBE_z of each probe (PROBE as written, e.g. ``rod@0.5:force_
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from dataclasses import dataclass
@@ -29,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import checks
 from .io import (LINE_FIELDS, NODE_FIELDS, PVD, SeriesWriter, node_point_fields, read_pvd,
                  replace_atomically)
 from .kernels.stepping import CHUNK_STEPS, steps_to
@@ -212,9 +212,9 @@ class Recorder:
 
     def __init__(self, out, sim, until: float, every: float, probes=(), callback=None,
                  resume: bool = False):
-        if not (isinstance(until, (int, float)) and math.isfinite(until) and until > 0):
+        if not checks.is_positive(until):
             raise ValueError(f"until must be a positive time in s, got {until!r}")
-        if not (isinstance(every, (int, float)) and math.isfinite(every) and every > 0):
+        if not checks.is_positive(every):
             raise ValueError(f"every must be a positive time in s, got {every!r}")
         if callback is not None and not callable(callback):
             raise ValueError(f"callback must be callable as callback(sim), got {callback!r}")
@@ -303,7 +303,7 @@ def run_with_output(sim, until, out=None, every=None, probes=(), callback=None, 
         raise ValueError("Simulation.run: probes are written to probes.csv in out; give out as well")
     if callback is not None and not callable(callback):
         raise ValueError(f"callback must be callable as callback(sim), got {callback!r}")
-    if not (isinstance(every, (int, float)) and math.isfinite(every) and every > 0):
+    if not checks.is_positive(every):
         raise ValueError(f"every must be a positive time in s, got {every!r}")
     start = sim.time
     if not until > start:

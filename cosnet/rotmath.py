@@ -92,6 +92,22 @@ def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
     return matrix_from_quat(quat_from_rotvec(v))
 
 
+def frame_from_tangent(t: np.ndarray, d1_hint: np.ndarray | None = None) -> np.ndarray:
+    """Return a rotation whose third column is the unit tangent t and whose first column is
+    the hint projected perpendicular to t (or a fixed perpendicular when no hint)."""
+    d3 = t / np.linalg.norm(t)
+    if d1_hint is None:
+        # the lab axis least aligned with d3 gives a well-conditioned perpendicular
+        d1_hint = np.eye(3)[int(np.argmin(np.abs(d3)))]
+    d1 = d1_hint - np.dot(d1_hint, d3) * d3
+    n = np.linalg.norm(d1)
+    if n < 1e-9:
+        raise ValueError("d1 hint is parallel to the line's tangent")
+    d1 /= n
+    d2 = np.cross(d3, d1)
+    return np.column_stack([d1, d2, d3])
+
+
 def skew(v) -> np.ndarray:
     """Cross-product matrices [v]x (..., 3, 3) of vectors v (..., 3): [v]x a = v x a."""
     v = np.asarray(v, dtype=float)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from . import checks
 from .materials import Material, Section
 from .net import Net
 
@@ -33,7 +34,7 @@ class Scale:
     def __post_init__(self):
         for name in ("time", "length", "area", "density"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            if not checks.is_positive(v):
                 raise ValueError(f"Scale: {name} must be a positive number, got {v!r}")
         if self.torque is not None and not math.isclose(self.torque, self.force * self.length, rel_tol=1e-12):
             raise ValueError(f"Scale: torque {self.torque} gives kappa = "

@@ -47,7 +47,8 @@ import numpy as np
 from . import materials as M
 from .fast_modes import FAST_MODES
 from .limits import check_elements
-from .net import Net, frame_from_tangent
+from .net import Net
+from .rotmath import frame_from_tangent
 from .record import Probe, parse_probe
 from .scaling import Scale
 from . import registry

@@ -117,3 +117,11 @@ def test_energy_minus_actuation_work_is_conserved_to_second_order():
     e2, _ = actuation_energy_error(0.25)
     assert e1 < 1e-3 * most
     assert 3.4 < e1 / e2 < 4.8
+
+
+def test_muscle_direction_must_be_a_nonzero_vector():
+    _, line = free_rod(2)
+    for bad in ((0.0, 0.0, 0.0), (1e-300, 0.0, 0.0), (1.0, np.nan, 0.0), (1.0, 0.0)):
+        with pytest.raises(ValueError, match=r"^MuscleTorque on .*: direction must be a nonzero 3-vector, got "):
+            cosnet.MuscleTorque(line, moment=1.0, direction=bad)
+    assert cosnet.MuscleTorque(line, moment=1.0, direction=(0.0, 3.0, 4.0)).direction.tolist() == [0.0, 0.6, 0.8]

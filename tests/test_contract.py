@@ -11,7 +11,7 @@ import cosnet
 from cosnet.contract import contract
 from cosnet.flatten import build_line_grid
 from cosnet.lincos import analytic_modes
-from cosnet.net import frame_from_tangent
+from cosnet.rotmath import frame_from_tangent
 from nets import STEEL
 
 ROT_A = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()

@@ -61,6 +61,20 @@ def test_line_validation_names_the_line():
         net.add_line(a, b, material=STEEL, section=sec, elements=2, points=[[0, 0, 0], [2, 0, 0]], name="pts")
 
 
+def test_names_are_unique_per_kind_and_default_to_kind_and_index():
+    net = cosnet.Net()
+    a = net.add_node((0, 0, 0), fixed=True, name="a")
+    b = net.add_node((1, 0, 0))
+    assert b.name == "node1"
+    with pytest.raises(ValueError, match="^node 'a': a node with this name already exists$"):
+        net.add_node((2, 0, 0), name="a")
+    line = net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=2, name="a")
+    assert line.name == "a" and net.line("a") is line    # nodes and lines are named apart
+    with pytest.raises(ValueError, match="^line 'a': a line with this name already exists$"):
+        net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=2, name="a")
+    assert net.add_line(b, a, material=STEEL, section=cosnet.Circle(0.01), elements=2).name == "line1"
+
+
 def test_lonely_massless_node_is_refused_when_simulated():
     net, *_ = cantilever(n=2)
     net.add_node((5, 5, 5), name="ghost")

@@ -1,0 +1,54 @@
+"""Checks of the numbers a user hands to the library's constructors.
+
+Each raises ValueError with one line "{owner}: {name} must be ..., got {value!r}", so a message
+names the object and the parameter; scene files are checked earlier, key by key, in
+scene_values.
+"""
+
+import math
+
+import numpy as np
+
+
+def number(owner: str, name: str, value) -> float:
+    """Return value as a float, or raise if it is not a number."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{owner}: {name} must be a number, got {value!r}") from None
+
+
+def positive(owner: str, name: str, value, allow_zero: bool = False) -> float:
+    """Return value as a finite float > 0 (>= 0 with allow_zero), or raise."""
+    x = number(owner, name, value)
+    if not math.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
+        need = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{owner}: {name} must be a finite number {need}, got {value!r}")
+    return x
+
+
+def nonnegative(owner: str, name: str, value) -> float:
+    """Return value as a finite float >= 0, or raise."""
+    return positive(owner, name, value, allow_zero=True)
+
+
+def vec3(owner: str, name: str, value) -> np.ndarray:
+    """Return value as a (3,) float array of finite numbers, or raise."""
+    a = np.array(value, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{owner}: {name} must be 3 finite numbers, got {value!r}")
+    return a
+
+
+def is_positive(x) -> bool:
+    """Whether x is a Python int or float, finite and > 0 (a time, a scale, ...)."""
+    return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
+
+
+def direction(owner: str, name: str, value) -> np.ndarray:
+    """Return value scaled to unit length, or raise unless it is 3 finite numbers of nonzero
+    length (a length that underflows to 0 is refused: it cannot be normalised)."""
+    a = np.array(value, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
+        raise ValueError(f"{owner}: {name} must be a nonzero 3-vector, got {value!r}")
+    return a / np.linalg.norm(a)
