@@ -337,16 +337,21 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
     from distributed import as_completed
     client, cluster = _client(client, scheduler, workers)
     try:
-        warm = client.submit(warm_up, todo[0].doc, str(spec.path), pure=False) if todo else None
-        out = open_store()
-        if warm is None:
+        if not todo:
+            open_store()
             return
+        # a local cluster shares this machine's kernel cache: when it holds the step already,
+        # every worker loads it at once and nothing needs warming
+        warm = None if cluster is not None and _kernels_cached(todo[0]) else \
+            client.submit(warm_up, todo[0].doc, str(spec.path), pure=False)
+        out = open_store()
         info = client.scheduler_info()
         nthreads = sum(w["nthreads"] for w in info["workers"].values()) or 1
         dash = getattr(client, "dashboard_link", None) if _has_dashboard(info) else None
         groups = _batches(todo, batch, nthreads)
         try:
-            warm.result()
+            if warm is not None:
+                warm.result()
         except Exception:  # the variant fails in its own task, with its message recorded
             pass
         futures = {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
@@ -369,6 +374,16 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
         if cluster is not None:
             client.close()
             cluster.close()
+
+
+def _kernels_cached(variant) -> bool:
+    """Whether the on-disk cache holds the step of this variant's simulation (False when
+    the variant cannot even be built: its own task will say why)."""
+    from .record import kernels_compiled
+    try:
+        return kernels_compiled(variant.scene.simulation(threads=1))
+    except Exception:  # noqa: BLE001 -- any failure: warm up as before
+        return False
 
 
 def _has_dashboard(info) -> bool:

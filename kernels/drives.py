@@ -20,6 +20,7 @@ from numba import njit
 
 from .backend import ENTRY, STEP
 from .compose import constraint_kernels
+from .effects import table_interval
 from .motion import place_line_end
 from .rotations import CACHED, cross, quat_mul, quat_rotate, quat_rotate_inv
 
@@ -67,14 +68,8 @@ def eval_path(t, rate, amp, wave, times, coef, start, out, o):
         elif t >= times[m - 1]:
             i, u = m - 2, times[m - 1] - times[m - 2]
         else:
-            lo, hi = 0, m - 1
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                if times[mid] <= t:
-                    lo = mid
-                else:
-                    hi = mid
-            i, u = lo, t - times[lo]
+            i = table_interval(t, times)
+            u = t - times[i]
     inside = m > 1 and times[0] < t < times[m - 1]
     for j in range(k):
         f = rate[j] * t + amp[j] * s - start[j]

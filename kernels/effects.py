@@ -45,6 +45,20 @@ class DampingParams(NamedTuple):
 
 
 @njit(**CACHED, inline="always")
+def table_interval(t, times):
+    """Return lo with times[lo] <= t < times[lo + 1], given times[0] < t < times[-1]
+    (increasing times; bisection)."""
+    lo, hi = 0, times.shape[0] - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if times[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@njit(**CACHED, inline="always")
 def interp_table(t, times, values):
     """Return the piecewise-linear interpolation of (times, values) at t, held constant
     outside the table (as np.interp, which needs an allocation numba's step kernels avoid)."""
@@ -53,13 +67,8 @@ def interp_table(t, times, values):
         return values[0]
     if t >= times[n - 1]:
         return values[n - 1]
-    lo, hi = 0, n - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if times[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
+    lo = table_interval(t, times)
+    hi = lo + 1
     w = (t - times[lo]) / (times[hi] - times[lo])
     return values[lo] + w * (values[hi] - values[lo])
 
