@@ -152,15 +152,9 @@ class Contact(Effect):
     def omega2(self, p, on: Binding) -> float:
         """2 k / m_min: two of the smallest free masses (interior vertices, or the composite
         node of a line end) of the record's lines bouncing on one contact spring."""
-        m = on.model
-        masses = []
-        for l in np.unique(p.elem_index[p.elements, 1]):
-            line = on.net.lines[l]
-            v = slice(m.line_vertex_offsets[l] + 1, m.line_vertex_offsets[l + 1] - 1)
-            masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
-            masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
-                          if 0 < m.node_mass[nd.index] < math.inf)
-        return 2.0 * p.k / min(masses) if masses else 0.0
+        lines = [on.net.lines[l] for l in np.unique(p.elem_index[p.elements, 1])]
+        m_min = smallest_mass(on, lines)
+        return 2.0 * p.k / m_min if m_min else 0.0
 
     def describe(self) -> str:
         lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]
