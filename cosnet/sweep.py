@@ -37,6 +37,9 @@ from .scene import build_scene, read_toml
 from .variants import parse_values, parse_vary, plan, split_path
 
 PENDING = "pending"
+# per-variant numbers: (variable, key of a finished variant's record, value until it has one)
+SCALARS = (("steps", "steps", 0), ("dt", "dt", np.nan), ("wall_time", "wall", np.nan),
+           ("compiled", "compiled", -1))
 SPEC_KEYS = ("scene", "vary", "zip", "ensemble", "until", "plot", "name")
 
 
@@ -136,9 +139,9 @@ def variant_dir(index: int) -> str:
 
 def warm_up(doc: dict, path: str) -> int:
     """Update numba's on-disk cache given a variant: build and take one step, so its kernels
-    are compiled (and saved) by one process, not by every worker at once -- two processes
-    saving one function's cache together can drop each other's entries. Returns the number
-    of compilations it needed."""
+    are compiled (and saved) by one process while the others wait for it, instead of by every
+    worker at once, each spending the same minute. Returns the number of compilations it
+    needed."""
     from numba.core import event
 
     from .runner import _CompileCounter
@@ -155,10 +158,7 @@ def _store_vars(variants, frames, probes):
         **{p: (("variant", "time", "component"), np.full((n, nt, 3), np.nan)) for p in probes},
         "frame_time": (("variant", "time"), np.full((n, nt), np.nan)),
         "status": (("variant",), np.array([PENDING] * n, dtype=object)),
-        "steps": (("variant",), np.zeros(n, dtype=np.int64)),
-        "dt": (("variant",), np.full(n, np.nan)),
-        "wall_time": (("variant",), np.full(n, np.nan)),
-        "compiled": (("variant",), np.full(n, -1, dtype=np.int64)),
+        **{var: (("variant",), np.full(n, blank)) for var, _, blank in SCALARS},
         "worker": (("variant",), np.array([""] * n, dtype=object)),
         "key": (("variant",), np.array([v.key for v in variants], dtype=object)),
     }
@@ -200,8 +200,6 @@ class _Store:
     its zarr array: a write through xarray (an isel and a setitem per value) cost ten times
     more, on the process that also drives the cluster."""
 
-    SCALARS = (("steps", "steps"), ("dt", "dt"), ("wall_time", "wall"), ("compiled", "compiled"))
-
     def __init__(self, store: Path, probes: list[str]):
         import zarr
         group: Any = zarr.open_group(str(store), mode="r+")   # its arrays, by name
@@ -226,20 +224,21 @@ class _Store:
         rows = slice(i0, i0 + m)
         times = np.full((m, nt), np.nan)
         probes = {name: np.full((m, nt, 3), np.nan) for name in self.probes}
-        scalars = {var: g[var][rows] for var, _ in self.SCALARS}
+        # built here, not read back: each zarr read costs as much as a write
+        scalars = {var: np.full(m, blank) for var, _, blank in SCALARS}
         for j, (_, rec) in enumerate(run):
             if "times" not in rec:
                 continue
             times[j, :len(rec["times"])] = rec["times"][:nt]
             for name, arr in rec["probes"].items():
                 probes[name][j, :len(arr)] = arr[:nt]
-            for var, key in self.SCALARS:
+            for var, key, _ in SCALARS:
                 scalars[var][j] = rec[key]
         for name, block in probes.items():
             g[name][rows] = block
         g["frame_time"][rows] = times
-        for var, block in scalars.items():
-            g[var][rows] = block
+        for var, column in scalars.items():
+            g[var][rows] = column
         g["worker"][rows] = np.array([rec.get("worker", "") for _, rec in run], dtype=object)
         # last: a variant whose status is written has all its values in the store
         g["status"][rows] = np.array([rec["status"] for _, rec in run], dtype=object)

@@ -46,6 +46,40 @@ def _use_own_copies():
 _use_own_copies()
 
 
+def _lock_cache_saves():
+    """Make numba's on-disk cache safe for processes saving into one directory at once
+    (the test workers, a sweep's workers, two runs started together).
+
+    Numba saves an overload by reading the function's index, picking the first data-file
+    name that index does not use, and writing both back. Two processes doing so at once
+    each start from their own copy of the index: one's entry is dropped, or both pick one
+    file name for different overloads, and the index can then send one signature to the
+    other's code. Each save here holds an exclusive lock on a file beside the index from
+    reading it to writing the data, so saves follow one another; loads need no lock (the
+    index and data files are replaced atomically, and an index naming data not yet written
+    reads as a cache miss). Where fcntl is missing (Windows) saves stay as numba makes them:
+    give parallel processes separate NUMBA_CACHE_DIRs there."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    from numba.core import caching
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    save = getattr(cls, "save", None)
+    if save is None or getattr(save, "locked", False):
+        return
+
+    def locked_save(self, key, data):
+        with open(self._index_path + ".lock", "ab") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)   # released as the file closes, or the process dies
+            save(self, key, data)
+    locked_save.locked = True
+    cls.save = locked_save
+
+
+_lock_cache_saves()
+
+
 def _cache_options() -> dict:
     """Return the options every kernel starts from, and point numba's on-disk cache at a
     directory of this exact kernel source: "cosnet-<digest of kernels/*.py>" under

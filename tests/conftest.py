@@ -1,20 +1,16 @@
-"""Compilation cache of the test processes.
+"""Test processes share one compilation cache.
 
 The suite is mostly compilation (each combination of effects, stepper and backend compiles
-its own step), so it runs on every core (pytest-xdist, ``-n auto``). Numba's cache is not
-safe for two processes saving overloads of one function at once (each rewrites the
-function's index from its own copy), so each extra worker keeps its own cache directory:
-the first worker, and a run without workers, use the usual cache (a directory per kernel
-source under NUMBA_CACHE_DIR, else under numba's user cache: kernels/rotations.py), the
-others a directory of their own (in NUMBA_CACHE_DIR, else in the temporary folder). This
-runs before numba is imported.
+its own step), so it runs on every core (pytest-xdist, ``-n auto``), and every worker
+compiles into and loads from the usual cache (a directory per kernel source under
+NUMBA_CACHE_DIR, else under numba's user cache: kernels/rotations.py): a step one worker
+compiled, the others load. Saving into one cache from several processes at once is safe
+because kernels/rotations.py locks numba's saves (tests/test_reproducible.py checks it).
 """
 
-import os
-import tempfile
-from pathlib import Path
 
-_worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
-if _worker != "gw0":
-    _base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(tempfile.gettempdir(), "cosnet-numba")
-    os.environ["NUMBA_CACHE_DIR"] = str(Path(_base) / f"test-{_worker}")
+def pytest_collection_modifyitems(items):
+    """Tests that compile everything in a cache of their own (own_cache) run first: they are
+    the longest, and started first they overlap the rest of the suite on the other workers
+    instead of running alone at its end."""
+    items.sort(key=lambda item: item.get_closest_marker("own_cache") is None)

@@ -161,6 +161,7 @@ print(json.dumps(out))
 """
 
 
+@pytest.mark.own_cache
 def test_boundscheck_mode_runs_scenes_with_checked_kernels(tmp_path):
     """COSNET_BOUNDSCHECK=1 compiles every kernel with numba's bounds checks, cached apart
     from the normal builds: an index past the end raises IndexError instead of writing, and

@@ -1,8 +1,10 @@
 """Bit-identical results whether the kernels were compiled in the running process, loaded
 from numba's cache, or compiled after a run was killed halfway through compiling them: a
-net with contact, one with joints and a long rod on two threads, each run in fresh
-processes sharing one cache directory, every state array compared exactly. (Mostly
-compilation: each net compiles its own step in a cache of its own.)"""
+net with contact, one with joints and a long rod on two threads, run in fresh processes
+sharing a cache directory, every state array compared exactly. (Mostly compilation, in
+caches of their own: the contact net's cold run is the rerun after the kill, which compiles
+its step and most of its kernels in-process; the joints net and the rod share one cache and
+one process per run, so the kernels they have in common compile once.)"""
 
 import os
 import signal
@@ -15,56 +17,65 @@ import pytest
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-# Runs one of the nets (argv[3]) and saves every state array (and, for the contact net, the
-# most contacts seen at its checks) to the .npz file named by argv[1].
+# Runs the nets named by argv[3:] in turn and saves each one's state arrays (and, for the
+# contact net, the most contacts seen at its checks) to ARGV1.<net>.npz.
 WORKER = r"""
 import sys
 import numpy as np
 import cosnet
 
-out, cases, case = sys.argv[1:4]
-extra = {}
-if case == "contact":
-    # on past the first impacts, where cold and warm runs used to part (a run stopped soon
-    # after the first touch showed no difference)
-    scene = cosnet.load_scene(cases + "/contact.toml")
-    sim = scene.simulation()
-    contact = next(e for e in scene.effects if isinstance(e, cosnet.Contact))
-    most = 0
-    for k in range(1, 8):
-        sim.run(until=0.005 * k)
-        most = max(most, contact.active_contacts(sim))
-    extra["contacts"] = np.array([most])
-elif case == "joints":
-    sim = cosnet.load_scene(cases + "/elastica_joints.toml").simulation()
-    sim.run(steps=3000)
-else:
-    net = cosnet.Net()
-    root = net.add_node((0.0, 0.0, 0.0), fixed=True, name="root")
-    tip = net.add_node((1.0, 0.0, 0.0), name="tip")
-    net.add_line(root, tip, material=cosnet.Material(E=2e9, G=8e8, density=1000.0),
-                 section=cosnet.Circle(0.01), elements=6000, name="rod")
-    sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=2)
-    sim.run(steps=300)
-np.savez(out, **sim.state._asdict(), **extra)
+def run(case):
+    extra = {}
+    if case == "contact":
+        # on past the first impacts, where cold and warm runs used to part (a run stopped soon
+        # after the first touch showed no difference)
+        scene = cosnet.load_scene(cases + "/contact.toml")
+        sim = scene.simulation()
+        contact = next(e for e in scene.effects if isinstance(e, cosnet.Contact))
+        most = 0
+        for k in range(1, 8):
+            sim.run(until=0.005 * k)
+            most = max(most, contact.active_contacts(sim))
+        extra["contacts"] = np.array([most])
+    elif case == "joints":
+        sim = cosnet.load_scene(cases + "/elastica_joints.toml").simulation()
+        sim.run(steps=3000)
+    else:
+        net = cosnet.Net()
+        root = net.add_node((0.0, 0.0, 0.0), fixed=True, name="root")
+        tip = net.add_node((1.0, 0.0, 0.0), name="tip")
+        net.add_line(root, tip, material=cosnet.Material(E=2e9, G=8e8, density=1000.0),
+                     section=cosnet.Circle(0.01), elements=6000, name="rod")
+        sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=2)
+        sim.run(steps=300)
+    return {**sim.state._asdict(), **extra}
+
+
+out, cases = sys.argv[1:3]
+for case in sys.argv[3:]:
+    np.savez(f"{out}.{case}.npz", **run(case))
 """
 
 
-def start(cache, out, case):
+def start(cache, out, cases):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), NUMBA_NUM_THREADS="2")
-    return subprocess.Popen([sys.executable, "-c", WORKER, str(out), os.path.join(REPO, "cases"), case],
+    return subprocess.Popen([sys.executable, "-c", WORKER, str(out), os.path.join(REPO, "cases"), *cases],
                             env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-def run(cache, out, case):
-    proc = start(cache, out, case)
+def run(cache, out, cases):
+    """{case: its state arrays} from one fresh process running the cases in turn."""
+    proc = start(cache, out, cases)
     try:
         _, err = proc.communicate(timeout=3600)
     finally:
         proc.kill()
     assert proc.returncode == 0, err
-    with np.load(out) as f:
-        return {k: f[k] for k in f.files}
+    result = {}
+    for case in cases:
+        with np.load(f"{out}.{case}.npz") as f:
+            result[case] = {k: f[k] for k in f.files}
+    return result
 
 
 def assert_identical(a, b):
@@ -78,23 +89,26 @@ def step_cached(cache):
                for _, _, names in os.walk(cache) for name in names)
 
 
-@pytest.mark.parametrize("case", ["contact", "joints", "rod"])
-def test_a_cold_run_equals_a_warm_one_bit_for_bit(case, tmp_path):
+@pytest.mark.own_cache
+def test_a_cold_run_equals_a_warm_one_bit_for_bit(tmp_path):
+    """The joints net and the rod on two threads: compiled in-process, then loaded."""
     cache = tmp_path / "cache"
-    cold = run(cache, tmp_path / "cold.npz", case)
+    cases = ["joints", "rod"]
+    cold = run(cache, tmp_path / "cold", cases)
     assert step_cached(cache)
-    warm = run(cache, tmp_path / "warm.npz", case)
-    if case == "contact":
-        assert cold["contacts"][0] > 0  # the sticks did land: the contact forces took part
-    assert_identical(cold, warm)
+    warm = run(cache, tmp_path / "warm", cases)
+    for case in cases:
+        assert_identical(cold[case], warm[case])
 
 
+@pytest.mark.own_cache
 def test_a_run_killed_while_compiling_then_rerun_equals_a_warm_one(tmp_path):
     """SIGKILL once some kernels are cached but not the step; the rerun compiles the step
-    against the callees loaded from the cache, and must compute what a run loading all of
-    it does."""
+    and the kernels not yet cached in-process, against the callees loaded from the cache,
+    and must compute what a run loading all of it does -- past the contact net's first
+    impacts, so the contact forces take part."""
     cache = tmp_path / "cache"
-    proc = start(cache, tmp_path / "killed.npz", "contact")
+    proc = start(cache, tmp_path / "killed", ["contact"])
     deadline = time.time() + 1800
     while time.time() < deadline and proc.poll() is None:
         if sum(name.endswith(".nbi") for _, _, names in os.walk(cache) for name in names) >= 12:
@@ -104,6 +118,41 @@ def test_a_run_killed_while_compiling_then_rerun_equals_a_warm_one(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.communicate()
     assert proc.returncode == -signal.SIGKILL and not cached_step, "killed too late: nothing half-compiled"
-    rerun = run(cache, tmp_path / "rerun.npz", "contact")
-    warm = run(cache, tmp_path / "warm.npz", "contact")
+    rerun = run(cache, tmp_path / "rerun", ["contact"])["contact"]
+    warm = run(cache, tmp_path / "warm", ["contact"])["contact"]
+    assert rerun["contacts"][0] > 0  # the sticks did land
     assert_identical(rerun, warm)
+
+
+# Saves argv[2] entries (key (tag, i), data tag * 1000 + i) into one function's cache
+# files in directory argv[1], as numba saves a compiled overload; both savers start saving
+# once both have started (each waits for the other's file "ready.<tag>").
+SAVER = r"""
+import os, sys, time
+import cosnet.kernels  # noqa: F401 -- installs the locked save
+from numba.core.caching import IndexDataCacheFile
+path, n, tag = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+cache = IndexDataCacheFile(path, "kernel-1.py311", ("stamp", 1))
+open(os.path.join(path, f"ready.{tag}"), "w").close()
+while not all(os.path.exists(os.path.join(path, f"ready.{t}")) for t in (1, 2)):
+    time.sleep(0.01)
+for i in range(n):
+    cache.save((tag, i), tag * 1000 + i)
+"""
+
+
+def test_processes_saving_into_one_cache_at_once_keep_every_entry(tmp_path):
+    """Numba's own save, run by two processes at once, drops entries or sends one key to
+    another's data file (both start from their own copy of the index); with the save locked
+    (kernels/rotations.py) every key of both finds its own data."""
+    from numba.core.caching import IndexDataCacheFile
+    n = 150
+    procs = [subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path), str(n), str(tag)],
+                              cwd=REPO, stderr=subprocess.PIPE, text=True) for tag in (1, 2)]
+    for proc in procs:
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err
+    cache = IndexDataCacheFile(str(tmp_path), "kernel-1.py311", ("stamp", 1))
+    found = {(tag, i): cache.load((tag, i)) for tag in (1, 2) for i in range(n)}
+    wrong = {k: v for k, v in found.items() if v != k[0] * 1000 + k[1]}
+    assert not wrong, f"{len(wrong)} of {2 * n} entries lost or crossed, e.g. {next(iter(wrong.items()))}"
