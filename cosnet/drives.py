@@ -269,7 +269,21 @@ class Drive(Effect):
         return p.reaction[:3].copy(), p.reaction[3:].copy()
 
     def work(self, sim) -> float:
-        return float(self.params(sim).work[0])
+        """Work done by the driver so far (J): the kicks' quadrature of R.v + T.w, plus the
+        kinetic energy damping took from the components it holds (it puts that back)."""
+        from .effects import Damping
+        p = self.params(sim)
+        paid = 0.0
+        for e in sim.effects:
+            if isinstance(e, Damping):
+                moved, turned = e.node_dissipated(sim, self.node)
+                if p.position == PRESCRIBED:
+                    paid += np.trace(moved)
+                elif p.position == ACROSS_AXIS:
+                    paid += np.trace(moved) - self.axis @ moved @ self.axis
+                if p.rotation != FREE:
+                    paid += turned
+        return float(p.work[0] + paid)
 
     def describe(self):
         parts = [f"position={self.position!r}" if self.position else None,
