@@ -97,7 +97,7 @@ def eval_path(t, rate, amp, wave, times, coef, start, out, o):
 
 
 @njit(**CACHED)
-def turn_kinematics(p, t):
+def prescribe_turn(p, t):
     """Update p.kin[9:15] with the prescribed lab angular velocity and acceleration at time t
     (zero for a free rotation); return the prescribed turn from the node as built (a quaternion)."""
     kin = p.kin
@@ -129,7 +129,7 @@ def drive_kinematics(p, t):
     velocity and acceleration (lab); return the prescribed node quaternion."""
     kin = p.kin
     eval_path(t, p.pos_rate, p.pos_amp, p.pos_wave, p.pos_times, p.pos_coef, p.pos_start, kin, 0)
-    tw, tx, ty, tz = turn_kinematics(p, t)
+    tw, tx, ty, tz = prescribe_turn(p, t)
     q0 = p.q0
     if p.rotation != FREE:
         rx, ry, rz = quat_rotate(tw, tx, ty, tz, p.rho0[0], p.rho0[1], p.rho0[2])
