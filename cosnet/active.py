@@ -81,7 +81,7 @@ class MuscleTorque(_Travelling):
     """An internal bending moment M(s, t) (N m) about the body direction ``direction`` (d1 by
     default) along ``line``, as PyElastica's MuscleTorques; ``moment`` is A(s) of _Travelling.
     A line with free ends under a steady moment bends to the curvature M / EI about
-    ``direction``. The work it does is not part of any energy account."""
+    ``direction``. The work it does is ``work(sim)``, part of ``sim.actuation_work()``."""
 
     kind = "muscle_torque"
     record = MuscleTorqueParams
@@ -97,7 +97,11 @@ class MuscleTorque(_Travelling):
 
     def bind(self, on: Binding):
         amp, s = self._along(on)
-        return MuscleTorqueParams(self.line.index, self.direction.copy(), amp[:, 0].copy(), s, self.wave.copy())
+        return MuscleTorqueParams(self.line.index, self.direction.copy(), amp[:, 0].copy(), s, self.wave.copy(),
+                                  np.zeros(1))
+
+    def work(self, sim) -> float:
+        return float(self.params(sim).work[0])
 
     def describe(self):
         return f"MuscleTorque({self.line.name!r}, moment={self.values[:, 0].tolist()})"
@@ -108,7 +112,7 @@ class ActiveCurvature(_Travelling):
     3-vector ``curvature`` (1/m, principal frame: bending about d1, d2, twist) as A(s) of
     _Travelling, at the line's interior Voronoi points, set at every stage time. The work it
     does (the strain energy each change adds at the current shape) is ``work(sim)``, part of
-    ``sim.driver_work()``."""
+    ``sim.actuation_work()``."""
 
     kind = "active_curvature"
     record = ActiveCurvatureParams

@@ -3,7 +3,8 @@
 A ``Path`` is a function of time given as data: rate * t + amplitude sin(omega t + phase) plus a
 clamped cubic spline through (times, values). A ``Drive`` makes a node follow paths from
 where it was built: its position by a displacement path, its rotation by an angle path about a
-fixed lab axis. The node is then kinematic (cosnet.kernels.drives): the step sets it, the
+fixed lab axis or by an orientation path (a rotation vector, tabulated directly or as
+quaternions). The node is then kinematic (cosnet.kernels.drives): the step sets it, the
 loads do not move it, and the force and torque its driver supplies are reported.
 """
 
@@ -16,14 +17,18 @@ from . import checks
 from .registry import Binding, Effect, Key
 from .scene_values import (ANGULAR_VELOCITY, LENGTH, RATE, TIME, VELOCITY, _Bad, _show, boolean, direction,
                            number)
-from .kernels.drives import ACROSS_AXIS, FREE, PRESCRIBED, DriveParams, eval_path, place_drive, reaction_now
+from .kernels.drives import (ACROSS_AXIS, FREE, ORIENTED, PRESCRIBED, DriveParams, eval_path, place_drive,
+                             reaction_now)
 from .net import Node
 
 # the keys of a path (a scene's inline table) and their units by the path they belong to:
 # (length, mass, time) exponents, cosnet.scene converts them from a [scale]
-PATH_KEYS = ("rate", "amplitude", "omega", "phase", "times", "values")
+PATH_KEYS = ("rate", "amplitude", "omega", "phase", "times", "values", "quaternions")
 PATH_UNITS = {"position": {"rate": VELOCITY, "amplitude": LENGTH, "values": LENGTH, "times": TIME, "omega": RATE},
-              "rotation": {"rate": ANGULAR_VELOCITY, "times": TIME, "omega": RATE}}
+              "rotation": {"rate": ANGULAR_VELOCITY, "times": TIME, "omega": RATE},
+              "orientation": {"rate": ANGULAR_VELOCITY, "times": TIME, "omega": RATE}}
+# quaternions further than this from unit norm are refused rather than normalised
+QUAT_NORM_TOL = 1e-3
 
 
 def path_table(v):
@@ -47,6 +52,32 @@ def path_table(v):
             except _Bad as e:
                 raise _Bad(f"{k} {e}") from None
     return out
+def rotation_vectors(quaternions, who):
+    """(m, 3) rotation vectors of (m, 4) quaternions (w, x, y, z), each the one nearest the
+    previous (adding whole turns about its axis, or flipping it), so that a spline through them
+    turns the short way between neighbours; quaternions off unit norm by more than
+    QUAT_NORM_TOL are refused, the others normalised."""
+    q = np.array(quaternions, dtype=float)
+    if q.ndim != 2 or q.shape[1] != 4 or not np.all(np.isfinite(q)):
+        raise ValueError(f"{who}: quaternions must be rows of 4 finite numbers (w, x, y, z), got shape {q.shape}")
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.flatnonzero(np.abs(norm - 1.0) > QUAT_NORM_TOL)
+    if bad.size:
+        raise ValueError(f"{who}: quaternions must be unit, quaternions[{bad[0]}] has norm {norm[bad[0]]:.6g}")
+    from .rotmath import rotvec_from_quat
+    out = np.zeros((q.shape[0], 3))
+    prev = np.zeros(3)
+    for i, qi in enumerate(q / norm[:, None]):
+        r = rotvec_from_quat(qi)
+        angle = np.linalg.norm(r)
+        axis = r / angle if angle > 1e-12 else (prev / np.linalg.norm(prev) if np.linalg.norm(prev) else r)
+        # every rotation vector of the same rotation: (angle + 2 pi j) axis for whole j
+        j = np.round((axis @ prev - angle) / (2 * np.pi))
+        cands = [(angle + 2 * np.pi * (j + d)) * axis for d in (-1, 0, 1)]
+        out[i] = prev = min(cands, key=lambda c: np.linalg.norm(c - prev))
+    return out
+
+
 # relative mismatch above which a driven node's state contradicts its drive
 MISMATCH = 1e-9
 
@@ -56,12 +87,16 @@ class Path:
     each term optional. The spline is the clamped cubic spline through (times, values), zero
     slope at both ends and held beyond them (C2 inside, C1 at the ends), so a tabulated motion
     starts and stops at rest. For a position path rate, amplitude and each value are 3-vectors
-    (m/s, m, m); for an angle path numbers (rad/s, rad, rad). A Python function of time
-    cannot drive a compiled step: tabulate it (times, values) instead."""
+    (m/s, m, m); for an angle path numbers (rad/s, rad, rad); for an orientation path
+    3-vectors of a lab rotation vector (rad/s, rad, rad), whose table may be given as unit
+    quaternions (w, x, y, z) instead of values: each becomes the rotation vector nearest the
+    previous one. A Python function of time cannot drive a compiled step: tabulate it
+    (times, values) instead."""
 
-    def __init__(self, rate=None, amplitude=None, omega=0.0, phase=0.0, times=None, values=None):
+    def __init__(self, rate=None, amplitude=None, omega=0.0, phase=0.0, times=None, values=None,
+                 quaternions=None):
         self.rate, self.amplitude, self.omega, self.phase = rate, amplitude, omega, phase
-        self.times, self.values = times, values
+        self.times, self.values, self.quaternions = times, values, quaternions
 
     @classmethod
     def of(cls, value, who):
@@ -75,9 +110,10 @@ class Path:
             return cls(**value)
         raise ValueError(f"{who}: must be a cosnet Path or a table of {', '.join(PATH_KEYS)}, got {value!r}")
 
-    def arrays(self, k, who):
+    def arrays(self, k, who, turns=False):
         """Return (rate, amplitude, (omega, phase), times, coefficients) for k components,
-        refusing what is not a valid path in one line naming ``who``."""
+        refusing what is not a valid path in one line naming ``who``; ``turns``: an
+        orientation path, which may tabulate quaternions."""
         shape = (k,) if k > 1 else ()
 
         def vec(name, x):
@@ -90,12 +126,20 @@ class Path:
         wave = np.array([self.omega, self.phase], dtype=float)
         if not np.all(np.isfinite(wave)):
             raise ValueError(f"{who}: omega and phase must be finite, got {self.omega!r}, {self.phase!r}")
-        if (self.times is None) != (self.values is None):
-            raise ValueError(f"{who}: give both times and values for a tabulated path")
+        values = self.values
+        if self.quaternions is not None:
+            if not turns:
+                raise ValueError(f"{who}: quaternions tabulate an orientation path only")
+            if values is not None:
+                raise ValueError(f"{who}: give values (rotation vectors) or quaternions, not both")
+            values = rotation_vectors(self.quaternions, who)
+        if (self.times is None) != (values is None):
+            raise ValueError(f"{who}: give both times and {'values or quaternions' if turns else 'values'} "
+                             f"for a tabulated path")
         if self.times is None:
             return rate, amp, wave, np.zeros(0), np.zeros((0, 4, k))
         t = np.array(self.times, dtype=float)
-        v = np.array(self.values, dtype=float)
+        v = np.array(values, dtype=float)
         if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)):
             raise ValueError(f"{who}: times must be at least 2 finite numbers, got {self.times!r}")
         if np.any(np.diff(t) <= 0):
@@ -120,8 +164,10 @@ class Drive(Effect):
     """Prescribed motion of ``node`` (a Node), from where it was built.
 
     position: a Path of the displacement (lab); rotation: a Path of the angle turned about
-    ``axis`` (a lab direction). Without rotation the node turns freely (a driven pin); without
-    position it stays in place (a turned clamp). slide=True frees the motion along ``axis``
+    ``axis`` (a lab direction); orientation (instead of rotation): a Path of a lab rotation
+    vector r(t), the node turned by exp(r(t)) exp(r(t0))^-1 from its frame as built (a rate
+    alone: a constant angular velocity about a fixed lab axis). Without rotation or orientation
+    the node turns freely (a driven pin); without position it stays in place (a turned clamp). slide=True frees the motion along ``axis``
     (a motor shaft: the angle prescribed, sliding along the axis allowed, the rest held). A
     fixed node (infinite mass or inertia) cannot be driven: give it a finite mass instead, the
     drive then holds it. ``sim.reaction(node)`` gives the driver's force and torque,
@@ -134,19 +180,24 @@ class Drive(Effect):
                 doc="displacement path {rate, amplitude, omega, phase, times, values} (lab)"),
             Key("rotation", path_table, PATH_UNITS["rotation"],
                 doc="angle path about axis {rate, amplitude, omega, phase, times, values} (rad)"),
+            Key("orientation", path_table, PATH_UNITS["orientation"],
+                doc="rotation vector path {rate, amplitude, omega, phase, times, values or quaternions} (lab)"),
             Key("axis", direction, doc="rotation (and slide) axis, lab"),
             Key("slide", boolean, doc="free along axis (a motor shaft)"))
     adds_energy = True
 
-    def __init__(self, node: Node, position=None, rotation=None, axis=None, slide=False):
+    def __init__(self, node: Node, position=None, rotation=None, axis=None, slide=False, orientation=None):
         if not isinstance(node, Node):
             raise ValueError(f"Drive: node must be a cosnet Node, got {node!r}")
         who = f"Drive on {node!r}"
         self.node = node
-        if position is None and rotation is None:
-            raise ValueError(f"{who}: give a position path, a rotation path or both")
+        if position is None and rotation is None and orientation is None:
+            raise ValueError(f"{who}: give a position path, a rotation or orientation path, or both")
+        if rotation is not None and orientation is not None:
+            raise ValueError(f"{who}: give a rotation (about axis) or an orientation path, not both")
         self.position = None if position is None else Path.of(position, f"{who}: position")
         self.rotation = None if rotation is None else Path.of(rotation, f"{who}: rotation")
+        self.orientation = None if orientation is None else Path.of(orientation, f"{who}: orientation")
         self.slide = bool(slide)
         if axis is None:
             if self.rotation is not None or self.slide:
@@ -156,10 +207,11 @@ class Drive(Effect):
             self.axis = checks.direction(who, "axis", axis)
         if node.fixed_position:
             raise ValueError(f"{who}: the node is fixed (infinite mass); a drive holds it: give it a finite mass")
-        if self.rotation is not None and np.any(node.locked_axes):
+        if (self.rotation is not None or self.orientation is not None) and np.any(node.locked_axes):
             raise ValueError(f"{who}: the node has infinite inertia; a drive turning it needs a finite one")
         self._pos = (self.position or Path()).arrays(3, f"{who}: position")
         self._ang = (self.rotation or Path()).arrays(1, f"{who}: rotation")
+        self._rv = (self.orientation or Path()).arrays(3, f"{who}: orientation", turns=True)
 
     def bind(self, on: Binding):
         who = f"Drive on {self.node!r}"
@@ -170,19 +222,23 @@ class Drive(Effect):
         m, s, nd = on.model, on.state, self.node.index
         if m.node_inv_mass[nd] == 0.0:
             raise ValueError(f"{who}: the node is fixed (infinite mass); a drive holds it: give it a finite mass")
-        rot = FREE if self.rotation is None else PRESCRIBED
+        rot = PRESCRIBED if self.rotation is not None else ORIENTED if self.orientation is not None else FREE
         if rot == PRESCRIBED and np.any(m.node_locked[nd] > 0):
             raise ValueError(f"{who}: the node has infinite inertia; a drive turning it needs a finite one")
-        from .rotmath import matrix_from_quat
+        from .rotmath import conj, matrix_from_quat, quat_from_rotvec
         rho = matrix_from_quat(s.node_q[nd]) @ m.node_com_offset[nd]
         if rot == FREE and np.linalg.norm(rho) > 1e-12 * (1.0 + np.linalg.norm(s.node_x[nd])):
             raise ValueError(f"{who}: a drive leaving the rotation free needs the node's centre of mass "
                              f"at its reference point (it is {np.linalg.norm(rho):.3g} m away)")
         pos = ACROSS_AXIS if self.slide else PRESCRIBED
-        p = DriveParams(nd, pos, rot, self.axis.copy(), s.node_x[nd].copy(), rho, s.node_q[nd].copy(),
-                        *self._pos, np.zeros(3), *self._ang, np.zeros(1), np.zeros(15), np.zeros(6), np.zeros(1))
-        # the paths' values at the start are subtracted: the motion starts where the node was built
+        # the paths' values at the start are subtracted (the orientation's undone): the motion
+        # starts where the node was built
         out = np.zeros(9)
+        eval_path(on.time, *self._rv, np.zeros(3), out, 0)
+        back = np.array(conj(quat_from_rotvec(out[:3])))
+        p = DriveParams(nd, pos, rot, self.axis.copy(), s.node_x[nd].copy(), rho, s.node_q[nd].copy(),
+                        *self._pos, np.zeros(3), *self._ang, np.zeros(1), *self._rv, np.zeros(3), back,
+                        np.zeros(24), np.zeros(6), np.zeros(1))
         eval_path(on.time, *self._pos, np.zeros(3), out, 0)
         p.pos_start[:] = out[:3]
         eval_path(on.time, *self._ang, np.zeros(1), out, 0)
@@ -213,10 +269,25 @@ class Drive(Effect):
         return p.reaction[:3].copy(), p.reaction[3:].copy()
 
     def work(self, sim) -> float:
-        return float(self.params(sim).work[0])
+        """Work done by the driver so far (J): the kicks' quadrature of R.v + T.w, plus the
+        kinetic energy damping took from the components it holds (it puts that back)."""
+        from .effects import Damping
+        p = self.params(sim)
+        paid = 0.0
+        for e in sim.effects:
+            if isinstance(e, Damping):
+                moved, turned = e.node_dissipated(sim, self.node)
+                if p.position == PRESCRIBED:
+                    paid += np.trace(moved)
+                elif p.position == ACROSS_AXIS:
+                    paid += np.trace(moved) - self.axis @ moved @ self.axis
+                if p.rotation != FREE:
+                    paid += turned
+        return float(p.work[0] + paid)
 
     def describe(self):
         parts = [f"position={self.position!r}" if self.position else None,
                  f"rotation={self.rotation!r} about {self.axis.tolist()}" if self.rotation else None,
+                 f"orientation={self.orientation!r}" if self.orientation else None,
                  "slide" if self.slide else None]
         return f"Drive({self.node.name!r}, {', '.join(x for x in parts if x)})"

@@ -135,7 +135,8 @@ class LineLoad(Effect):
 
 class Damping(Effect):
     """Linear, mass-proportional viscous damping: every velocity decays as exp(-nu t), every
-    angular velocity as exp(-nu_r t). Integrated exactly, so stable at any dt."""
+    angular velocity as exp(-nu_r t). Integrated exactly, so stable at any dt; the kinetic
+    energy it takes is ``dissipated(sim)``, part of ``sim.dissipated()``."""
 
     kind = "damping"
     keys = (Key("translational", nonnegative, RATE, required=True, doc="decay rate of velocities"),
@@ -150,7 +151,21 @@ class Damping(Effect):
         self.translational, self.rotational = nu, nr
 
     def bind(self, on: Binding):
-        return DampingParams(self.translational, self.rotational)
+        return DampingParams(self.translational, self.rotational, np.zeros(1),
+                             np.zeros((on.model.node_mass.shape[0], 10)))
+
+    def dissipated(self, sim) -> float:
+        """Kinetic energy taken so far (J), driven nodes' included (their drives put it back,
+        part of sim.driver_work())."""
+        return float(self.params(sim).dissipated[0])
+
+    def node_dissipated(self, sim, node: Node) -> tuple[np.ndarray, float]:
+        """((3, 3), float): of dissipated(sim), what was taken from ``node``'s translation,
+        sum 1/2 m (1 - c^2) v v^T (its trace the energy; a drive pays the components it
+        holds), and from its rotation."""
+        sim.check_node(node, "Damping")
+        row = self.params(sim).node_dissipated[node.index]
+        return row[:9].reshape(3, 3).copy(), float(row[9])
 
     def describe(self):
         return f"Damping(translational={self.translational:g}/s, rotational={self.rotational:g}/s)"

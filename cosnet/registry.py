@@ -124,6 +124,11 @@ class Effect:
         effect adds no stiffness."""
         return 0.0
 
+    def dissipated(self, sim) -> float:
+        """Energy (J) this effect has taken out of the net so far, part of sim.dissipated()
+        (0 for effects that keep no such account)."""
+        return 0.0
+
     def check_state(self, sim):
         """Raise ValueError (one line) if the state contradicts this effect (a driven node
         moving against its drive); run() asks before it steps."""

@@ -14,7 +14,7 @@ from . import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
-from .active import ActiveCurvature
+from .active import ActiveCurvature, MuscleTorque
 from .drives import Drive
 from .registry import Binding, Effect
 from .flatten import flatten
@@ -339,10 +339,20 @@ class Simulation:
         return drive.reaction(self, self.loads)
 
     def driver_work(self) -> float:
-        """Work done on the net by every drive (the kicks' quadrature of the drivers' power
-        R.v + T.w) and active curvature so far (J), so energy() - driver_work() is conserved to
-        the scheme's order."""
-        return sum(e.work(self) for e in self.effects if isinstance(e, (Drive, ActiveCurvature)))
+        """Work done on the net by every drive so far (J): the kicks' quadrature of the
+        drivers' power R.v + T.w, and the kinetic energy damping took from what they hold."""
+        return sum(e.work(self) for e in self.effects if isinstance(e, Drive))
+
+    def actuation_work(self) -> float:
+        """Work done on the net by the active lines so far (J): the strain energy each change
+        of an active curvature adds, and the muscle moments' work in the kicks."""
+        return sum(e.work(self) for e in self.effects if isinstance(e, (ActiveCurvature, MuscleTorque)))
+
+    def dissipated(self) -> float:
+        """Energy taken out of the net so far (J) by the effects that account for it (damping,
+        an obstacle's friction): energy() - driver_work() - actuation_work() + dissipated()
+        is conserved to the scheme's order."""
+        return sum(e.dissipated(self) for e in self.effects)
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from .backend import STEP
-from .compose import constraint_kernels, load_kernel
+from .compose import account_kernel, constraint_kernels, load_kernel
 from .rotations import relative_rotation
 
 
@@ -26,6 +26,7 @@ class MuscleTorqueParams(NamedTuple):
     amplitude: np.ndarray   # (n+1,) A(s) at the line's Voronoi points (ends unused)
     s: np.ndarray           # (n+1,) their arc length from the line's start
     wave: np.ndarray        # (4,) 2 pi / period (0: no wave, factor 1), 2 pi / wavelength, phase, ramp time
+    work: np.ndarray        # (1,) work done by the moment so far
 
 
 @njit(**STEP)
@@ -51,6 +52,24 @@ def add_muscle_torques(p, model, state, loads):
         for c in range(3):
             loads.tau[e0 + k - 1, c] -= m * d[c]
             loads.tau[e0 + k, c] += m * d[c]
+
+
+@account_kernel(MuscleTorqueParams)
+@njit(**STEP)
+def account_muscle_work(p, model, state, hh):
+    """Update p.work by hh times the moment's power at the current angular velocities,
+    sum M d . (w_k - w_(k-1)) (body frames): taken on both sides of a kick of 2 hh, the
+    work the kick's share of the moment gives the kinetic energy."""
+    t = state.clock[0]
+    e0 = model.line_element_offsets[p.line]
+    n = model.line_element_offsets[p.line + 1] - e0
+    d, w = p.direction, state.w
+    power = 0.0
+    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
+        m = p.amplitude[k] * muscle_factor(p, t, p.s[k])
+        a, b = e0 + k - 1, e0 + k
+        power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
+    p.work[0] += hh * power
 
 
 class ActiveCurvatureParams(NamedTuple):

@@ -7,6 +7,10 @@ the step that runs contains exactly the declared effects: no flags, no loops ove
 
 Load kernels:  kernel(effect, model, state, loads)  -> add to loads (forces/torques)
 Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g. damping)
+Account kernels (optional, beside a load kernel): kernel(effect, model, state, h / 2), run
+  just before and just after every kick: the work the effect's load does in the kick, h times
+  its load dotted with the mean of the velocities before and after (what the kick gives the
+  kinetic energy, exactly)
 Constraint kernels, a pair (kinematic effects: prescribed motion), run after every stage:
   after a drift of h:  kernel(effect, model, state, h)          -> set the prescribed pose
                        at the stage's end time state.clock[0], and its velocity
@@ -27,6 +31,7 @@ FLOW_KERNELS: dict = {}
 KERNELS: dict = {}   # declaration -> the kernel as decorated (callable from Python), either stage
 DRIFT_CONSTRAINTS: dict = {}
 KICK_CONSTRAINTS: dict = {}
+ACCOUNTS: dict = {}
 
 
 def _inner(kernel):
@@ -59,6 +64,15 @@ def flow_kernel(declaration):
     return register
 
 
+def account_kernel(declaration):
+    """Register the decorated njit function as the account kernel of ``declaration`` (a
+    declaration that has a load kernel)."""
+    def register(kernel):
+        ACCOUNTS[declaration] = _inner(kernel)
+        return kernel
+    return register
+
+
 def constraint_kernels(declaration, after_drift, after_kick):
     """Register the njit pair run after every drift and every kick for ``declaration``."""
     DRIFT_CONSTRAINTS[declaration] = _inner(after_drift)
@@ -66,24 +80,32 @@ def constraint_kernels(declaration, after_drift, after_kick):
     KERNELS[declaration] = after_drift
 
 
-def _chain(registry, what):
+def _chain(registry, what, optional=False):
     """Return an intrinsic f(effects, model, state, arg) emitting, into its caller, one call
     kernel(effects[i], model, state, arg) per effect in order (the kernel of each effect's
-    type, looked up in registry when the caller is compiled)."""
+    type, looked up in registry when the caller is compiled); ``optional``: effects without
+    one are skipped."""
     @intrinsic
     def apply(typingctx, effects, model, state, arg):
         try:
-            kernels = [registry[t.instance_class] for t in effects.types]
+            kernels = [registry.get(t.instance_class) if optional else registry[t.instance_class]
+                       for t in effects.types]
         except (AttributeError, KeyError):
             raise TypeError(f"no {what} kernel registered for effect types {effects}") from None
         calls = []
         for kernel, t in zip(kernels, effects.types):
+            if kernel is None:
+                calls.append(None)
+                continue
             fnty = typingctx.resolve_value_type(kernel)
             calls.append((fnty, typingctx.resolve_function_type(fnty, (t, model, state, arg), {})))
 
         def codegen(context, builder, signature, args):
             effs, m, s, a = args
-            for i, (fnty, sig) in enumerate(calls):
+            for i, call in enumerate(calls):
+                if call is None:
+                    continue
+                fnty, sig = call
                 context.get_function(fnty, sig)(builder, (builder.extract_value(effs, i), m, s, a))
             return context.get_dummy_value()
         return types.none(effects, model, state, arg), codegen
@@ -94,6 +116,8 @@ def _chain(registry, what):
 apply_loads = _chain(LOAD_KERNELS, "load")
 # apply_flows(effects, model, state, h): the velocity flow of every effect for time h
 apply_flows = _chain(FLOW_KERNELS, "flow")
+# apply_accounts(effects, model, state, h / 2): the work of every load effect that keeps one
+apply_accounts = _chain(ACCOUNTS, "account", optional=True)
 
 
 class UnresolvedRecord:

@@ -4,7 +4,9 @@ A prescription is a path f(t) (k components): rate * t + amplitude sin(omega t +
 clamped cubic spline through a table (piecewise polynomials, zero slope at both ends, held
 beyond them), minus its value at the start so that the motion starts where the node was built.
 Position paths have k = 3 (a displacement, lab frame); rotation paths k = 1 (an angle about a
-fixed lab axis).
+fixed lab axis), or k = 3 for an orientation (a rotation vector r(t), lab frame: the node turns
+by exp(r(t)) exp(r(t0))^-1, smooth on SO(3) wherever r is, its angular velocity and
+acceleration analytic, rotations.exp_rates).
 
 The node is kinematic: after every drift its prescribed components are set from the path at
 the stage's end time (exact, not integrated), after every kick their velocities are restored.
@@ -22,16 +24,16 @@ from .backend import ENTRY, STEP
 from .compose import constraint_kernels
 from .effects import table_interval
 from .motion import place_line_end
-from .rotations import CACHED, cross, quat_mul, quat_rotate, quat_rotate_inv
+from .rotations import CACHED, cross, exp_rates, quat_exp, quat_mul, quat_rotate, quat_rotate_inv
 
-# what a drive holds of a node's position and rotation
-FREE, PRESCRIBED, ACROSS_AXIS = 0, 1, 2
+# what a drive holds of a node's position and rotation (ORIENTED: a rotation on SO(3))
+FREE, PRESCRIBED, ACROSS_AXIS, ORIENTED = 0, 1, 2, 3
 
 
 class DriveParams(NamedTuple):
     node: int
     position: int          # FREE, PRESCRIBED, or ACROSS_AXIS (sliding along the axis is free)
-    rotation: int          # FREE or PRESCRIBED (an angle about the axis)
+    rotation: int          # FREE, PRESCRIBED (an angle about the axis) or ORIENTED (a rotation vector)
     axis: np.ndarray       # (3,) unit lab axis
     ref0: np.ndarray       # (3,) centre of mass as built (lab)
     rho0: np.ndarray       # (3,) centre of mass minus the reference point as built, lab (0 unless turned)
@@ -48,7 +50,15 @@ class DriveParams(NamedTuple):
     ang_times: np.ndarray
     ang_coef: np.ndarray
     ang_start: np.ndarray
-    kin: np.ndarray        # (15,) scratch: x, v, a of the centre of mass, then theta, theta', theta''
+    rv_rate: np.ndarray    # (3,) orientation path (a lab rotation vector), same layout with k = 3
+    rv_amp: np.ndarray
+    rv_wave: np.ndarray
+    rv_times: np.ndarray
+    rv_coef: np.ndarray
+    rv_zero: np.ndarray    # (3,) zeros: nothing is subtracted from r(t), rv_back takes its place
+    rv_back: np.ndarray    # (4,) exp(r(t0))^-1: the orientation starts where the node was built
+    kin: np.ndarray        # (24,) scratch: x, v, a of the centre of mass, lab angular velocity
+                           # and acceleration, then the rotation path's value and derivatives
     reaction: np.ndarray   # (6,) force, torque (about the centre of mass, lab) at the last kick
     work: np.ndarray       # (1,) work done by the driver so far
 
@@ -87,34 +97,57 @@ def eval_path(t, rate, amp, wave, times, coef, start, out, o):
 
 
 @njit(**CACHED)
+def prescribe_turn(p, t):
+    """Update p.kin[9:15] with the prescribed lab angular velocity and acceleration at time t
+    (zero for a free rotation); return the prescribed turn from the node as built (a quaternion)."""
+    kin = p.kin
+    if p.rotation == PRESCRIBED:
+        eval_path(t, p.ang_rate, p.ang_amp, p.ang_wave, p.ang_times, p.ang_coef, p.ang_start, kin, 15)
+        th, dth, ddth = kin[15], kin[16], kin[17]
+        for k in range(3):
+            kin[9 + k] = dth * p.axis[k]
+            kin[12 + k] = ddth * p.axis[k]
+        c, s = math.cos(0.5 * th), math.sin(0.5 * th)
+        return c, s * p.axis[0], s * p.axis[1], s * p.axis[2]
+    if p.rotation == ORIENTED:
+        eval_path(t, p.rv_rate, p.rv_amp, p.rv_wave, p.rv_times, p.rv_coef, p.rv_zero, kin, 15)
+        w, a = exp_rates(kin[15], kin[16], kin[17], kin[18], kin[19], kin[20], kin[21], kin[22], kin[23])
+        for k in range(3):
+            kin[9 + k] = w[k]
+            kin[12 + k] = a[k]
+        ew, ex, ey, ez = quat_exp(kin[15], kin[16], kin[17])
+        b = p.rv_back
+        return quat_mul(ew, ex, ey, ez, b[0], b[1], b[2], b[3])
+    for k in range(9, 15):
+        kin[k] = 0.0
+    return 1.0, 0.0, 0.0, 0.0
+
+
+@njit(**CACHED)
 def drive_kinematics(p, t):
-    """Update p.kin given time t: the prescribed centre of mass x, v, a (lab) and angle
-    theta, theta', theta'' (zero for a free rotation); return the prescribed node quaternion."""
+    """Update p.kin given time t: the prescribed centre of mass x, v, a and the angular
+    velocity and acceleration (lab); return the prescribed node quaternion."""
     kin = p.kin
     eval_path(t, p.pos_rate, p.pos_amp, p.pos_wave, p.pos_times, p.pos_coef, p.pos_start, kin, 0)
-    qw, qx, qy, qz = p.q0[0], p.q0[1], p.q0[2], p.q0[3]
-    if p.rotation == PRESCRIBED:
-        eval_path(t, p.ang_rate, p.ang_amp, p.ang_wave, p.ang_times, p.ang_coef, p.ang_start, kin, 9)
-        th, dth, ddth = kin[9], kin[10], kin[11]
-        ax, ay, az = p.axis[0], p.axis[1], p.axis[2]
-        c, s = math.cos(0.5 * th), math.sin(0.5 * th)
-        qw, qx, qy, qz = quat_mul(c, s * ax, s * ay, s * az, qw, qx, qy, qz)
-        rx, ry, rz = quat_rotate(c, s * ax, s * ay, s * az, p.rho0[0], p.rho0[1], p.rho0[2])
+    tw, tx, ty, tz = prescribe_turn(p, t)
+    q0 = p.q0
+    if p.rotation != FREE:
+        rx, ry, rz = quat_rotate(tw, tx, ty, tz, p.rho0[0], p.rho0[1], p.rho0[2])
         # the centre of mass turns about the reference point: v += w x rho, a += alpha x rho + w x (w x rho)
-        vx, vy, vz = cross(ax, ay, az, rx, ry, rz)
-        wx, wy, wz = cross(ax, ay, az, vx, vy, vz)
+        wx, wy, wz = kin[9], kin[10], kin[11]
+        vx, vy, vz = cross(wx, wy, wz, rx, ry, rz)
+        ax, ay, az = cross(kin[12], kin[13], kin[14], rx, ry, rz)
+        cx, cy, cz = cross(wx, wy, wz, vx, vy, vz)
         r = (rx - p.rho0[0], ry - p.rho0[1], rz - p.rho0[2])
         v = (vx, vy, vz)
-        w = (wx, wy, wz)
+        acc = (ax + cx, ay + cy, az + cz)
         for k in range(3):
             kin[k] += r[k]
-            kin[3 + k] += dth * v[k]
-            kin[6 + k] += ddth * v[k] + dth * dth * w[k]
-    else:
-        kin[9] = kin[10] = kin[11] = 0.0
+            kin[3 + k] += v[k]
+            kin[6 + k] += acc[k]
     for k in range(3):
         kin[k] += p.ref0[k]
-    return qw, qx, qy, qz
+    return quat_mul(tw, tx, ty, tz, q0[0], q0[1], q0[2], q0[3])
 
 
 @njit(**CACHED)
@@ -129,10 +162,9 @@ def set_drive_velocity(p, model, state):
         pa = kin[3] * a[0] + kin[4] * a[1] + kin[5] * a[2]
         for k in range(3):
             state.node_v[nd, k] = kin[3 + k] + (va - pa) * a[k]
-    if p.rotation == PRESCRIBED:
+    if p.rotation != FREE:
         q = state.node_q[nd]
-        dth = kin[10]
-        bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], dth * a[0], dth * a[1], dth * a[2])
+        bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], kin[9], kin[10], kin[11])
         state.node_w[nd, 0], state.node_w[nd, 1], state.node_w[nd, 2] = bx, by, bz
 
 
@@ -151,7 +183,7 @@ def pose_drive(p, model, state):
         pa = kin[0] * a[0] + kin[1] * a[1] + kin[2] * a[2]
         for k in range(3):
             state.node_x[nd, k] = kin[k] + (xa - pa) * a[k]
-    if p.rotation == PRESCRIBED:
+    if p.rotation != FREE:
         state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3] = qw, qx, qy, qz
     set_drive_velocity(p, model, state)
     for j in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
@@ -175,12 +207,12 @@ def drive_reaction(p, model, state, loads):
             r[k] -= ra * a[k]
     for k in range(3):
         r[3 + k] = 0.0
-    if p.rotation == PRESCRIBED:
+    if p.rotation != FREE:
         q = state.node_q[nd]
         inert = model.node_inertia[nd]
-        dth, ddth = kin[10], kin[11]
-        wx, wy, wz = quat_rotate_inv(q[0], q[1], q[2], q[3], dth * a[0], dth * a[1], dth * a[2])
-        ex, ey, ez = quat_rotate_inv(q[0], q[1], q[2], q[3], ddth * a[0], ddth * a[1], ddth * a[2])
+        # body angular acceleration: d/dt (R^T w_lab) = R^T alpha_lab (the w x w term vanishes)
+        wx, wy, wz = quat_rotate_inv(q[0], q[1], q[2], q[3], kin[9], kin[10], kin[11])
+        ex, ey, ez = quat_rotate_inv(q[0], q[1], q[2], q[3], kin[12], kin[13], kin[14])
         gx, gy, gz = cross(wx, wy, wz, inert[0] * wx, inert[1] * wy, inert[2] * wz)
         lx, ly, lz = quat_rotate(q[0], q[1], q[2], q[3], inert[0] * ex + gx, inert[1] * ey + gy, inert[2] * ez + gz)
         t = loads.node_tau[nd]
@@ -203,10 +235,8 @@ def drive_after_kick(p, model, state, arg):
     drive_reaction(p, model, state, loads)
     set_drive_velocity(p, model, state)
     nd, r = p.node, p.reaction
-    v = state.node_v[nd]
-    dth = p.kin[10]
-    p.work[0] += h * (r[0] * v[0] + r[1] * v[1] + r[2] * v[2]
-                      + dth * (r[3] * p.axis[0] + r[4] * p.axis[1] + r[5] * p.axis[2]))
+    v, w = state.node_v[nd], p.kin
+    p.work[0] += h * (r[0] * v[0] + r[1] * v[1] + r[2] * v[2] + r[3] * w[9] + r[4] * w[10] + r[5] * w[11])
 
 
 constraint_kernels(DriveParams, drive_after_drift, drive_after_kick)

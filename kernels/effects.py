@@ -42,6 +42,10 @@ class LineLoadParams(NamedTuple):
 class DampingParams(NamedTuple):
     translational: float  # decay rate nu (1/s): v <- v exp(-nu h)
     rotational: float     # decay rate of angular velocities
+    dissipated: np.ndarray       # (1,) kinetic energy taken so far
+    node_dissipated: np.ndarray  # (nn, 10) of it at each node: translational sum 1/2 m (1 - c^2) v v^T
+                                 # (row-major 3 x 3, a drive holding some components pays those),
+                                 # then rotational
 
 
 @njit(**CACHED, inline="always")
@@ -157,21 +161,41 @@ def add_line_loads(p, model, state, loads):
 @njit(**STEP)
 def damp_velocities(p, model, state, h):
     """Update state.v, state.w, state.node_v, state.node_w by the exact flow of linear,
-    mass-proportional viscous damping over time h (unconditionally stable)."""
+    mass-proportional viscous damping over time h (unconditionally stable), and p.dissipated,
+    p.node_dissipated by the kinetic energy it takes (of what measure.energies counts)."""
     ct = math.exp(-p.translational * h)
     cr = math.exp(-p.rotational * h)
+    lt, lr = 0.5 * (1.0 - ct * ct), 0.5 * (1.0 - cr * cr)
     v, w = state.v, state.w
+    taken = 0.0
     for i in range(v.shape[0]):
+        if model.vertex_inv_mass[i] > 0.0:  # line ends move with their nodes, counted there
+            taken += lt * model.vertex_mass[i] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1] + v[i, 2] * v[i, 2])
         v[i, 0] *= ct
         v[i, 1] *= ct
         v[i, 2] *= ct
     for e in range(w.shape[0]):
+        inert = model.element_inertia[e]
+        taken += lr * (inert[0] * w[e, 0] * w[e, 0] + inert[1] * w[e, 1] * w[e, 1] + inert[2] * w[e, 2] * w[e, 2])
         w[e, 0] *= cr
         w[e, 1] *= cr
         w[e, 2] *= cr
-    for nd in range(state.node_v.shape[0]):
+    nodes = p.node_dissipated
+    for nd in range(min(state.node_v.shape[0], nodes.shape[0])):
+        vn = state.node_v[nd]
         if model.node_inv_mass[nd] > 0.0:  # an infinitely heavy node keeps its velocity
+            f = lt * model.node_mass[nd]
+            for j in range(3):
+                for k in range(3):
+                    nodes[nd, 3 * j + k] += f * vn[j] * vn[k]
+            taken += f * (vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2])
             for k in range(3):
-                state.node_v[nd, k] *= ct
+                vn[k] *= ct
+        rot = 0.0
         for k in range(3):
+            if model.node_locked[nd, k] == 0.0:
+                rot += lr * model.node_inertia[nd, k] * state.node_w[nd, k] * state.node_w[nd, k]
             state.node_w[nd, k] *= cr
+        nodes[nd, 9] += rot
+        taken += rot
+    p.dissipated[0] += taken

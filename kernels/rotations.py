@@ -259,3 +259,36 @@ def quat_cayley(px, py, pz):
     """Return the unit quaternion (1, phi/2)/|.|: a rotation about phi by 2 atan(|phi|/2)."""
     n = 1.0 / math.sqrt(1.0 + 0.25 * (px * px + py * py + pz * pz))
     return n, 0.5 * n * px, 0.5 * n * py, 0.5 * n * pz
+
+
+@njit(**OPTS)
+def exp_rates(rx, ry, rz, dx, dy, dz, ex, ey, ez):
+    """Return (omega, alpha), each a 3-tuple: the lab angular velocity and acceleration of
+    R(t) = exp(r(t)) given r, r' = d and r'' = e. omega = J(r) r' with the left Jacobian
+    J = 1 + a [r] + b [r]^2, a = (1 - cos t)/t^2, b = (t - sin t)/t^3 (t = |r|); alpha is its
+    time derivative. a, b and their derivatives in t^2 are smooth at t = 0 (series there)."""
+    x = rx * rx + ry * ry + rz * rz
+    if x < 0.01:
+        a = 0.5 - x * (1.0 / 24.0 - x * (1.0 / 720.0 - x / 40320.0))
+        b = 1.0 / 6.0 - x * (1.0 / 120.0 - x * (1.0 / 5040.0 - x / 362880.0))
+        da = -1.0 / 24.0 + x * (2.0 / 720.0 - x * (3.0 / 40320.0 - x * 4.0 / 3628800.0))
+        db = -1.0 / 120.0 + x * (2.0 / 5040.0 - x * (3.0 / 362880.0 - x * 4.0 / 39916800.0))
+    else:
+        t = math.sqrt(x)
+        c, s = math.cos(t), math.sin(t)
+        a = (1.0 - c) / x
+        b = (t - s) / (x * t)
+        da = (t * s - 2.0 + 2.0 * c) / (2.0 * x * x)
+        db = ((1.0 - c) * t - 3.0 * (t - s)) / (2.0 * x * x * t)
+    rd = 2.0 * (rx * dx + ry * dy + rz * dz)   # d(t^2)/dt
+    ux, uy, uz = cross(rx, ry, rz, dx, dy, dz)               # r x r'
+    vx, vy, vz = cross(rx, ry, rz, ux, uy, uz)               # r x (r x r')
+    wx, wy, wz = cross(rx, ry, rz, ex, ey, ez)               # r x r''
+    yx, yy, yz = cross(rx, ry, rz, wx, wy, wz)               # r x (r x r'')
+    zx, zy, zz = cross(dx, dy, dz, ux, uy, uz)               # r' x (r x r')
+    omega = (dx + a * ux + b * vx, dy + a * uy + b * vy, dz + a * uz + b * vz)
+    fa, fb = da * rd, db * rd
+    alpha = (ex + fa * ux + a * wx + fb * vx + b * (zx + yx),
+             ey + fa * uy + a * wy + fb * vy + b * (zy + yy),
+             ez + fa * uz + a * wz + fb * vz + b * (zz + yz))
+    return omega, alpha

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .backend import ENTRY, STEP
-from .compose import apply_drift_constraints, apply_flows, apply_kick_constraints, apply_loads
+from .compose import apply_accounts, apply_drift_constraints, apply_flows, apply_kick_constraints, apply_loads
 from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads_on, kick_state
 
@@ -85,11 +85,15 @@ def evaluate_loads(model, state, loads, load_effects, backend):
 @njit(**STEP)
 def kick_loads(model, state, loads, effects, h, backend):
     """Update velocities by a kick of length h, wrapped in half flows of the velocity effects,
-    then restore the prescribed ones. effects = (load, flow, constraint) effect tuples."""
+    then restore the prescribed ones. effects = (load, flow, constraint) effect tuples. The
+    load effects that keep an account of their work see the velocities on both sides of the
+    kick."""
     load_effects, flow_effects, constraint_effects = effects
     apply_flows(flow_effects, model, state, 0.5 * h)
     evaluate_loads(model, state, loads, load_effects, backend)
+    apply_accounts(load_effects, model, state, 0.5 * h)
     kick_state(model, state, loads, h, backend)
+    apply_accounts(load_effects, model, state, 0.5 * h)
     apply_flows(flow_effects, model, state, 0.5 * h)
     apply_kick_constraints(constraint_effects, model, state, (loads, h))
 

@@ -286,3 +286,30 @@ def test_tumbling_net_conserves_momenta_and_energy():
     np.testing.assert_allclose(sim.angular_momentum(), l0, rtol=0, atol=1e-12 * np.linalg.norm(l0))
     assert abs(sim.energy() - e0) < 1e-8 * e0
     assert sim.energy_parts()["strain"] > 1e-3 * e0       # the spin stretched it
+
+
+def test_winch_reels_the_load_in_and_pulls_its_tension_times_the_capstan_factor():
+    """Once the start has settled the rope slides over the drum's half turn (friction mu): the
+    load rises at the reeling speed v times (1 + T1/EA) / (1 + T2/EA), rope material flowing
+    at one rate from the load's side (tension T1 = m (g + nu u), weight and drag at the load's
+    speed u) to the winch's (T2 = T1 e^(mu pi), the capstan relation); the driver holds T2 less
+    its pin's weight. Averaged over one second, several passes of the rope's vertices over
+    the drum's edges."""
+    scene = case("winch")
+    sim = scene.simulation()
+    load, pin = (next(n for n in scene.net.nodes if n.name == name) for name in ("load", "winch"))
+    drum = next(e for e in sim.effects if isinstance(e, cosnet.Obstacle))
+    m, nu, mu, v = 5.0, 20.0, 0.3, 0.1
+    ea = 5e7 * math.pi * 0.003 ** 2
+    sim.run(until=0.6)
+    z0, pulls = sim.node_position(load)[2], []
+    while sim.time < scene.run.until - 1e-9:
+        sim.run(until=min(scene.run.until, sim.time + 0.01))
+        pulls.append(-sim.reaction(pin)[0][2])
+        assert drum.sliding(sim) == drum.active_contacts(sim) > 10
+    u = (sim.node_position(load)[2] - z0) / (scene.run.until - 0.6)
+    t1 = m * (G + nu * u)
+    t2 = t1 * math.exp(mu * math.pi)
+    assert u == pytest.approx(v * (1 + t1 / ea) / (1 + t2 / ea), rel=0.01)
+    assert u < 0.96 * v                     # the stretch is seen: not the reeling speed itself
+    assert np.mean(pulls) == pytest.approx(t2 - 0.1 * G, rel=0.01)
