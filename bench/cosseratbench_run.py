@@ -10,7 +10,7 @@ as unsupported with the solver's reason. Results go to bench/cosseratbench.json:
 experiments replaces their entries and keeps the others, each entry carrying the machine's load
 average over the minute before its run started (the wall times of a loaded machine are not
 comparable with an idle one's).
-The full set takes 1.5 to 6 minutes on 2 shared cores, nearly all of it PyElastica on twist.
+The full set takes about 15 minutes on 2 idle cores, nearly all of it PyElastica on twist (721 s).
 """
 
 from __future__ import annotations
