@@ -6,13 +6,13 @@ end a point junction (mass 0). The line is built unstretched and straight in its
 as the scenario says (``rest_curvature = 0``; rest lengths length / n, like the PyElastica
 adapter), and then moved to where the scenario starts it: its vertices to
 ``Rod.nodes(n)`` (which may be stretched, as in the pendulum), its free end node with them.
-A driven clamp (``Rod.start_motion`` / ``end_motion``) is a node of
-the line's own end mass under a cosnet Drive: its rotation vectors must all lie along one fixed
-axis (the slide axis when the end slides, a motor shaft), the angle about it and the
-displacement follow cosnet Paths, clamped cubic splines through the motion's samples (the
-scenario interpolates them linearly between its samples, and asks for smooth motions sampled
-finely enough for that not to matter). Point loads are NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario
-gets mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
+A driven clamp (``Rod.start_motion`` / ``end_motion``) is a node of the line's own end mass under
+a cosnet Drive: its rotation vectors must all lie along one fixed axis (the slide axis when the
+end slides, a motor shaft); the angle about it and the displacement follow cosnet Paths,
+clamped cubic splines through the motion's samples (the scenario interpolates them linearly,
+and asks for smooth motions sampled finely enough for that not to matter). Point loads are
+NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario gets
+mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
 choice). Rods touch each other (and themselves, when the scenario says they can reach
 themselves) through cosnet's Contact: frictionless capsules of the rod radius, with a penalty
 as stiff as the step allows without shortening it -- a contact vibration of the lightest
