@@ -71,8 +71,9 @@ def test_greenhill_root_of_the_clamped_determinant():
 
 def growth_rate(n, level):
     """Growth rate (1/s) of the sideways bend of a line of n elements held at level x THETA_CR,
-    fitted once the ramp's transient has decayed (as exp(-NU t / 2)), while the bend is small (the run stops there:
-    a buckled line goes on to coil, which says nothing more about the threshold)."""
+    fitted once the ramp's transient has decayed (as exp(-NU t / 2)), while the bend is small
+    (the run stops there: a buckled line goes on to coil, which says nothing more about the
+    threshold)."""
     net = cosnet.Net()
     a = net.add_node((0.0, 0.0, 0.0), fixed=True)
     b = net.add_node((LENGTH, 0.0, 0.0))
