@@ -6,8 +6,13 @@ end a point junction (mass 0). The line is built unstretched and straight in its
 as the scenario says (``rest_curvature = 0``; rest lengths length / n, like the PyElastica
 adapter), and then moved to where the scenario starts it: its vertices to
 ``Rod.nodes(n)`` (which may be stretched, as in the pendulum), its free end node with them.
-Point loads are NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario
-gets mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
+A driven clamp (``Rod.start_motion`` / ``end_motion``) is a node of the line's own end mass under
+a cosnet Drive: its rotation vectors must all lie along one fixed axis (the slide axis when the
+end slides, a motor shaft); the angle about it and the displacement follow cosnet Paths,
+clamped cubic splines through the motion's samples (the scenario interpolates them linearly,
+and asks for smooth motions sampled finely enough for that not to matter). Point loads are
+NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario gets
+mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
 choice). Rods touch each other (and themselves, when the scenario says they can reach
 themselves) through cosnet's Contact: frictionless capsules of the rod radius, with a penalty
 as stiff as the step allows without shortening it -- a contact vibration of the lightest
@@ -15,8 +20,8 @@ vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critic
 The time step is cosnet's estimated stable step for position Verlet, shortened so
 a whole number of steps fits between frames.
 
-Outside this adapter (the run is then reported as unsupported): driven clamps
-(``Rod.start_motion`` / ``end_motion``), obstacles and friction.
+Outside this adapter (the run is then reported as unsupported): a driven clamp turned about a
+changing axis, obstacles and friction.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import math
 from importlib.metadata import version
 
 import numpy as np
-from cosseratbench.scenario import End, EndCondition, Scenario
+from cosseratbench.scenario import End, EndCondition, Motion, Scenario
 from cosseratbench.solver import Capability, Diverged
 from cosseratbench.trajectory import Trajectory
 
@@ -48,12 +53,30 @@ class CosnetSolver:
     def _check(scenario: Scenario) -> None:
         if scenario.obstacles:
             raise NotImplementedError("cosnet has no contact with obstacles")
-        for rod in scenario.rods:
-            if rod.start_motion is not None or rod.end_motion is not None:
-                raise NotImplementedError("cosnet has no driven (prescribed-motion) clamps")
 
     @staticmethod
-    def _node(net, position, condition: EndCondition, name: str):
+    def _drive(node, motion: Motion):
+        """A cosnet Drive following ``motion`` (rotation vectors along one fixed axis)."""
+        turn = np.asarray(motion.rotation, dtype=float)
+        if motion.slides_along is not None:
+            axis = motion.axis
+        else:
+            biggest = turn[np.argmax(np.linalg.norm(turn, axis=1))]
+            size = np.linalg.norm(biggest)
+            axis = biggest / size if size > 0 else np.array([1.0, 0.0, 0.0])
+        angle = turn @ axis
+        if np.any(np.linalg.norm(turn - np.outer(angle, axis), axis=1) > 1e-12 * (1.0 + np.abs(angle))):
+            raise NotImplementedError("cosnet drives turn a node about a fixed axis only")
+        times = np.asarray(motion.times, dtype=float)
+        moved = np.asarray(motion.displacement, dtype=float)
+        return cosnet.Drive(node, position=cosnet.Path(times=times, values=moved) if np.any(moved) else None,
+                            rotation=cosnet.Path(times=times, values=angle), axis=axis,
+                            slide=motion.slides_along is not None)
+
+    @staticmethod
+    def _node(net, position, condition: EndCondition, name: str, driven: bool = False):
+        if driven:      # a drive holds it: the node carries the line end's own mass
+            return net.add_node(position, name=name)
         if condition is EndCondition.CLAMPED:
             return net.add_node(position, fixed=True, name=name)
         if condition is EndCondition.PINNED:
@@ -70,8 +93,8 @@ class CosnetSolver:
             t /= np.linalg.norm(t, axis=1, keepdims=True)
             rest = nodes[0] + np.concatenate(([np.zeros(3)],
                                               np.cumsum(t * rod.length / n_elements, axis=0)))
-            a = self._node(net, rest[0], rod.start, f"rod{i}_start")
-            b = self._node(net, rest[-1], rod.end, f"rod{i}_end")
+            a = self._node(net, rest[0], rod.start, f"rod{i}_start", rod.start_motion is not None)
+            b = self._node(net, rest[-1], rod.end, f"rod{i}_end", rod.end_motion is not None)
             m = rod.material
             line = net.add_line(a, b, material=cosnet.Material(E=m.youngs_modulus, G=m.shear_modulus,
                                                                density=m.density),
@@ -79,6 +102,9 @@ class CosnetSolver:
                                 points=rest, rest_curvature=(0.0, 0.0, 0.0), d1=rod.normal,
                                 name=f"rod{i}")
             placed.append((line, b, nodes))
+            for node, motion in ((a, rod.start_motion), (b, rod.end_motion)):
+                if motion is not None:
+                    effects.append(self._drive(node, motion))
             for load in rod.loads:
                 effects.append(cosnet.NodeLoad(a if load.at is End.START else b, force=load.force))
         if any(scenario.gravity):

@@ -6,13 +6,18 @@ Each experiment runs at its default parameters and resolution for both solvers t
 ``cosseratbench.run`` (which warms each solver up on a short copy of the scenario first, so
 compilation stays out of the wall time). Scores are the experiment's own metrics (relative
 errors against its analytical reference). An experiment outside a solver's model is reported
-as unsupported with the solver's reason. Results go to bench/cosseratbench.json.
-The full set takes 1.5 to 6 minutes on 2 shared cores, nearly all of it PyElastica on twist.
+as unsupported with the solver's reason. Results go to bench/cosseratbench.json: a run of some
+experiments replaces their entries and keeps the others, each entry carrying the machine's load
+average over the minute before its run started (the wall times of a loaded machine are not
+comparable with an idle one's).
+The full set takes about 15 minutes on 2 idle cores, nearly all of it PyElastica on twist (721 s).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 from importlib.metadata import version
 import sys
 from pathlib import Path
@@ -41,8 +46,9 @@ def main(argv=None):
         for sname in args.solvers:
             solver = solvers[sname]()
             print(f"{name} / {sname} ...", file=sys.stderr, flush=True)
+            load = os.getloadavg()[0]
             r = cb.run(ex, solver)
-            summary = r.summary()
+            summary = {**r.summary(), "load_average": round(load, 2)}
             results.append(summary)
             scores = "; ".join(f"{k} {v:.3g}" for k, v in r.metrics.items())
             why = r.failure or "; ".join(r.missing)
@@ -52,8 +58,21 @@ def main(argv=None):
     table("cosseratbench 0.3.0 (default parameters and resolution; errors are relative)",
           ["experiment", "solver", "elements", "outcome", "wall s", "scores"], rows)
     # bench/cosseratbench.json (named after the benchmark, not this script)
-    write_json(str(Path(__file__).with_name("cosseratbench.py")),
-               {"cosseratbench": version("cosseratbench"), "results": results})
+    target = Path(__file__).with_name("cosseratbench.py")
+    results = _merged(target.with_suffix(".json"), results)
+    write_json(str(target), {"cosseratbench": version("cosseratbench"), "results": results})
+
+
+def _merged(path: Path, results: list) -> list:
+    """results, with the entries of a previous run's file for experiments and solvers not rerun,
+    in the order of EXPERIMENTS."""
+    ran = {(r["experiment"], r["solver"]) for r in results}
+    kept = []
+    if path.exists():
+        kept = [r for r in json.loads(path.read_text(encoding="utf-8"))["results"]
+                if (r["experiment"], r["solver"]) not in ran]
+    return sorted(kept + results, key=lambda r: (EXPERIMENTS.index(r["experiment"]),
+                                                 ("cosnet", "pyelastica").index(r["solver"])))
 
 
 if __name__ == "__main__":

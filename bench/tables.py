@@ -137,7 +137,10 @@ def cosseratbench() -> str:
                 walls.append("–")
             else:
                 cells.append(" / ".join(_g(r["metrics"][k]) for k in names if k in r["metrics"]))
-                walls.append(_g(r["wall_time"]))
+                # a run on a loaded machine (cosseratbench_run.py records the load) says so
+                load = r.get("load_average", 0.0)
+                busy = f" (load {load:.1f})" if load > d["machine"]["cores"] else ""
+                walls.append(_g(r["wall_time"]) + busy)
         n = next(r["n_elements"] for r in d["results"] if r["experiment"] == exp)
         metric = " / ".join(k.replace("_", " ") for k in names)
         rows.append([EXPERIMENTS.get(exp, exp), str(n), metric, *cells, " / ".join(walls)])

@@ -313,3 +313,31 @@ def test_winch_reels_the_load_in_and_pulls_its_tension_times_the_capstan_factor(
     assert u == pytest.approx(v * (1 + t1 / ea) / (1 + t2 / ea), rel=0.01)
     assert u < 0.96 * v                     # the stretch is seen: not the reeling speed itself
     assert np.mean(pulls) == pytest.approx(t2 - 0.1 * G, rel=0.01)
+def test_plectoneme_coils_onto_itself_without_passing_through():
+    """The twisted rod, its end pulled in, stays straight with the motor torque G J theta / L
+    until it buckles, then coils onto itself: at the end its strands touch (two capsules at
+    2 r), and no two segments ever came much closer (no pass-through)."""
+    from cosnet.kernels.contact import closest_points
+    scene = case("plectoneme")
+    sim = scene.simulation()
+    line, motor = scene.net.line("rod"), scene.net.node("motor")
+    radius = line.section_at(0.5).radius
+    r2, n = 2.0 * radius, line.elements
+    apart = [(i, j) for i in range(n) for j in range(i + 4, n)]   # 4 l > pi r: beyond the bend limit
+    gj = line.material.G * math.pi * radius ** 4 / 2.0
+
+    def closest():
+        x = sim.line_positions(line)
+        return min(closest_points(x[i], x[i + 1], x[j], x[j + 1])[2] for i, j in apart)
+    sim.run(until=2.0)               # before Greenhill's twist: straight (the seed is tiny)
+    u = sim.time / 7.0
+    theta = 60.0 * u * u * (3.0 - 2.0 * u)   # the two-point clamped spline of the case's drive
+    d = sim.node_rotation(motor)
+    assert math.atan2(d[2, 1], d[1, 1]) % (2 * math.pi) == pytest.approx(theta % (2 * math.pi), abs=1e-9)
+    assert sim.reaction(motor)[1][0] == pytest.approx(gj * theta / 1.0, rel=0.01)
+    nearest = np.inf
+    while sim.time < scene.run.until - 1e-9:
+        sim.run(until=min(sim.time + 0.25, scene.run.until))
+        nearest = min(nearest, closest())
+    assert closest() < 1.05 * r2                                   # the strands touch
+    assert nearest > 0.8 * r2                                      # and never pass through
