@@ -313,6 +313,8 @@ def test_winch_reels_the_load_in_and_pulls_its_tension_times_the_capstan_factor(
     assert u == pytest.approx(v * (1 + t1 / ea) / (1 + t2 / ea), rel=0.01)
     assert u < 0.96 * v                     # the stretch is seen: not the reeling speed itself
     assert np.mean(pulls) == pytest.approx(t2 - 0.1 * G, rel=0.01)
+
+
 def test_plectoneme_coils_onto_itself_without_passing_through():
     """The twisted rod, its end pulled in, stays straight with the motor torque G J theta / L
     until it buckles, then coils onto itself: at the end its strands touch (two capsules at
