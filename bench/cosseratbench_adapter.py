@@ -15,8 +15,19 @@ vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critic
 The time step is cosnet's estimated stable step for position Verlet, shortened so
 a whole number of steps fits between frames.
 
-Outside this adapter (the run is then reported as unsupported): driven clamps
-(``Rod.start_motion`` / ``end_motion``), obstacles and friction.
+Obstacles and friction (``_obstacles``, ``_lowered_clamps``): a Cylinder is a capsule
+Obstacle of its length (its rounded ends lie beyond the rods' reach), a Plane a plane
+Obstacle; both with cosnet's Coulomb friction that sticks (a tangential spring per touching
+vertex, as stiff as the normal penalty), the larger of the obstacle's and the rod's
+coefficient, static and kinetic alike (the scenarios give one). Rods with friction touch
+each other through Contact with friction between lines (a spring per touching pair of
+elements). The penalties follow the rod-rod rule above. A clamp driven by a translation
+only (``Motion`` without rotation or sliding, as the pile's) is a node of finite mass under
+a Drive whose displacement is the motion sampled finely (cosnet's clamped spline through
+the samples) and whose rotation is held.
+
+Outside this adapter (the run is then reported as unsupported): clamps driven by a rotation
+or sliding along an axis.
 """
 
 from __future__ import annotations
@@ -25,17 +36,20 @@ import math
 from importlib.metadata import version
 
 import numpy as np
-from cosseratbench.scenario import End, EndCondition, Scenario
+from cosseratbench.scenario import Cylinder, End, EndCondition, Plane, Scenario
 from cosseratbench.solver import Capability, Diverged
 from cosseratbench.trajectory import Trajectory
 
 import cosnet
 
+SAMPLE = 0.05  # s between the samples of a driven clamp's motion
+
 
 class CosnetSolver:
     name = "cosnet"
     backend_version = version("cosnet")
-    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR, Capability.ROD_CONTACT})
+    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR, Capability.ROD_CONTACT,
+                              Capability.ROD_FRICTION, Capability.CYLINDER_CONTACT, Capability.PLANE_CONTACT})
 
     def __init__(self, time_step_scale: float = 1.0, stepper: str = "verlet") -> None:
         if not 0 < time_step_scale <= 1:
@@ -46,11 +60,10 @@ class CosnetSolver:
     # ------------------------------------------------------------------ building
     @staticmethod
     def _check(scenario: Scenario) -> None:
-        if scenario.obstacles:
-            raise NotImplementedError("cosnet has no contact with obstacles")
         for rod in scenario.rods:
-            if rod.start_motion is not None or rod.end_motion is not None:
-                raise NotImplementedError("cosnet has no driven (prescribed-motion) clamps")
+            for motion in (rod.start_motion, rod.end_motion):
+                if motion is not None and (np.any(motion.rotation) or motion.slides_along is not None):
+                    raise NotImplementedError("this adapter drives clamps by a translation only")
 
     @staticmethod
     def _node(net, position, condition: EndCondition, name: str):
@@ -85,18 +98,69 @@ class CosnetSolver:
             effects.append(cosnet.Gravity(scenario.gravity))
         if scenario.quasi_static:
             effects.append(cosnet.Damping(2.0 * scenario.slowest_frequency()))
-        if len(scenario.rods) > 1 or scenario.self_contact:
-            effects.append(self._contact(net, effects, scenario))
+        effects.extend(self._lowered_clamps(net, scenario))
+        if len(scenario.rods) > 1 or scenario.self_contact or scenario.obstacles:
+            k, gamma = self._penalty(net, effects)
+            if len(scenario.rods) > 1 or scenario.self_contact:
+                effects.append(self._contact(scenario, k, gamma))
+            effects.extend(self._obstacles(scenario, k, gamma))
         return net, placed, effects
 
-    def _contact(self, net, effects, scenario: Scenario):
-        """Frictionless rod-rod contact whose penalty leaves the stable step as it is."""
+    def _penalty(self, net, effects) -> tuple[float, float]:
+        """(k, gamma): a penalty that leaves the stable step as it is, half-critically damped."""
         sim = cosnet.Simulation(net, effects=effects, stepper=self.stepper)
         mass = sim.model.vertex_mass
         lightest = float(mass[np.isfinite(mass) & (mass > 0)].min())
         omega = 0.5 / sim.stable_dt()
         k = lightest * omega**2
-        return cosnet.Contact(k=k, gamma=math.sqrt(k * lightest), self_contact=scenario.self_contact)
+        return k, math.sqrt(k * lightest)
+
+    @staticmethod
+    def _contact(scenario: Scenario, k: float, gamma: float):
+        """Rod-rod contact, with friction between rods when theirs is given."""
+        mu = max(rod.friction for rod in scenario.rods)
+        friction = {"mu_s": mu, "mu_k": mu, "pairs_per_element": 8} if mu > 0 else {}
+        return cosnet.Contact(k=k, gamma=gamma, self_contact=scenario.self_contact, **friction)
+
+    @staticmethod
+    def _obstacles(scenario: Scenario, k: float, gamma: float) -> list:
+        """An Obstacle for each of the scenario's: a Cylinder a capsule of its length, a Plane
+        a plane; Coulomb friction the larger of the obstacle's and the rods' coefficient."""
+        out = []
+        rod_mu = max((rod.friction for rod in scenario.rods), default=0.0)
+        for i, ob in enumerate(scenario.obstacles):
+            mu = max(ob.friction, rod_mu)
+            common = dict(k=k, gamma=gamma, name=f"{ob.kind}{i}", **({"mu_s": mu, "mu_k": mu} if mu > 0 else {}))
+            if isinstance(ob, Cylinder):
+                half = ob.unit_axis * ob.length / 2
+                out.append(cosnet.Obstacle("capsule", start=np.asarray(ob.center) - half,
+                                           end=np.asarray(ob.center) + half, radius=ob.radius, **common))
+            elif isinstance(ob, Plane):
+                out.append(cosnet.Obstacle("plane", point=ob.point, normal=ob.unit_normal, **common))
+            else:
+                raise NotImplementedError(f"this adapter has no {type(ob).__name__} obstacle")
+        return out
+
+    @staticmethod
+    def _lowered_clamps(net, scenario: Scenario) -> list:
+        """A Drive for each clamp the scenario moves (by a translation): the node made
+        movable (a finite mass), its displacement the motion's piecewise-linear path sampled
+        every SAMPLE s, its rotation held."""
+        out = []
+        for i, rod in enumerate(scenario.rods):
+            for end, motion in (("start", rod.start_motion), ("end", rod.end_motion)):
+                if motion is None:
+                    continue
+                node = net.node(f"rod{i}_{end}")
+                node.mass, node.inertia = 0.0, np.zeros((3, 3))  # carried by its line end
+                times = np.asarray(motion.times, dtype=float)
+                shift = np.asarray(motion.displacement, dtype=float)
+                t = np.unique(np.concatenate([times, np.arange(0.0, times[-1], SAMPLE)]))
+                values = np.stack([np.interp(t, times, shift[:, k]) for k in range(3)], axis=1)
+                out.append(cosnet.Drive(node, position=cosnet.Path(times=t, values=values),
+                                        rotation=cosnet.Path(times=[0.0, 1.0], values=[0.0, 0.0]),
+                                        axis=(0.0, 0.0, 1.0)))
+        return out
 
     def _steps(self, sim, scenario: Scenario, n_frames: int) -> tuple[float, int]:
         interval = scenario.duration / (n_frames - 1)
