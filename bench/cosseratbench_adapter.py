@@ -9,7 +9,8 @@ adapter), and then moved to where the scenario starts it: its vertices to
 Point loads are NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario
 gets mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
 choice). Rods touch each other (and themselves, when the scenario says they can reach
-themselves) through cosnet's Contact: frictionless capsules of the rod radius, with a penalty
+themselves) through cosnet's Contact: capsules of the rod radius (frictionless unless the rods have
+friction, below), with a penalty
 as stiff as the step allows without shortening it -- a contact vibration of the lightest
 vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critical damping.
 The time step is cosnet's estimated stable step for position Verlet, shortened so

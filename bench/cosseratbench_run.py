@@ -10,7 +10,8 @@ as unsupported with the solver's reason. Results go to bench/cosseratbench.json;
 of experiments not run this time are kept. An experiment in VARIANTS runs at each listed
 value of its parameter (capstan: every overhang, ropes that should hold and ropes that
 should slide).
-The full set takes 1.5 to 6 minutes on 2 shared cores, nearly all of it PyElastica on twist.
+The first five take 1.5 to 6 minutes on 2 shared cores, nearly all of it PyElastica on twist;
+capstan's five variants and pile add about 10 minutes under load, nearly all PyElastica's.
 """
 
 from __future__ import annotations

@@ -124,7 +124,8 @@ METRICS = {"catenary": ("shape_error", "sag_error"), "cantilever": ("tip_deflect
            "pendulum": ("period_error", "amplitude_change"), "twist": ("critical_twist_error",),
            "crossing": ("shape_error", "lift_error", "settling_residual"),
            "capstan": ("slide", "max_penetration"),
-           "pile": ("pile_height", "footprint", "contacts", "settling_residual", "max_rod_overlap")}
+           "pile": ("pile_height", "footprint", "contacts", "settling_residual", "max_penetration",
+                    "max_rod_overlap")}
 
 
 # experiments run at several values of one parameter: a row per value
