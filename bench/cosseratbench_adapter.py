@@ -10,18 +10,28 @@ A driven clamp (``Rod.start_motion`` / ``end_motion``) is a node of the line's o
 a cosnet Drive: its rotation vectors must all lie along one fixed axis (the slide axis when the
 end slides, a motor shaft); the angle about it and the displacement follow cosnet Paths,
 clamped cubic splines through the motion's samples (the scenario interpolates them linearly,
-and asks for smooth motions sampled finely enough for that not to matter). Point loads are
+and asks for smooth motions sampled finely enough for that not to matter). A clamp moved by
+a translation only (as the pile's) has its motion sampled every SAMPLE s first, so the spline
+follows the scenario's piecewise-linear path, and its rotation held. Point loads are
 NodeLoads on the end node, gravity is Gravity, and a quasi-static scenario gets
 mass-proportional Damping at twice its slowest frequency (the PyElastica adapter's
 choice). Rods touch each other (and themselves, when the scenario says they can reach
-themselves) through cosnet's Contact: frictionless capsules of the rod radius, with a penalty
-as stiff as the step allows without shortening it -- a contact vibration of the lightest
-vertex no faster than 0.5 / dt, the PyElastica adapter's rule -- and half-critical damping.
-The time step is cosnet's estimated stable step for position Verlet, shortened so
-a whole number of steps fits between frames.
+themselves) through cosnet's Contact: capsules of the rod radius (frictionless unless the
+rods have friction, below), with a penalty as stiff as the step allows without shortening
+it -- a contact vibration of the lightest vertex no faster than 0.5 / dt, the PyElastica
+adapter's rule -- and half-critical damping. The time step is cosnet's estimated stable step
+for position Verlet, shortened so a whole number of steps fits between frames.
+
+Obstacles and friction (``_obstacles``): a Cylinder is a capsule Obstacle of its length (its
+rounded ends lie beyond the rods' reach), a Plane a plane Obstacle; both with cosnet's
+Coulomb friction that sticks (a tangential spring per touching vertex, as stiff as the
+normal penalty), the larger of the obstacle's and the rod's coefficient, static and kinetic
+alike (the scenarios give one). Rods with friction touch each other through Contact with
+friction between lines (a spring per touching pair of elements). The penalties follow the
+rod-rod rule above.
 
 Outside this adapter (the run is then reported as unsupported): a driven clamp turned about a
-changing axis, obstacles and friction.
+changing axis.
 """
 
 from __future__ import annotations
@@ -30,17 +40,20 @@ import math
 from importlib.metadata import version
 
 import numpy as np
-from cosseratbench.scenario import End, EndCondition, Motion, Scenario
+from cosseratbench.scenario import Cylinder, End, EndCondition, Motion, Plane, Scenario
 from cosseratbench.solver import Capability, Diverged
 from cosseratbench.trajectory import Trajectory
 
 import cosnet
 
+SAMPLE = 0.05  # s between the samples of a clamp's motion by a translation only
+
 
 class CosnetSolver:
     name = "cosnet"
     backend_version = version("cosnet")
-    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR, Capability.ROD_CONTACT})
+    capabilities = frozenset({Capability.STRETCH, Capability.SHEAR, Capability.ROD_CONTACT,
+                              Capability.ROD_FRICTION, Capability.CYLINDER_CONTACT, Capability.PLANE_CONTACT})
 
     def __init__(self, time_step_scale: float = 1.0, stepper: str = "verlet") -> None:
         if not 0 < time_step_scale <= 1:
@@ -49,11 +62,6 @@ class CosnetSolver:
         self.stepper = stepper
 
     # ------------------------------------------------------------------ building
-    @staticmethod
-    def _check(scenario: Scenario) -> None:
-        if scenario.obstacles:
-            raise NotImplementedError("cosnet has no contact with obstacles")
-
     @staticmethod
     def _drive(node, motion: Motion):
         """A cosnet Drive following ``motion`` (rotation vectors along one fixed axis)."""
@@ -69,6 +77,11 @@ class CosnetSolver:
             raise NotImplementedError("cosnet drives turn a node about a fixed axis only")
         times = np.asarray(motion.times, dtype=float)
         moved = np.asarray(motion.displacement, dtype=float)
+        if not np.any(turn) and motion.slides_along is None:
+            # a translation only: the scenario's piecewise-linear path, sampled finely
+            t = np.unique(np.concatenate([times, np.arange(0.0, times[-1], SAMPLE)]))
+            moved = np.stack([np.interp(t, times, moved[:, k]) for k in range(3)], axis=1)
+            times, angle = t, np.zeros(t.shape)
         return cosnet.Drive(node, position=cosnet.Path(times=times, values=moved) if np.any(moved) else None,
                             rotation=cosnet.Path(times=times, values=angle), axis=axis,
                             slide=motion.slides_along is not None)
@@ -84,7 +97,6 @@ class CosnetSolver:
         return net.add_node(position, name=name)
 
     def _build(self, scenario: Scenario, n_elements: int):
-        self._check(scenario)
         net = cosnet.Net()
         placed, effects = [], []
         for i, rod in enumerate(scenario.rods):
@@ -111,18 +123,47 @@ class CosnetSolver:
             effects.append(cosnet.Gravity(scenario.gravity))
         if scenario.quasi_static:
             effects.append(cosnet.Damping(2.0 * scenario.slowest_frequency()))
-        if len(scenario.rods) > 1 or scenario.self_contact:
-            effects.append(self._contact(net, effects, scenario))
+        if len(scenario.rods) > 1 or scenario.self_contact or scenario.obstacles:
+            k, gamma = self._penalty(net, effects)
+            if len(scenario.rods) > 1 or scenario.self_contact:
+                effects.append(self._contact(scenario, k, gamma))
+            effects.extend(self._obstacles(scenario, k, gamma))
         return net, placed, effects
 
-    def _contact(self, net, effects, scenario: Scenario):
-        """Frictionless rod-rod contact whose penalty leaves the stable step as it is."""
+    def _penalty(self, net, effects) -> tuple[float, float]:
+        """(k, gamma): a penalty that leaves the stable step as it is, half-critically damped."""
         sim = cosnet.Simulation(net, effects=effects, stepper=self.stepper)
         mass = sim.model.vertex_mass
         lightest = float(mass[np.isfinite(mass) & (mass > 0)].min())
         omega = 0.5 / sim.stable_dt()
         k = lightest * omega**2
-        return cosnet.Contact(k=k, gamma=math.sqrt(k * lightest), self_contact=scenario.self_contact)
+        return k, math.sqrt(k * lightest)
+
+    @staticmethod
+    def _contact(scenario: Scenario, k: float, gamma: float):
+        """Rod-rod contact, with friction between rods when theirs is given."""
+        mu = max(rod.friction for rod in scenario.rods)
+        friction = {"mu_s": mu, "mu_k": mu, "pairs_per_element": 8} if mu > 0 else {}
+        return cosnet.Contact(k=k, gamma=gamma, self_contact=scenario.self_contact, **friction)
+
+    @staticmethod
+    def _obstacles(scenario: Scenario, k: float, gamma: float) -> list:
+        """An Obstacle for each of the scenario's: a Cylinder a capsule of its length, a Plane
+        a plane; Coulomb friction the larger of the obstacle's and the rods' coefficient."""
+        out = []
+        rod_mu = max((rod.friction for rod in scenario.rods), default=0.0)
+        for i, ob in enumerate(scenario.obstacles):
+            mu = max(ob.friction, rod_mu)
+            common = dict(k=k, gamma=gamma, name=f"{ob.kind}{i}", **({"mu_s": mu, "mu_k": mu} if mu > 0 else {}))
+            if isinstance(ob, Cylinder):
+                half = ob.unit_axis * ob.length / 2
+                out.append(cosnet.Obstacle("capsule", start=np.asarray(ob.center) - half,
+                                           end=np.asarray(ob.center) + half, radius=ob.radius, **common))
+            elif isinstance(ob, Plane):
+                out.append(cosnet.Obstacle("plane", point=ob.point, normal=ob.unit_normal, **common))
+            else:
+                raise NotImplementedError(f"this adapter has no {type(ob).__name__} obstacle")
+        return out
 
     def _steps(self, sim, scenario: Scenario, n_frames: int) -> tuple[float, int]:
         interval = scenario.duration / (n_frames - 1)

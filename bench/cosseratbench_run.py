@@ -6,11 +6,14 @@ Each experiment runs at its default parameters and resolution for both solvers t
 ``cosseratbench.run`` (which warms each solver up on a short copy of the scenario first, so
 compilation stays out of the wall time). Scores are the experiment's own metrics (relative
 errors against its analytical reference). An experiment outside a solver's model is reported
-as unsupported with the solver's reason. Results go to bench/cosseratbench.json: a run of some
-experiments replaces their entries and keeps the others, each entry carrying the machine's load
-average over the minute before its run started (the wall times of a loaded machine are not
-comparable with an idle one's).
-The full set takes about 15 minutes on 2 idle cores, nearly all of it PyElastica on twist (721 s).
+as unsupported with the solver's reason. An experiment in VARIANTS runs at each listed value
+of its parameter (capstan: every overhang, ropes that should hold and ropes that should
+slide). Results go to bench/cosseratbench.json: a run of some experiments replaces their
+entries and keeps the others, each entry carrying the machine's load average over the minute
+before its run started (the wall times of a loaded machine are not comparable with an idle
+one's). The first five take about 15 minutes on 2 idle cores, nearly all of it PyElastica on
+twist (721 s); capstan's five variants and pile add about 10 minutes under load, nearly all
+PyElastica's.
 """
 
 from __future__ import annotations
@@ -30,7 +33,17 @@ from cosseratbench.solvers.pyelastica import PyElasticaSolver  # noqa: E402
 from cosseratbench_adapter import CosnetSolver  # noqa: E402
 from harness import table, write_json  # noqa: E402
 
-EXPERIMENTS = ("catenary", "cantilever", "pendulum", "twist", "crossing")
+EXPERIMENTS = ("catenary", "cantilever", "pendulum", "twist", "crossing", "capstan", "pile")
+# experiments run at several values of one parameter (the others at their defaults)
+VARIANTS = {"capstan": ("overhang", (0.5, 0.8, 0.95, 1.1, 1.5))}
+
+
+def variants(name):
+    """The parameter values each run of experiment `name` gets ({} for its defaults)."""
+    if name not in VARIANTS:
+        return [{}]
+    key, values = VARIANTS[name]
+    return [{key: v} for v in values]
 
 
 def main(argv=None):
@@ -43,18 +56,20 @@ def main(argv=None):
     rows, results = [], []
     for name in args.experiments:
         ex = load_experiment(name)
-        for sname in args.solvers:
-            solver = solvers[sname]()
-            print(f"{name} / {sname} ...", file=sys.stderr, flush=True)
-            load = os.getloadavg()[0]
-            r = cb.run(ex, solver)
-            summary = {**r.summary(), "load_average": round(load, 2)}
-            results.append(summary)
-            scores = "; ".join(f"{k} {v:.3g}" for k, v in r.metrics.items())
-            why = r.failure or "; ".join(r.missing)
-            rows.append([name, sname, r.n_elements, r.outcome,
-                         "-" if r.wall_time is None else f"{r.wall_time:.3g}",
-                         scores or why])
+        for values in variants(name):
+            for sname in args.solvers:
+                solver = solvers[sname]()
+                label = name + "".join(f" {k}={v}" for k, v in values.items())
+                print(f"{label} / {sname} ...", file=sys.stderr, flush=True)
+                load = os.getloadavg()[0]
+                r = cb.run(ex, solver, values=values)
+                summary = {**r.summary(), "load_average": round(load, 2)}
+                results.append(summary)
+                scores = "; ".join(f"{k} {v:.3g}" for k, v in {**r.metrics, **r.observations}.items())
+                why = r.failure or "; ".join(r.missing)
+                rows.append([label, sname, r.n_elements, r.outcome,
+                             "-" if r.wall_time is None else f"{r.wall_time:.3g}",
+                             scores or why])
     table("cosseratbench 0.3.0 (default parameters and resolution; errors are relative)",
           ["experiment", "solver", "elements", "outcome", "wall s", "scores"], rows)
     # bench/cosseratbench.json (named after the benchmark, not this script)

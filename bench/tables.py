@@ -117,38 +117,68 @@ EXPERIMENTS = {"catenary": "catenary (pinned cable, elastic catenary)",
                "cantilever": "cantilever (small tip load, Euler–Bernoulli)",
                "pendulum": "pendulum (hanging cable swinging in its first mode)",
                "twist": "twist (Greenhill buckling under driven clamps)",
-               "crossing": "crossing (two pinned ropes, one resting on the other; frictionless rod–rod contact)"}
+               "crossing": "crossing (two pinned ropes, one resting on the other; frictionless rod–rod contact)",
+               "capstan": "capstan (rope over a fixed cylinder; overhang as a fraction of the longest that holds)",
+               "pile": "pile (rope lowered onto a floor; friction on the floor and between rods)"}
 METRICS = {"catenary": ("shape_error", "sag_error"), "cantilever": ("tip_deflection_error",),
            "pendulum": ("period_error", "amplitude_change"), "twist": ("critical_twist_error",),
-           "crossing": ("shape_error", "lift_error", "settling_residual")}
+           "crossing": ("shape_error", "lift_error", "settling_residual"),
+           "capstan": ("slide", "max_penetration"),
+           "pile": ("pile_height", "footprint", "contacts", "settling_residual", "max_penetration",
+                    "max_rod_overlap")}
+
+
+# experiments run at several values of one parameter: a row per value
+VARIANT = {"capstan": "overhang"}
 
 
 def cosseratbench() -> str:
     d = _json("cosseratbench.json")
-    by = {(r["experiment"], r["solver"]): r for r in d["results"]}
+
+    def row_key(r):
+        key = VARIANT.get(r["experiment"])
+        return r["experiment"], (r["values"][key] if key else None)
+    by = {(row_key(r), r["solver"]): r for r in d["results"]}
     rows = []
-    for exp in dict.fromkeys(r["experiment"] for r in d["results"]):
-        names = METRICS.get(exp) or sorted({k for r in d["results"] if r["experiment"] == exp for k in r["metrics"]})
+    for exp, value in dict.fromkeys(row_key(r) for r in d["results"]):
+        runs = [r for r in d["results"] if row_key(r) == (exp, value)]
+        names = METRICS.get(exp) or sorted({k for r in runs for k in r["metrics"]})
         cells, walls = [], []
         for solver in ("cosnet", "pyelastica"):
-            r = by.get((exp, solver))
+            r = by.get(((exp, value), solver))
             if r is None or r["outcome"] != "completed":
                 cells.append(r["outcome"] if r else "not run")
                 walls.append("–")
             else:
-                cells.append(" / ".join(_g(r["metrics"][k]) for k in names if k in r["metrics"]))
+                scores = {**r["metrics"], **r.get("observations", {})}
+                cells.append(" / ".join(_g(scores[k]) for k in names if k in scores))
                 # a run on a loaded machine (cosseratbench_run.py records the load) says so
                 load = r.get("load_average", 0.0)
                 busy = f" (load {load:.1f})" if load > d["machine"]["cores"] else ""
                 walls.append(_g(r["wall_time"]) + busy)
-        n = next(r["n_elements"] for r in d["results"] if r["experiment"] == exp)
+        n = runs[0]["n_elements"]
         metric = " / ".join(k.replace("_", " ") for k in names)
-        rows.append([EXPERIMENTS.get(exp, exp), str(n), metric, *cells, " / ".join(walls)])
+        label = EXPERIMENTS.get(exp, exp) + (f", {VARIANT[exp]} {value:g}" if value is not None else "")
+        rows.append([label, str(n), metric, *cells, " / ".join(walls)])
     return _table(["experiment", "elements", "metric", "cosnet", "PyElastica", "wall s cosnet / PyElastica"], rows)
 
 
-TABLES = {"throughput": throughput, "pyelastica": pyelastica, "accuracy_space": accuracy_space,
-          "accuracy_time": accuracy_time, "cosseratbench": cosseratbench}
+def contact_friction() -> str:
+    d = _json("contact_scaling.json")["friction"]
+    rows = [[f"{r['segments']:,}", f"{r['rod_pairs']:,}", f"{r['ground_contacts']:,}",
+             _g(1e3 * r["contact_frictionless_s"]), _g(1e3 * r["contact_friction_s"]),
+             _g(r["contact_friction_ns_per_segment"] / 1e3), _g(r["friction_extra_ns_per_pair"] / 1e3),
+             _g(r["ground_ns_per_contact"] / 1e3), _g(1e3 * r["step_s"])] for r in d["rows"]]
+    e = d["exponents"]
+    rows.append(["growth exponent", "", "", "", f"{e['contact_friction_s']:.2f}", "", "", "",
+                 f"{e['step_s']:.2f}"])
+    return _table(["segments", "rod pairs", "ground contacts", "contact, frictionless (ms)",
+                   "contact with friction (ms)", "µs/segment", "friction's extra µs/pair",
+                   "ground µs/contact", "step (ms)"], rows)
+
+
+TABLES = {"throughput": throughput, "contact_friction": contact_friction, "pyelastica": pyelastica,
+          "accuracy_space": accuracy_space, "accuracy_time": accuracy_time, "cosseratbench": cosseratbench}
 
 
 def render(page: Path) -> str:

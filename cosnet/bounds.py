@@ -118,6 +118,17 @@ def _contact_error(p, model):
             return f"contact.{name} has {getattr(p, name).shape[0]} rows for {m} segments"
     if p.elem_index.shape != (ne, 2) or p.elem_geom.shape != (ne, 4) or p.node_gap.shape != (nn,):
         return "contact: elem_index, elem_geom or node_gap do not match the net"
+    pairs = p.pair_key.shape[1] if p.pair_key.ndim == 3 else -1
+    if (p.pair_key.shape != (2, pairs, 3) or p.pair_data.shape != (2, pairs, 8)
+            or p.pair_used.shape != (2, pairs) or pairs & (pairs - 1) or p.pair_state.shape != (3,)
+            or p.mu_s.shape != (3,) or p.mu_k.shape != (3,) or p.dissipated.shape != (1,)):
+        return "contact: the friction pair tables do not have the shapes bind gives them"
+    if pairs and (p.pair_state[0] not in (0, 1) or np.any(p.pair_state[1:] < 0)
+                  or np.any(2 * p.pair_state[1:] > pairs)):
+        return "contact.pair_state: side must be 0 or 1 and each side hold at most half the table"
+    if pairs and any(_index_error("contact.pair_used", p.pair_used[side, :p.pair_state[1 + side]], pairs)
+                     for side in (0, 1)):
+        return "contact.pair_used names a slot outside the pair table"
     first = np.repeat(model.line_vertex_offsets[:-1] - model.line_element_offsets[:-1],
                       np.diff(model.line_element_offsets)) + np.arange(ne)
     if np.any(p.elem_index[:, 0] != first):

@@ -1,5 +1,6 @@
 """Rod-rod contact as a declared effect: the lines' elements are capsules that push each other
-apart with a damped penalty force (kernel and method: cosnet.kernels.contact)."""
+apart with a damped penalty force, with Coulomb friction between them when asked (kernel and
+method: cosnet.kernels.contact)."""
 
 from __future__ import annotations
 
@@ -8,11 +9,12 @@ import math
 import numpy as np
 
 from . import checks
-from .kernels.contact import ContactParams, contact_energy
+from .kernels.contact import SLIDE, ContactParams, contact_energy
 from .net import Line
 from .registry import Binding, Effect, Key
-from .scene_values import DAMPING, STIFFNESS, boolean, nonnegative, positive
+from .scene_values import DAMPING, STIFFNESS, boolean, integer, nonnegative, positive
 
+PAIRS_PER_ELEMENT = 4  # default friction-table capacity: touching pairs per element taking part
 MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
 
 
@@ -58,6 +60,12 @@ class Contact(Effect):
     if the centre line bent tighter than the radius).
     lines: the lines taking part (Line objects or names); None: all of them. Segments of
     lines meeting at a node are excluded near that node (see cosnet.kernels.contact).
+    mu_s, mu_k: static and kinetic Coulomb coefficients between lines (the one not given
+    equals the other; neither: frictionless), mu_k <= mu_s; k_t: the stiffness (N/m) of the
+    tangential spring that holds a sticking pair (default k); the pair sticks elastically
+    within mu_s N / k_t and slides at mu_k N (cosnet.kernels.friction).
+    pairs_per_element: the friction table's capacity, in touching pairs per element taking
+    part (a run with more stops with an error saying so).
     """
 
     kind = "contact"
@@ -65,11 +73,16 @@ class Contact(Effect):
             Key("gamma", nonnegative, DAMPING, doc="damping of the normal approach"),
             Key("self_contact", boolean, doc="whether a line touches itself"),
             Key("lines", "lines", doc="names of the lines taking part (default: all)"),
-            Key("self_gap", nonnegative, doc="rest-arc exclusion of a line's own segments, in r_i + r_j"))
+            Key("self_gap", nonnegative, doc="rest-arc exclusion of a line's own segments, in r_i + r_j"),
+            Key("mu_s", nonnegative, doc="static friction coefficient between lines (default: frictionless)"),
+            Key("mu_k", nonnegative, doc="kinetic friction coefficient, at most mu_s"),
+            Key("k_t", nonnegative, STIFFNESS, doc="tangential (stick) stiffness; default k"),
+            Key("pairs_per_element", integer, doc="friction table capacity: touching pairs per element"))
     record = ContactParams
 
     def __init__(self, k: float, gamma: float = 0.0, self_contact: bool = True, lines=None,
-                 self_gap: float = 0.5 * math.pi):
+                 self_gap: float = 0.5 * math.pi, mu_s=None, mu_k=None, k_t=None,
+                 pairs_per_element: int = PAIRS_PER_ELEMENT):
         k = checks.positive("Contact", "stiffness k", float(k))
         gamma = checks.nonnegative("Contact", "damping gamma", float(gamma))
         self_gap = checks.nonnegative("Contact", "self_gap", float(self_gap))
@@ -81,6 +94,22 @@ class Contact(Effect):
                 if not isinstance(x, (Line, str)):
                     raise ValueError(f"Contact: lines must be cosnet Lines or line names, got {x!r}")
         self.k, self.gamma, self.self_gap = k, gamma, self_gap
+        if mu_s is None:   # only a kinetic coefficient: the contact holds up to the same
+            mu_s = 0.0 if mu_k is None else mu_k
+        self.mu_s = checks.nonnegative("Contact", "mu_s", mu_s)
+        self.mu_k = self.mu_s if mu_k is None else checks.nonnegative("Contact", "mu_k", mu_k)
+        if self.mu_k > self.mu_s:
+            raise ValueError(f"Contact: mu_k must not exceed the static coefficient, got {self.mu_k:g} > {self.mu_s:g}")
+        friction = self.mu_s > 0
+        self.k_t = (k if friction else 0.0) if k_t is None else float(k_t)
+        if not math.isfinite(self.k_t) or self.k_t < 0 or (friction and self.k_t == 0):
+            raise ValueError(f"Contact: k_t must be a finite number > 0 (>= 0 without friction), got {k_t!r}")
+        if not friction:
+            self.k_t = 0.0   # no table, no springs: the frictionless kernel as it was
+        if (isinstance(pairs_per_element, (bool, np.bool_)) or not isinstance(pairs_per_element, (int, np.integer))
+                or pairs_per_element < 1):
+            raise ValueError(f"Contact: pairs_per_element must be a whole number >= 1, got {pairs_per_element!r}")
+        self.pairs_per_element = int(pairs_per_element)
         self.self_contact = bool(self_contact)
         self.lines = lines
 
@@ -107,12 +136,20 @@ class Contact(Effect):
         size = 16
         while size < 2 * count:
             size *= 2
+        # the pair table: open addressing at most half full
+        pairs = 0
+        if self.k_t > 0:
+            pairs = 16
+            while pairs < 2 * self.pairs_per_element * count:
+                pairs *= 2
         p = ContactParams(
             self.k, self.gamma, self.self_contact, self.self_gap, elements, index, geom,
             self._node_gaps(m, x, nn), np.zeros(1, np.int64), np.zeros(1, np.int64),
             np.zeros(size + 1, np.int64), np.zeros(size, np.int64), np.zeros(count, np.int64),
             np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3), np.int64),
-            np.zeros(count, np.int64), np.zeros((count, 3), np.int64), np.zeros((count, 3)), np.zeros(count))
+            np.zeros(count, np.int64), np.zeros((count, 3), np.int64), np.zeros((count, 3)), np.zeros(count),
+            self.k_t, np.full(3, self.mu_s), np.full(3, self.mu_k), np.full((2, pairs, 3), -1, np.int64),
+            np.zeros((2, pairs, 8)), np.zeros((2, pairs), np.int64), np.zeros(3, np.int64), np.zeros(1))
         return p
 
     def _node_gaps(self, m, x, nn) -> np.ndarray:
@@ -145,19 +182,41 @@ class Contact(Effect):
         """Overlapping pairs found by the last force evaluation."""
         return int(self.params(sim).active[0])
 
+    def dissipated(self, sim) -> float:
+        """Energy dissipated by friction so far (J): sim.energy() plus this is conserved
+        while gamma = 0."""
+        return float(self.params(sim).dissipated[0])
+
+    def sliding(self, sim) -> int:
+        """Touching pairs (with friction) sliding at the last force evaluation; the others stick."""
+        p = self.params(sim)
+        side = int(p.pair_state[0])
+        slots = p.pair_used[side, :p.pair_state[1 + side]]
+        return int(np.count_nonzero(p.pair_key[side, slots, 2] == SLIDE))
+
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
         return float(contact_energy(p, on.model, on.state))
 
+    def state_arrays(self, sim) -> dict:
+        if self.k_t == 0:
+            return {}
+        p = self.params(sim)
+        return {"pair_key": p.pair_key, "pair_data": p.pair_data, "pair_used": p.pair_used,
+                "pair_state": p.pair_state, "dissipated": p.dissipated}
+
     def omega2(self, p, on: Binding) -> float:
-        """2 k / m_min: two of the smallest free masses (interior vertices, or the composite
-        node of a line end) of the record's lines bouncing on one contact spring."""
+        """2 max(k, k_t) / m_min: two of the smallest free masses (interior vertices, or the
+        composite node of a line end) of the record's lines bouncing on the stiffer of the
+        normal and the tangential spring (they act along orthogonal directions)."""
         lines = [on.net.lines[l] for l in np.unique(p.elem_index[p.elements, 1])]
         m_min = smallest_mass(on, lines)
-        return 2.0 * p.k / m_min if m_min else 0.0
+        return 2.0 * max(p.k, p.k_t) / m_min if m_min else 0.0
 
     def describe(self) -> str:
         lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]
+        friction = (f", mu_s={self.mu_s:g}, mu_k={self.mu_k:g}, k_t={self.k_t:g} N/m"
+                    if self.k_t > 0 else "")
         return (f"Contact(k={self.k:g} N/m, gamma={self.gamma:g} N s/m, "
-                f"self_contact={self.self_contact}, lines={lines})")
+                f"self_contact={self.self_contact}, lines={lines}{friction})")
 

@@ -167,8 +167,9 @@ class Drive(Effect):
     ``axis`` (a lab direction); orientation (instead of rotation): a Path of a lab rotation
     vector r(t), the node turned by exp(r(t)) exp(r(t0))^-1 from its frame as built (a rate
     alone: a constant angular velocity about a fixed lab axis). Without rotation or orientation
-    the node turns freely (a driven pin); without position it stays in place (a turned clamp). slide=True frees the motion along ``axis``
-    (a motor shaft: the angle prescribed, sliding along the axis allowed, the rest held). A
+    the node turns freely (a driven pin); without position it stays in place (a turned clamp).
+    slide=True frees the motion along ``axis`` (a motor shaft: the angle prescribed, sliding
+    along the axis allowed, the rest held). A
     fixed node (infinite mass or inertia) cannot be driven: give it a finite mass instead, the
     drive then holds it. ``sim.reaction(node)`` gives the driver's force and torque,
     ``sim.driver_work()`` the work it has done."""

@@ -12,6 +12,21 @@ barycentric weights (1 - s, s) (Elastica's rod-collision penalty; the force is c
 so that the damping never pulls). Undamped, it is the gradient of the potential k eps^2 / 2,
 which contact_energy evaluates.
 
+Friction (k_t > 0): every touching pair of elements carries a tangential spring with the
+elastic-stick / plastic-slip Coulomb law of cosnet.kernels.friction (isotropic coefficients
+mu_s, mu_k, the dashpot gamma / k_t beside the spring). Its displacement delta is carried
+from call to call: each call turns it into the new tangent plane (keeping its length), adds
+the tangential part of the relative displacement, since the previous call, of the two
+material points that touched then (the parameters s, t on the two segments and their offset
+x_i(s) - x_j(t) are kept), and applies the law.
+The friction force -k_t delta acts on the closest point of i and +k_t delta on that of j, so
+momentum is conserved exactly (the couple that the surfaces' friction would put about the
+rods' axes is not modelled). The springs live in a hash table keyed by the element pair
+(lower element first, the spring's data oriented from it), of fixed capacity set at bind:
+two sides, the pairs of the last call and those of this one, so a pair keeps its spring
+while it touches and loses it (its spring energy counted as dissipated) the call it opens.
+A call with more touching pairs than the capacity raises (nothing is dropped silently).
+
 Broad phase: segments are binned by their midpoints into a uniform grid of cell size
 h >= max(segment length + 2 r) (recomputed at every call), counting-sorted into T ~ 2 m
 buckets (CSR-style offsets): the cells themselves, in raster order, when the bounding box holds
@@ -37,6 +52,7 @@ import numpy as np
 from numba import njit
 
 from .compose import load_kernel
+from .friction import plane_tangent, stick_slip
 from .rotations import CACHED
 
 HASH_X, HASH_Y, HASH_Z = 73856093, 19349663, 83492791
@@ -44,6 +60,8 @@ COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away points)
 # the cell of a segment whose midpoint is not finite: no other cell neighbours it, so the
 # segment meets nothing (the instability watch reports the non-finite state)
 PARKED = -(2 ** 41)
+STICK, SLIDE, TAKEN = 1, 2, -1  # friction modes of a pair (TAKEN: carried to the new side)
+
 # cells a hair wider than the longest segment's reach: round-off never puts a touching pair
 # two cells apart
 CELL_MARGIN = 1.0000001
@@ -71,6 +89,16 @@ class ContactParams(NamedTuple):
     sorted_cell: np.ndarray   # (m, 3) int64 their grid cells
     sorted_mid: np.ndarray    # (m, 3) their midpoints
     sorted_reach: np.ndarray  # (m,) their reaches
+    k_t: float                # tangential (stick) stiffness (N/m); 0: no friction
+    mu_s: np.ndarray          # (3,) static coefficient (the same forward, backward, lateral)
+    mu_k: np.ndarray          # (3,) kinetic coefficient
+    pair_key: np.ndarray      # (2, C, 3) int64 per side and slot: lower element, higher
+                              # element (-1: empty slot), mode (STICK, SLIDE or TAKEN)
+    pair_data: np.ndarray     # (2, C, 8) spring displacement delta (3), s, t on the lower and
+                              # higher element, offset x_lower(s) - x_higher(t) (3)
+    pair_used: np.ndarray     # (2, C) int64 occupied slots of each side, in insertion order
+    pair_state: np.ndarray    # (3,) int64 side of the last call, pairs on side 0, on side 1
+    dissipated: np.ndarray    # (1,) energy dissipated by friction (J)
 
 
 @njit(**CACHED, inline="always")
@@ -253,8 +281,9 @@ def _spread(f, a, wa, wb, gx, gy, gz):
 @njit(**CACHED)
 def pair_load(x, v, f, a, b, r_sum, k, gamma, dx, dy, dz, apply):
     """Narrow phase of the segments starting at vertices a and b (radii summing to r_sum,
-    midpoints dx, dy, dz apart): return the energy k eps^2 / 2 (0 when apart) and, if apply,
-    add the pair's forces to f."""
+    midpoints dx, dy, dz apart): return (energy, s, t, nx, ny, nz, fn): the energy
+    k eps^2 / 2 (0 when apart), the closest points' parameters and, if apply, the unit normal
+    and the normal force, added to f."""
     s, t = segment_closest(x[a, 0], x[a, 1], x[a, 2], x[a + 1, 0], x[a + 1, 1], x[a + 1, 2],
                            x[b, 0], x[b, 1], x[b, 2], x[b + 1, 0], x[b + 1, 1], x[b + 1, 2])
     nx = (1 - s) * x[a, 0] + s * x[a + 1, 0] - (1 - t) * x[b, 0] - t * x[b + 1, 0]
@@ -263,7 +292,8 @@ def pair_load(x, v, f, a, b, r_sum, k, gamma, dx, dy, dz, apply):
     d = math.sqrt(nx * nx + ny * ny + nz * nz)
     eps = r_sum - d
     if eps <= 0.0:
-        return 0.0
+        return 0.0, s, t, 0.0, 0.0, 0.0, 0.0
+    fn = 0.0
     if apply:
         if d > 1e-9 * r_sum:
             nx, ny, nz = nx / d, ny / d, nz / d
@@ -280,7 +310,136 @@ def pair_load(x, v, f, a, b, r_sum, k, gamma, dx, dy, dz, apply):
         if fn > 0.0:
             _spread(f, a, 1.0 - s, s, fn * nx, fn * ny, fn * nz)
             _spread(f, b, t - 1.0, -t, fn * nx, fn * ny, fn * nz)
-    return 0.5 * k * eps * eps
+        else:
+            fn = 0.0
+    return 0.5 * k * eps * eps, s, t, nx, ny, nz, fn
+
+
+@njit(**CACHED, inline="always")
+def _pair_hash(lo, hi, mask):
+    return ((lo * HASH_X) ^ (hi * HASH_Y)) & mask
+
+
+@njit(**CACHED)
+def _offset(x, a, b, s, t, k):
+    """Component k of x_a(s) - x_b(t), the points at s, t on the segments from a and b."""
+    return (1 - s) * x[a, k] + s * x[a + 1, k] - (1 - t) * x[b, k] - t * x[b + 1, k]
+
+
+@njit(**CACHED)
+def begin_pairs(p):
+    """Update p's pair table: empty the side this call fills (the side before the last).
+    Return (old, new): the side of the last call and this call's."""
+    old = 1 if p.pair_state[0] == 1 else 0
+    new = 1 - old
+    keys, used = p.pair_key, p.pair_used
+    mask = keys.shape[1] - 1
+    for j in range(p.pair_state[1 + new]):
+        keys[new, used[new, j] & mask, 0] = -1
+    p.pair_state[1 + new] = 0
+    return old, new
+
+
+@njit(**CACHED)
+def end_pairs(p, old, new):
+    """Update p's pair table: make new the current side; return the spring energy of the
+    pairs of the old side that no longer touch (their springs are released)."""
+    keys, data, used = p.pair_key, p.pair_data, p.pair_used
+    mask = keys.shape[1] - 1
+    lost = 0.0
+    for j in range(p.pair_state[1 + old]):
+        slot = used[old, j] & mask
+        if keys[old, slot, 2] != TAKEN:
+            lost += 0.5 * p.k_t * (data[old, slot, 0] ** 2 + data[old, slot, 1] ** 2 + data[old, slot, 2] ** 2)
+    p.pair_state[0] = new
+    return lost
+
+
+@njit(**CACHED)
+def pair_friction(p, x, v, f, ei, ej, a, b, s, t, nx, ny, nz, fn, old, new):
+    """Update f (nv, 3) and the pair table's side new given the touching elements ei, ej
+    (first vertices a, b), their closest points' parameters s, t, the unit normal n (from j
+    to i) and the normal force fn: the friction forces, -k_t delta on i and +k_t delta on j
+    (see the module docstring). Return the plastic work of the slip."""
+    keys, data, used = p.pair_key, p.pair_data, p.pair_used
+    size = keys.shape[1]
+    mask = size - 1
+    lo, hi, sg = (ei, ej, 1.0) if ei < ej else (ej, ei, -1.0)
+    h = _pair_hash(lo, hi, mask)
+    slot, found = h, -1
+    for _ in range(size):
+        if keys[old, slot, 0] == -1:
+            break
+        if keys[old, slot, 0] == lo and keys[old, slot, 1] == hi:
+            found = slot
+            break
+        slot = (slot + 1) & mask
+    ax = ay = az = 0.0
+    sliding = False
+    if found >= 0:  # the spring carried over: add the relative displacement of its points
+        sliding = keys[old, found, 2] == SLIDE
+        keys[old, found, 2] = TAKEN
+        s0, t0 = (data[old, found, 3], data[old, found, 4]) if sg > 0 else (data[old, found, 4], data[old, found, 3])
+        # the spring turned into the new tangent plane, its length kept (a projection would
+        # shed energy at every turn of the normal), plus the points' tangential displacement
+        ax, ay, az = sg * data[old, found, 0], sg * data[old, found, 1], sg * data[old, found, 2]
+        length = math.sqrt(ax * ax + ay * ay + az * az)
+        an = ax * nx + ay * ny + az * nz
+        ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
+        turned = math.sqrt(ax * ax + ay * ay + az * az)
+        if turned > 0.0:
+            ax, ay, az = ax * (length / turned), ay * (length / turned), az * (length / turned)
+        ux = _offset(x, a, b, s0, t0, 0) - sg * data[old, found, 5]
+        uy = _offset(x, a, b, s0, t0, 1) - sg * data[old, found, 6]
+        uz = _offset(x, a, b, s0, t0, 2) - sg * data[old, found, 7]
+        un = ux * nx + uy * ny + uz * nz
+        ax, ay, az = ax + ux - un * nx, ay + uy - un * ny, az + uz - un * nz
+    # the trial: the spring and the dashpot beside it, on the relative tangential velocity
+    ux = (1 - s) * v[a, 0] + s * v[a + 1, 0] - (1 - t) * v[b, 0] - t * v[b + 1, 0]
+    uy = (1 - s) * v[a, 1] + s * v[a + 1, 1] - (1 - t) * v[b, 1] - t * v[b + 1, 1]
+    uz = (1 - s) * v[a, 2] + s * v[a + 1, 2] - (1 - t) * v[b, 2] - t * v[b + 1, 2]
+    un = ux * nx + uy * ny + uz * nz
+    c_t = p.gamma / p.k_t
+    ex, ey, ez = ax + c_t * (ux - un * nx), ay + c_t * (uy - un * ny), az + c_t * (uz - un * nz)
+    tx, ty, tz = plane_tangent(x[a + 1, 0] - x[a, 0], x[a + 1, 1] - x[a, 1], x[a + 1, 2] - x[a, 2], nx, ny, nz)
+    bx, by, bz, slides, slip = stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, sliding, p.mu_s, p.mu_k, p.k_t, fn)
+    if slides:
+        ax, ay, az = bx, by, bz
+    else:
+        slip = 0.0
+    g = -p.k_t
+    _spread(f, a, 1.0 - s, s, g * bx, g * by, g * bz)
+    _spread(f, b, t - 1.0, -t, g * bx, g * by, g * bz)
+    count = p.pair_state[1 + new]
+    if 2 * count >= size:
+        raise RuntimeError("Contact: more element pairs touch than its friction table holds; "
+                           "give Contact a larger pairs_per_element")
+    slot = h
+    for _ in range(size):
+        if keys[new, slot, 0] == -1:
+            break
+        slot = (slot + 1) & mask
+    keys[new, slot, 0], keys[new, slot, 1], keys[new, slot, 2] = lo, hi, (SLIDE if slides else STICK)
+    data[new, slot, 0], data[new, slot, 1], data[new, slot, 2] = sg * ax, sg * ay, sg * az
+    data[new, slot, 3], data[new, slot, 4] = (s, t) if sg > 0 else (t, s)
+    for k in range(3):
+        data[new, slot, 5 + k] = sg * _offset(x, a, b, s, t, k)
+    used[new, count] = slot
+    p.pair_state[1 + new] = count + 1
+    return slip
+
+
+@njit(**CACHED)
+def pair_springs(p):
+    """Return the spring energy k_t |delta|^2 / 2 of the pairs of the last call."""
+    side = 1 if p.pair_state[0] == 1 else 0
+    mask = p.pair_key.shape[1] - 1
+    e = 0.0
+    for j in range(p.pair_state[1 + side]):
+        slot = p.pair_used[side, j] & mask
+        e += 0.5 * p.k_t * (p.pair_data[side, slot, 0] ** 2 + p.pair_data[side, slot, 1] ** 2
+                            + p.pair_data[side, slot, 2] ** 2)
+    return e
 
 
 # the 13 neighbour offsets with (dz, dy, dx) lexicographically positive: with the own cell
@@ -302,7 +461,11 @@ def sweep(p, model, state, f, apply):
     eidx, egeom, node_gap = p.elem_index, p.elem_geom, p.node_gap
     attach_node, attach_offset, x, v = model.attach_node, model.attach_offset, state.x, state.v
     k, gamma, self_contact, self_gap = p.k, p.gamma, p.self_contact, p.self_gap
-    energy, tests, active = 0.0, 0, 0
+    energy, tests, active, lost = 0.0, 0, 0, 0.0
+    friction = apply and p.k_t > 0.0
+    old = new = 0
+    if friction:
+        old, new = begin_pairs(p)
     for i in range(elem.shape[0]):
         cx, cy, cz = cell[i, 0], cell[i, 1], cell[i, 2]
         if cx == PARKED:
@@ -330,9 +493,14 @@ def sweep(p, model, state, f, apply):
                             ei, ej, r_sum):
                     continue
                 tests += 1
-                e = pair_load(x, v, f, eidx[ei, 0], eidx[ej, 0], r_sum, k, gamma, dx, dy, dz, apply)
+                va, vb = eidx[ei, 0], eidx[ej, 0]
+                e, s, t, unx, uny, unz, fn = pair_load(x, v, f, va, vb, r_sum, k, gamma, dx, dy, dz, apply)
                 energy += e
                 active += e > 0.0
+                if friction and e > 0.0:
+                    lost += pair_friction(p, x, v, f, ei, ej, va, vb, s, t, unx, uny, unz, fn, old, new)
+    if friction:
+        p.dissipated[0] += lost + end_pairs(p, old, new)
     if apply:
         p.narrow_tests[0] += tests
         p.active[0] = active
@@ -343,12 +511,15 @@ def sweep(p, model, state, f, apply):
 @njit(**CACHED)
 def add_contact(p, model, state, loads):
     """Update loads.f (nv, 3) given the vertex positions and velocities: the penalty contact
-    forces of every overlapping pair of capsules (see the module docstring); p.narrow_tests
-    and p.active count the narrow-phase tests and the contacts."""
+    forces of every overlapping pair of capsules and, with k_t > 0, their friction, updating
+    the pair table and p.dissipated (see the module docstring); p.narrow_tests and p.active
+    count the narrow-phase tests and the contacts."""
     sweep(p, model, state, loads.f, True)
 
 
 @njit(**CACHED)
 def contact_energy(p, model, state):
-    """Return the contact potential: the sum of k eps^2 / 2 over overlapping pairs."""
-    return sweep(p, model, state, state.x, False)
+    """Return the contact potential: the sum of k eps^2 / 2 over overlapping pairs, plus the
+    friction springs' energy k_t |delta|^2 / 2."""
+    e = sweep(p, model, state, state.x, False)
+    return e + pair_springs(p) if p.k_t > 0.0 else e

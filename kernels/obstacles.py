@@ -36,6 +36,7 @@ import numpy as np
 from numba import njit
 
 from .compose import load_kernel
+from .friction import plane_tangent, stick_slip
 from .rotations import CACHED
 
 PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
@@ -197,33 +198,11 @@ def obstacle_distance(p, cx, cy, cz):
     return _mesh_distance(p, cx, cy, cz)
 
 
-@njit(**CACHED, inline="always")
-def _ellipse(a, b, mu_long, mu_lat, k_t, fn):
-    """Return the trial friction of displacement (a along, b across the line) measured against
-    the ellipse of coefficients (mu_long, mu_lat) at normal force fn: <= 1 inside."""
-    q = 0.0
-    if a != 0.0:
-        if mu_long * fn <= 0.0:
-            return math.inf
-        q += (k_t * a / (mu_long * fn)) ** 2
-    if b != 0.0:
-        if mu_lat * fn <= 0.0:
-            return math.inf
-        q += (k_t * b / (mu_lat * fn)) ** 2
-    return math.sqrt(q)
-
-
 @njit(**CACHED)
 def _tangent(x, i, j, nx, ny, nz):
     """Unit tangent of the line through vertices i -> j, projected on the plane normal to n
     (zeros when the line is along n)."""
-    tx, ty, tz = x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2]
-    tn = tx * nx + ty * ny + tz * nz
-    tx, ty, tz = tx - tn * nx, ty - tn * ny, tz - tn * nz
-    t = math.sqrt(tx * tx + ty * ty + tz * tz)
-    if t > 0.0:
-        return tx / t, ty / t, tz / t
-    return 0.0, 0.0, 0.0
+    return plane_tangent(x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2], nx, ny, nz)
 
 
 @load_kernel(ObstacleParams)
@@ -264,31 +243,12 @@ def add_obstacle(p, model, state, loads):
             ex, ey, ez = (ax + c_t * (v[i, 0] - vn * nx), ay + c_t * (v[i, 1] - vn * ny),
                           az + c_t * (v[i, 2] - vn * nz))
             tx, ty, tz = _tangent(x, p.vprev[j], p.vnext[j], nx, ny, nz)
-            along = ex * tx + ey * ty + ez * tz
-            lx, ly, lz = ex - along * tx, ey - along * ty, ez - along * tz
-            lat = math.sqrt(lx * lx + ly * ly + lz * lz)
-            which = 0 if along >= 0.0 else 1  # moved forward: the forward coefficient resists
-            mu = p.mu_s if mode[j] == STICK else p.mu_k
-            if _ellipse(along, lat, mu[which], mu[2], k_t, fn) > 1.0:
-                mode[j] = SLIDE
-                mk = p.mu_k
-                # a direction without friction lets its share go; the rest returns radially
-                # onto the kinetic ellipse, the dashpot idle
-                if mk[which] * fn <= 0.0:
-                    along = 0.0
-                if mk[2] * fn <= 0.0:
-                    lx = ly = lz = lat = 0.0
-                q = _ellipse(along, lat, mk[which], mk[2], k_t, fn)
-                scale = 1.0 / q if q > 1.0 else 1.0
-                bx, by, bz = scale * (along * tx + lx), scale * (along * ty + ly), scale * (along * tz + lz)
-                # the plastic work: the friction force on the anchor's slip (the spring's own
-                # energy drop would also count the drift's O(h^2) excess over a constant force)
-                lost += k_t * (bx * (ax - bx) + by * (ay - by) + bz * (az - bz))
-                anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx - bx, cy - by, cz - bz
-                ex, ey, ez = bx, by, bz
-            elif mode[j] == SLIDE:
-                mode[j] = STICK
-            ax, ay, az = ex, ey, ez
+            ax, ay, az, slides, slip = stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, mode[j] == SLIDE,
+                                                  p.mu_s, p.mu_k, k_t, fn)
+            if slides:
+                lost += slip
+                anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx - ax, cy - ay, cz - az
+            mode[j] = SLIDE if slides else STICK
         f[i, 0] += fn * nx - k_t * ax
         f[i, 1] += fn * ny - k_t * ay
         f[i, 2] += fn * nz - k_t * az

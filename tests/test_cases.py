@@ -343,3 +343,22 @@ def test_plectoneme_coils_onto_itself_without_passing_through():
         nearest = min(nearest, closest())
     assert closest() < 1.05 * r2                                   # the strands touch
     assert nearest > 0.8 * r2                                      # and never pass through
+
+
+def test_rope_pile_settles_into_a_pile_held_by_friction():
+    """The ropes dropped criss-cross come to rest stacked: the top rope lies on others (more
+    than three diameters up), none sinks into the ground beyond a tenth of its radius, and at
+    the end every rope-rope pair and every ground contact sticks."""
+    scene = case("rope_pile")
+    sim = scene.simulation()
+    ground = next(e for e in scene.effects if isinstance(e, cosnet.Obstacle))
+    contact = next(e for e in scene.effects if isinstance(e, cosnet.Contact))
+    e0 = sim.energy()
+    sim.run(until=scene.run.until)
+    r = scene.net.lines[0].section.radius
+    z = np.concatenate([sim.line_positions(l)[:, 2] for l in scene.net.lines])
+    assert z.max() > 6 * r and z.min() > 0.9 * r
+    assert sim.energy_parts()["kinetic"] < 1e-3 * (e0 - sim.energy())
+    assert contact.active_contacts(sim) >= 5 and contact.sliding(sim) == 0
+    assert ground.active_contacts(sim) > 0 and ground.sliding(sim) == 0
+    assert contact.dissipated(sim) > 0 and ground.dissipated(sim) > 0

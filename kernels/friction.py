@@ -1,0 +1,77 @@
+"""Coulomb friction by elastic stick and plastic slip, shared by the line-obstacle contact
+(cosnet.kernels.obstacles) and the line-line contact (cosnet.kernels.contact).
+
+A contact carries a tangential spring of stiffness k_t; a its displacement (in the tangent
+plane) and e = a + (gamma / k_t) v_t the trial displacement, the spring and a dashpot beside
+it. The Coulomb limit is an ellipse in the tangent plane, with coefficients along the line's
+tangent t (forward or backward, by the sign of e . t) and across it (lateral):
+
+    (k_t e_long / mu_long)^2 + (k_t e_lat / mu_lat)^2 <= fn^2.
+
+A sticking contact whose trial leaves the static ellipse (mu_s) starts sliding: its trial is
+scaled back radially onto the kinetic ellipse (mu_k), the dashpot idle, and the spring's
+anchor is dragged so that its displacement is that point b. A sliding contact whose trial
+falls inside the kinetic ellipse sticks again. A direction with mu = 0 carries no friction.
+"""
+
+import math
+
+from numba import njit
+
+from .rotations import CACHED
+
+
+@njit(**CACHED, inline="always")
+def ellipse(a, b, mu_long, mu_lat, k_t, fn):
+    """Return the trial friction of displacement (a along, b across the line) measured against
+    the ellipse of coefficients (mu_long, mu_lat) at normal force fn: <= 1 inside."""
+    q = 0.0
+    if a != 0.0:
+        if mu_long * fn <= 0.0:
+            return math.inf
+        q += (k_t * a / (mu_long * fn)) ** 2
+    if b != 0.0:
+        if mu_lat * fn <= 0.0:
+            return math.inf
+        q += (k_t * b / (mu_lat * fn)) ** 2
+    return math.sqrt(q)
+
+
+@njit(**CACHED)
+def plane_tangent(ux, uy, uz, nx, ny, nz):
+    """Unit vector along u projected on the plane normal to n (zeros when u is along n)."""
+    tn = ux * nx + uy * ny + uz * nz
+    tx, ty, tz = ux - tn * nx, uy - tn * ny, uz - tn * nz
+    t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if t > 0.0:
+        return tx / t, ty / t, tz / t
+    return 0.0, 0.0, 0.0
+
+
+@njit(**CACHED)
+def stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, sliding, mu_s, mu_k, k_t, fn):
+    """Return (bx, by, bz, slides, lost): the spring displacement the friction force -k_t b
+    acts with, whether the contact slides, and the plastic work of the slip, given the
+    spring's displacement a, the trial e, the line's unit tangent t in the tangent plane,
+    whether the contact slid before, the coefficients mu_s, mu_k ((3,): forward, backward,
+    lateral), k_t and the normal force fn (see the module docstring). Sticking: b = e."""
+    along = ex * tx + ey * ty + ez * tz
+    lx, ly, lz = ex - along * tx, ey - along * ty, ez - along * tz
+    lat = math.sqrt(lx * lx + ly * ly + lz * lz)
+    which = 0 if along >= 0.0 else 1  # moved forward: the forward coefficient resists
+    mu = mu_k if sliding else mu_s
+    if not ellipse(along, lat, mu[which], mu[2], k_t, fn) > 1.0:
+        return ex, ey, ez, False, 0.0
+    # a direction without friction lets its share go; the rest returns radially onto the
+    # kinetic ellipse, the dashpot idle
+    if mu_k[which] * fn <= 0.0:
+        along = 0.0
+    if mu_k[2] * fn <= 0.0:
+        lx = ly = lz = lat = 0.0
+    q = ellipse(along, lat, mu_k[which], mu_k[2], k_t, fn)
+    scale = 1.0 / q if q > 1.0 else 1.0
+    bx, by, bz = scale * (along * tx + lx), scale * (along * ty + ly), scale * (along * tz + lz)
+    # the plastic work: the friction force on the anchor's slip (the spring's own energy drop
+    # would also count the drift's O(h^2) excess over a constant force)
+    lost = k_t * (bx * (ax - bx) + by * (ay - by) + bz * (az - bz))
+    return bx, by, bz, True, lost
