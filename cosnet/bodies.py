@@ -30,8 +30,10 @@ def _shape(code, origin, axis, size, rot) -> BodyShape:
 
 
 class Body(Effect):
-    """A collision shape fixed to ``node`` (a rigid body, a point mass or a driven node),
-    given in the node's frame about its reference point (``position``):
+    """A collision shape on a node that meets lines, static obstacles and other bodies.
+
+    The shape is fixed to ``node`` (a rigid body, a point mass or a driven node), given in
+    the node's frame about its reference point (``position``):
 
       "sphere":  radius, center (default the reference point)
       "capsule": start, end, radius

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.scene import build_scene
+from cosnet.scene import build_scene, load_scene
+from test_cases import CASES, free_weight, support_force
 
 G = 9.81
 MASS, RADIUS = 1.0, 0.1
@@ -179,6 +180,21 @@ def test_a_line_on_a_slippery_plate_stays_behind():
     # nothing pulls it along: its centre stays, its ends come in by the sag only
     assert abs(x.mean() - x0.mean()) < 1e-15
     np.testing.assert_allclose(x, x0, rtol=0, atol=1e-9)
+
+
+def test_net_catch_case_catches_the_ball_and_holds_it():
+    """cases/net_catch.toml: the ball comes to rest in the web, above the plane of the pins
+    less its radius (it has not gone through), and the pins carry the ball and the ropes."""
+    scene = load_scene(CASES / "net_catch.toml")
+    sim = scene.simulation()
+    ball = scene.net.node("ball")
+    body = next(e for e in scene.effects if isinstance(e, cosnet.Body))
+    sim.run(until=scene.run.until)
+    x, v = sim.node_position(ball), sim.node_velocity(ball)
+    assert np.linalg.norm(v) < 0.01
+    assert np.all(np.abs(x[:2]) < 0.24) and -0.07 < x[2] < 0.07       # in the web, held in it
+    assert body.active_contacts(sim) >= 3 and body.deepest(sim) < 0.5
+    assert -support_force(sim)[2] == pytest.approx(free_weight(sim), rel=0.01)
 
 
 def test_bad_input_is_refused_in_one_line():
