@@ -88,6 +88,32 @@ def far_floor():
     return cosnet.Obstacle("plane", point=(0, 0, -10), normal=(0, 0, 1), k=1.0, lines=[], name="floor")
 
 
+def resting(shape, frame, height, **geometry):
+    """A 1 kg body of the given shape set down on the floor (its centre of mass at height,
+    touching) under gravity, its contact dashpot near critical; (sim, node, body) after 0.3 s."""
+    net = cosnet.Net()
+    node = net.add_node((0.0, 0.0, height), frame=frame, mass=MASS, inertia=(0.01, 0.02, 0.03), name="block")
+    floor = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1.0, name="floor")
+    body = cosnet.Body(node, shape, k=1e5, gamma=300.0, obstacles=["floor"], **geometry)
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity((0.0, 0.0, -G)), floor, body], dt=1e-4)
+    sim.run(until=0.3)
+    return sim, node, body
+
+
+def test_a_box_and_a_capsule_rest_on_their_corners_and_ends():
+    """A box turned by its node's frame (its 5 cm half side vertical) and set off the node's
+    reference point rests on its four lower corners; a capsule on its two end spheres: the
+    centre sinks by the weight's share of each contact over k."""
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])   # node y -> lab z
+    sim, node, body = resting("box", turn, 0.05, half_size=(0.1, 0.05, 0.02), center=(0.02, 0.0, 0.0))
+    assert body.active_contacts(sim) == 4
+    assert sim.node_position(node)[2] == pytest.approx(0.05 - MASS * G / (4 * 1e5), abs=2e-6)
+    np.testing.assert_allclose(sim.node_rotation(node), turn, atol=1e-4)
+    sim, node, body = resting("capsule", np.eye(3), 0.03, start=(-0.1, 0.0, 0.0), end=(0.1, 0.0, 0.0), radius=0.03)
+    assert body.active_contacts(sim) == 2
+    assert sim.node_position(node)[2] == pytest.approx(0.03 - MASS * G / (2 * 1e5), abs=1e-7)
+
+
 def rope_and_ball(v):
     """A free rope (no gravity) of 1 m along x and a ball 0.2 m above its middle moving at v."""
     net = cosnet.Net()
