@@ -88,6 +88,24 @@ def far_floor():
     return cosnet.Obstacle("plane", point=(0, 0, -10), normal=(0, 0, 1), k=1.0, lines=[], name="floor")
 
 
+def test_friction_dissipates_what_rolling_leaves_and_energy_balances_to_first_order():
+    """Sliding into rolling loses m v0^2 / 7 (a solid sphere keeps (m + I / r^2) (5 v0 / 7)^2 / 2);
+    energy plus dissipation is conserved to the first order of the step (the spring's
+    displacement is carried by the velocities of the drift before each kick)."""
+    v0, misses = 2.0, []
+    for dt in (2e-4, 1e-4):
+        sim, ball, body = ball_on_floor(k=1e5, mu=0.3, height=RADIUS - MASS * G / 1e5, dt=dt)
+        sim.node_velocity(ball)[:] = (v0, 0.0, 0.0)
+        e0, worst = sim.energy(), 0.0
+        for i in range(30):
+            sim.run(until=(i + 1) * 0.01)
+            worst = max(worst, abs(sim.energy() + body.dissipated(sim) - e0))
+        assert body.sliding(sim) == 0
+        assert body.dissipated(sim) == pytest.approx(MASS * v0 ** 2 / 7.0, rel=3e-3)
+        misses.append(worst / body.dissipated(sim))
+    assert misses[0] < 2e-3 and 1.7 < misses[0] / misses[1] < 2.3
+
+
 def test_a_checkpoint_carries_the_contacts(tmp_path):
     """Resumed from a checkpoint taken while the ball slides, a run ends bit-identical to the
     uninterrupted one (spring displacements, modes, the last evaluation's time and the
