@@ -5,6 +5,7 @@ balls, a line sticking on a driven plate is carried along (its driver carrying i
 and bad input is refused in one line."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -155,13 +156,13 @@ def test_a_box_and_a_capsule_rest_on_their_corners_and_ends():
     assert sim.node_position(node)[2] == pytest.approx(0.03 - MASS * G / (2 * 1e5), abs=1e-7)
 
 
-def rope_and_ball(v):
+def rope_and_ball(v, obstacles=()):
     """A free rope (no gravity) of 1 m along x and a ball 0.2 m above its middle moving at v."""
     net = cosnet.Net()
     a, b = net.add_node((-0.5, 0.0, 0.0), name="a"), net.add_node((0.5, 0.0, 0.0), name="b")
     rope = net.add_line(a, b, material=ROPE, section=cosnet.Circle(0.005), elements=20, name="rope")
     ball = net.add_node((0.05, 0.0, 0.2), mass=0.2, inertia=(1e-3,) * 3, name="ball")
-    body = cosnet.Body(ball, "sphere", radius=0.05, k=1e4, mu_s=0.5, mu_k=0.4)
+    body = cosnet.Body(ball, "sphere", radius=0.05, k=1e4, mu_s=0.5, mu_k=0.4, obstacles=obstacles)
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity((0.0, 0.0, 0.0)), far_floor(), body])
     sim.node_velocity(ball)[:] = v
     return sim, ball, rope, body
@@ -295,3 +296,14 @@ def test_bad_input_is_refused_in_one_line():
     with pytest.raises(ValueError) as e:
         build_scene(scene)
     assert "\n" not in str(e.value) and "nodes" in str(e.value)
+
+
+@pytest.mark.parametrize("spoil, message", [
+    (lambda p: p.verts.__setitem__(0, 10 ** 6), "body.verts holds 1000000, outside [0, "),
+    (lambda p: p.tnode.__setitem__(0, 7), "body.tnode holds 7, outside [-1, 3)"),
+])
+def test_spoilt_body_tables_are_refused_before_a_run(spoil, message):
+    sim, ball, rope, body = rope_and_ball(np.zeros(3), obstacles=["floor"])
+    spoil(body.params(sim))
+    with pytest.raises(ValueError, match=r"^Simulation.run: " + re.escape(message)):
+        sim.run(steps=1)
