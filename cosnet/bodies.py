@@ -80,9 +80,13 @@ class Body(Effect):
         if shape in ("sphere", "box") and center is None:
             center = (0.0, 0.0, 0.0)
         # the geometry and the contact laws are checked as a static obstacle's are
-        self.geometry = Obstacle(shape, k=k, gamma=gamma, k_t=k_t, mu_s=mu_s, mu_k=mu_k, radius=radius,
-                                 center=center, start=start, end=end, half_size=half_size, axes=axes,
-                                 name=f"body on {node.name}")
+        stand_in = f"body on {node.name}"
+        try:
+            self.geometry = Obstacle(shape, k=k, gamma=gamma, k_t=k_t, mu_s=mu_s, mu_k=mu_k, radius=radius,
+                                     center=center, start=start, end=end, half_size=half_size, axes=axes,
+                                     name=stand_in)
+        except ValueError as e:
+            raise ValueError(str(e).replace(f"Obstacle {stand_in!r} ({shape})", who)) from None
         g = self.geometry
         if np.any(g.mu_s != g.mu_s[0]) or np.any(g.mu_k != g.mu_k[0]):
             raise ValueError(f"{who}: mu_s and mu_k must be numbers (a body's friction is isotropic)")

@@ -270,32 +270,37 @@ def test_bad_input_is_refused_in_one_line():
     ball = net.add_node((0.0, 0.0, 0.3), mass=1.0, inertia=(1e-3,) * 3, name="ball")
     with pytest.raises(ValueError, match=r"shape must be one of \['sphere', 'capsule', 'box'\]"):
         cosnet.Body(ball, "plane", k=1.0)
-    with pytest.raises(ValueError, match=r"needs radius"):
+    with pytest.raises(ValueError, match=r"^Body on Node\('ball'\) \(sphere\): needs radius$"):
         cosnet.Body(ball, "sphere", k=1.0)
+    with pytest.raises(ValueError, match=r"^Body on Node\('ball'\) \(box\): does not take radius$"):
+        cosnet.Body(ball, "box", half_size=(1, 1, 1), radius=0.1, k=1.0)
     with pytest.raises(ValueError, match=r"mu_k must not exceed the static"):
         cosnet.Body(ball, "sphere", radius=0.1, k=1.0, mu_s=0.2, mu_k=0.3)
     with pytest.raises(ValueError, match=r"isotropic"):
         cosnet.Body(ball, "sphere", radius=0.1, k=1.0, mu_s=[0.2, 0.3, 0.3])
+    floor = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1.0, name="floor")
     with pytest.raises(ValueError, match=r"no obstacle named 'ground'.*\['floor'\]"):
-        floor = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1.0, name="floor")
         cosnet.Simulation(net, [floor, cosnet.Body(ball, "sphere", radius=0.1, k=1.0, obstacles=["ground"])])
+    lump = cosnet.Obstacle("mesh", points=[[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+                           triangles=[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], k=1.0, name="lump")
+    with pytest.raises(ValueError, match=r"obstacle 'lump' is a mesh; a body meets a plane, sphere"):
+        cosnet.Simulation(net, [lump, cosnet.Body(ball, "sphere", radius=0.1, k=1.0, obstacles=["lump"])])
     with pytest.raises(ValueError, match=r"does not meet itself"):
         cosnet.Simulation(net, [cosnet.Body(ball, "sphere", radius=0.1, k=1.0, bodies=["ball"])])
-    scene = {
-        "nodes": {"ball": {"position": [0, 0, 0.3], "mass": 1.0, "inertia": [1e-3, 1e-3, 1e-3]}},
-        "effects": [{"kind": "obstacle", "shape": "mesh", "name": "lump", "k": 1.0,
-                     "points": None}],
-    }
-    scene["effects"] = [{"kind": "body", "node": "ball", "shape": "sphere", "radius": 0.1, "k": 1e4,
-                         "obstacles": "floor"}]
-    with pytest.raises(ValueError) as e:
-        build_scene(scene)
-    assert "\n" not in str(e.value) and "[[effects]] #1 (body) obstacles" in str(e.value)
-    scene["effects"][0]["obstacles"] = []
-    scene["effects"][0]["nodes"] = "ball"
-    with pytest.raises(ValueError) as e:
-        build_scene(scene)
-    assert "\n" not in str(e.value) and "nodes" in str(e.value)
+    with pytest.raises(ValueError, match=r"no body on a node named 'other'"):
+        cosnet.Simulation(net, [cosnet.Body(ball, "sphere", radius=0.1, k=1.0, bodies=["other"])])
+    scene = {"nodes": {"ball": {"position": [0, 0, 0.3], "mass": 1.0, "inertia": [1e-3, 1e-3, 1e-3]}},
+             "effects": [{"kind": "body", "node": "ball", "shape": "sphere", "radius": 0.1, "k": 1e4,
+                          "obstacles": "floor"}]}
+    for spoil, where in ((lambda e: None, "[[effects]] #1 (body) obstacles"),
+                         (lambda e: e.update(obstacles=[], nodes="ball"), "nodes"),
+                         (lambda e: e.update(nodes=None, shape="cube"), "shape"),
+                         (lambda e: e.update(shape="sphere", radius=-1.0), "radius")):
+        spoil(scene["effects"][0])
+        scene["effects"][0] = {k: v for k, v in scene["effects"][0].items() if v is not None}
+        with pytest.raises(ValueError) as e:
+            build_scene(scene)
+        assert "\n" not in str(e.value) and where in str(e.value), str(e.value)
 
 
 @pytest.mark.parametrize("spoil, message", [
