@@ -265,6 +265,23 @@ def test_net_catch_case_catches_the_ball_and_holds_it():
     assert -support_force(sim)[2] == pytest.approx(free_weight(sim), rel=0.01)
 
 
+def test_the_stable_step_counts_the_body_its_spin_and_its_target():
+    """omega^2 = max(k, k_t) (1/m + a^2 / I) for a ball of radius a on a static floor (a force
+    at its surface turns it as well as pushing it), and a second ball's share on top."""
+    from cosnet.kernels.stepping import stability_interval
+    sim, ball, body = ball_on_floor(k=1e5, mu=0.5, dt=1e-4)
+    w2 = 1e5 * (1.0 / MASS + RADIUS ** 2 / INERTIA)
+    assert sim.stable_dt() == pytest.approx(sim.safety * stability_interval("verlet") / math.sqrt(w2), rel=1e-12)
+    assert sim.stiffest().startswith("Body('ball', sphere")
+    net = cosnet.Net()
+    one = net.add_node((0.0, 0.0, 0.0), mass=MASS, inertia=(INERTIA,) * 3, name="one")
+    two = net.add_node((0.3, 0.0, 0.0), mass=2 * MASS, inertia=(2 * INERTIA,) * 3, name="two")
+    b1 = cosnet.Body(one, "sphere", radius=RADIUS, k=1e5, bodies=["two"])
+    b2 = cosnet.Body(two, "sphere", radius=RADIUS, k=1e5)
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity((0.0, 0.0, 0.0)), far_floor(), b1, b2])
+    assert b1.max_omega2(sim) == pytest.approx(1e5 * 3.5 * (1.0 / MASS + 0.5 / MASS), rel=1e-12)
+
+
 def test_bad_input_is_refused_in_one_line():
     net = cosnet.Net()
     ball = net.add_node((0.0, 0.0, 0.3), mass=1.0, inertia=(1e-3,) * 3, name="ball")
