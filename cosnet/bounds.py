@@ -2,7 +2,7 @@
 
 The kernels index the state by integers read from the model (CSR offsets, line ends, node
 attachments) and from the effects' records (joined line ends, loaded nodes and lines, contact
-segments, obstacle vertices and mesh grids); they do not check those on every access. These
+segments, obstacle vertices and mesh grids, body vertices and target nodes); they do not check those on every access. These
 tables are built valid, but they are writable arrays a user can reach (``sim.model``,
 ``sim.effect_params``), so ``table_error`` checks them, and every array's shape, before a run
 hands them to the kernels: a few vectorised passes over the integer tables, nothing per step.
@@ -15,6 +15,7 @@ import numpy as np
 
 from .kernels.checksum import weigh_words
 
+from .kernels.bodies import BodyParams
 from .kernels.contact import ContactParams
 from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
@@ -155,6 +156,24 @@ def _obstacle_error(p, model):
             or _index_error("obstacle.cell_tri", p.cell_tri, nt))
 
 
+def _body_error(p, model):
+    nv, nn = model.vertex_mass.shape[0], model.node_mass.shape[0]
+    nl, ns, nt = p.verts.shape[0], p.samples.shape[0], p.tnode.shape[0]
+    m = nl + ns * nt
+    shapes = {"vrad": (nl,), "samples": (ns, 3), "srad": (ns,), "tshape": (nt,), "torigin": (nt, 3),
+              "taxis": (nt, 3), "tsize": (nt, 3), "trot": (nt, 3, 3), "tbound": (nt,), "delta": (m, 3),
+              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,)}
+    for name, shape in shapes.items():
+        if getattr(p, name).shape != shape:
+            return f"body.{name} has shape {getattr(p, name).shape}, needs {shape}"
+    if not 0 <= p.node < nn:
+        return f"body.node is {p.node}, outside [0, {nn})"
+    bad = p.tnode[(p.tnode < -1) | (p.tnode >= nn)]
+    if bad.size:
+        return f"body.tnode holds {bad[0]}, outside [-1, {nn}) (-1: a static obstacle)"
+    return _index_error("body.verts", p.verts, nv)
+
+
 def params_error(params, model):
     """Return what is wrong with the tables of the built-in effects' records, or None
     (records of other effects are their own kernels' business)."""
@@ -173,6 +192,8 @@ def params_error(params, model):
             problem = _contact_error(p, model)
         elif isinstance(p, ObstacleParams):
             problem = _obstacle_error(p, model)
+        elif isinstance(p, BodyParams):
+            problem = _body_error(p, model)
         if problem:
             return problem
     return None

@@ -29,7 +29,7 @@ from .scene_values import Unit
 ENTRY_POINTS = "cosnet.effects"
 # in the order kinds are listed
 BUILTIN_MODULES = ("cosnet.effects", "cosnet.drives", "cosnet.active", "cosnet.contact", "cosnet.obstacles",
-                   "cosnet.joints")
+                   "cosnet.joints", "cosnet.bodies")
 REFERENCES = ("node", "line", "lines", "path")   # converters naming parts of the net, or a file
 
 

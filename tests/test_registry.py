@@ -105,7 +105,7 @@ def test_unknown_kind_lists_the_declared_kinds():
     with pytest.raises(ValueError, match=r"\[\[effects\]\] #1 kind: must be one of \['gravity', 'node_load', "
                                          r"'line_load', 'damping', 'drive', 'muscle_torque', 'active_curvature', "
                                          r"'contact', 'obstacle', 'spherical_joint', 'hinge_joint', "
-                                         r"'fixed_joint'.*\], got 'magnetism'"):
+                                         r"'fixed_joint', 'body'.*\], got 'magnetism'"):
         build_scene(data, "s.toml")
 
 
@@ -115,7 +115,7 @@ def test_stage_and_kernel_follow_from_the_registration():
     assert (cosnet.Gravity.stage, cosnet.Gravity.kernel) == ("load", K.add_gravity)
     assert set(registry.builtin_effects().values()) == {getattr(cosnet, n) for n in (
         "Gravity", "NodeLoad", "LineLoad", "Damping", "Drive", "MuscleTorque", "ActiveCurvature", "Contact",
-        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint")}
+        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint", "Body")}
 
     from typing import NamedTuple
 

@@ -1,0 +1,263 @@
+"""Kernel of bodies that collide: a node (rigid body or point mass) carrying a collision shape
+(sphere, capsule or box, fixed in the node's frame) that the vertices of lines, static
+obstacles and the shapes of other bodies meet.
+
+Every contact is one point P where a force F acts on one side and -F on the other, each side
+a line vertex, a node (force F at P: torque (P - x_com) x F about its centre of mass) or a
+static obstacle; linear and angular momentum are exchanged exactly.
+
+  line vertex (centre c, radius r) against the body's shape: P = c (the vertex takes no
+      torque, so the body's torque arm ends at c too);
+  a sample sphere of the body (centre s, radius r) against a target's shape (a static
+      obstacle, or another body's shape posed by its node): P the middle of the overlap,
+      s - (r - eps/2) n. The samples: a sphere's centre, a capsule's two end centres, a
+      box's eight corners (radius 0). A sphere meets everything exactly, a capsule meets a
+      plane exactly, a box meets a plane exactly; against curved targets capsules and boxes
+      touch only at their samples.
+
+The normal law is the static obstacles' (cosnet.kernels.obstacles): overlap eps, force
+max(0, k eps - gamma v_n) along the target's outward normal n. Friction is the same elastic
+stick / plastic slip, isotropic (one coefficient): a tangential spring of displacement delta,
+trial force -k_t (delta + gamma / k_t u_t) from the relative tangential velocity u_t of the
+two sides at P; beyond mu_s fn it slides at mu_k fn. Because a body rolls, delta is carried
+incrementally: at each force evaluation delta += (t - t_last) u_t, then projected on the
+current tangent plane. In a splitting step the velocities at a kick are those of the drift
+just ended, so for a translating pair this is exactly the position-based anchor of a static
+obstacle; for a rolling sphere it counts only the slip of the material points in contact.
+The work of the friction force on each slip (and the spring energy left when a contact
+opens) is added to `dissipated`.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compose import load_kernel
+from .obstacles import FREE, SLIDE, STICK, obstacle_distance
+from .rotations import CACHED, cross, quat_rotate, quat_rotate_inv
+
+
+class BodyShape(NamedTuple):
+    """A shape as obstacle_distance reads it (no mesh: its arrays are empty)."""
+    shape: int
+    origin: np.ndarray       # (3,) sphere/box centre, capsule start
+    axis: np.ndarray         # (3,) plane normal, capsule end
+    size: np.ndarray         # (3,) radius in [0]; box half sizes
+    rot: np.ndarray          # (3, 3) box axes as rows
+    tri: np.ndarray          # (0, 3, 3)
+    tri_normal: np.ndarray   # (0, 3)
+    grid_origin: np.ndarray  # (3,)
+    grid_h: float
+    grid_dims: np.ndarray    # (3,) int64
+    cell_start: np.ndarray   # (1,) int64
+    cell_tri: np.ndarray     # (0,) int64
+
+
+class BodyParams(NamedTuple):
+    node: int                # the node carrying the shape
+    own: BodyShape           # its shape, principal body frame, about the centre of mass
+    bound: float             # radius about the centre of mass enclosing the shape
+    k: float                 # normal penalty stiffness (N/m)
+    gamma: float             # normal damping (N s/m)
+    k_t: float               # tangential (stick) stiffness (N/m)
+    mu_s: float              # static coefficient
+    mu_k: float              # kinetic coefficient
+    verts: np.ndarray        # (nl,) int64 line vertices touching the shape
+    vrad: np.ndarray         # (nl,) their sphere radii
+    samples: np.ndarray      # (ns, 3) sample sphere centres, principal body frame about the centre of mass
+    srad: np.ndarray         # (ns,) their radii
+    tnode: np.ndarray        # (nt,) int64 target's node, -1 for a static obstacle
+    tshape: np.ndarray       # (nt,) int64 target shape codes
+    torigin: np.ndarray      # (nt, 3) target geometry: lab, or its node's principal frame about its centre of mass
+    taxis: np.ndarray        # (nt, 3)
+    tsize: np.ndarray        # (nt, 3)
+    trot: np.ndarray         # (nt, 3, 3)
+    tbound: np.ndarray       # (nt,) radius enclosing a target body's shape about its centre of mass
+    delta: np.ndarray        # (nl + ns nt, 3) tangential spring displacements (lab)
+    mode: np.ndarray         # (nl + ns nt,) int64 FREE, STICK or SLIDE
+    last: np.ndarray         # (1,) time of the last force evaluation
+    dissipated: np.ndarray   # (1,) energy dissipated by friction (J)
+    deepest: np.ndarray      # (1,) largest eps / r met so far (r: the vertex or sample radius, or 1 m at 0)
+    active: np.ndarray       # (1,) int64 contacts at the last call
+
+
+@njit(**CACHED, inline="always")
+def _target(p, o, own):
+    """The shape of target o (its geometry as the record holds it)."""
+    return BodyShape(p.tshape[o], p.torigin[o], p.taxis[o], p.tsize[o], p.trot[o], own.tri, own.tri_normal,
+                     own.grid_origin, own.grid_h, own.grid_dims, own.cell_start, own.cell_tri)
+
+
+@njit(**CACHED)
+def posed_distance(shape, nd, state, cx, cy, cz):
+    """Return (d, nx, ny, nz): obstacle_distance of lab point c from a shape fixed in node nd's
+    principal frame about its centre of mass (nd < 0: a shape in the lab), lab normal."""
+    if nd < 0:
+        return obstacle_distance(shape, cx, cy, cz)
+    q, x = state.node_q[nd], state.node_x[nd]
+    bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], cx - x[0], cy - x[1], cz - x[2])
+    d, nx, ny, nz = obstacle_distance(shape, bx, by, bz)
+    nx, ny, nz = quat_rotate(q[0], q[1], q[2], q[3], nx, ny, nz)
+    return d, nx, ny, nz
+
+
+@njit(**CACHED, inline="always")
+def point_velocity(nd, state, px, py, pz):
+    """Return the lab velocity of node nd's material point at p (zeros for nd < 0)."""
+    if nd < 0:
+        return 0.0, 0.0, 0.0
+    q, x, v, w = state.node_q[nd], state.node_x[nd], state.node_v[nd], state.node_w[nd]
+    wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
+    cx, cy, cz = cross(wx, wy, wz, px - x[0], py - x[1], pz - x[2])
+    return v[0] + cx, v[1] + cy, v[2] + cz
+
+
+@njit(**CACHED, inline="always")
+def push_node(nd, state, loads, px, py, pz, fx, fy, fz):
+    """Update loads.node_f, loads.node_tau of node nd (if nd >= 0) with force f acting at lab
+    point p (its torque about the centre of mass)."""
+    if nd < 0:
+        return
+    x = state.node_x[nd]
+    tx, ty, tz = cross(px - x[0], py - x[1], pz - x[2], fx, fy, fz)
+    loads.node_f[nd, 0] += fx
+    loads.node_f[nd, 1] += fy
+    loads.node_f[nd, 2] += fz
+    loads.node_tau[nd, 0] += tx
+    loads.node_tau[nd, 1] += ty
+    loads.node_tau[nd, 2] += tz
+
+
+@njit(**CACHED)
+def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
+    """Update p.delta[j], p.mode[j], p.deepest given contact j's overlap eps (scale: the radius
+    its depth is reported against), the target's outward normal n, the relative velocity u of
+    the touching side at the contact point and the time dt since the last evaluation; return
+    (fx, fy, fz, lost): the force on the touching side and the energy friction dissipated."""
+    d, mode, k_t = p.delta, p.mode, p.k_t
+    if not eps > 0.0:
+        lost = 0.0
+        if mode[j] != FREE:  # the cone shrank to nothing as the contact opened
+            lost = 0.5 * k_t * (d[j, 0] ** 2 + d[j, 1] ** 2 + d[j, 2] ** 2)
+            mode[j] = FREE
+            d[j, 0] = d[j, 1] = d[j, 2] = 0.0
+        return 0.0, 0.0, 0.0, lost
+    p.deepest[0] = max(p.deepest[0], eps / scale)
+    un = ux * nx + uy * ny + uz * nz
+    tx, ty, tz = ux - un * nx, uy - un * ny, uz - un * nz
+    if mode[j] == FREE:
+        mode[j] = STICK
+        ax = ay = az = 0.0
+    else:
+        ax, ay, az = d[j, 0] + dt * tx, d[j, 1] + dt * ty, d[j, 2] + dt * tz
+        an = ax * nx + ay * ny + az * nz
+        ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
+    fn = max(p.k * eps - p.gamma * un, 0.0)
+    fx, fy, fz, lost = fn * nx, fn * ny, fn * nz, 0.0
+    if k_t > 0.0:
+        c_t = p.gamma / k_t
+        ex, ey, ez = ax + c_t * tx, ay + c_t * ty, az + c_t * tz
+        trial = k_t * math.sqrt(ex * ex + ey * ey + ez * ez)
+        mu = p.mu_s if mode[j] == STICK else p.mu_k
+        if trial > mu * fn:
+            mode[j] = SLIDE
+            # back onto the kinetic cone, the dashpot idle; the work on the slip is lost
+            s = p.mu_k * fn / trial if trial > 0.0 else 0.0
+            bx, by, bz = s * ex, s * ey, s * ez
+            lost = k_t * (bx * (ax - bx) + by * (ay - by) + bz * (az - bz))
+            ax, ay, az = bx, by, bz
+            ex, ey, ez = bx, by, bz
+        elif mode[j] == SLIDE:
+            mode[j] = STICK
+        fx -= k_t * ex
+        fy -= k_t * ey
+        fz -= k_t * ez
+    d[j, 0], d[j, 1], d[j, 2] = ax, ay, az
+    return fx, fy, fz, lost
+
+
+@load_kernel(BodyParams)
+@njit(**CACHED)
+def add_body_contacts(p, model, state, loads):
+    """Update loads.f (nv, 3), loads.node_f, loads.node_tau, p.delta, p.mode, p.last,
+    p.dissipated, p.deepest, p.active given the positions and velocities of the body's node,
+    the listed line vertices and the target bodies: the contact forces of the body's shape
+    on the vertices, of its samples on the targets, and their reactions (module docstring)."""
+    nd, own = p.node, p.own
+    x, v, f = state.x, state.v, loads.f
+    xc = state.node_x[nd]
+    t = state.clock[0]
+    dt = t - p.last[0]
+    p.last[0] = t
+    lost, active = 0.0, 0
+    for j in range(p.verts.shape[0]):
+        i = p.verts[j]
+        cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
+        r = p.vrad[j]
+        far = (cx - xc[0]) ** 2 + (cy - xc[1]) ** 2 + (cz - xc[2]) ** 2 > (p.bound + r) ** 2
+        eps, nx, ny, nz = -1.0, 0.0, 0.0, 1.0
+        if not far:
+            d, nx, ny, nz = posed_distance(own, nd, state, cx, cy, cz)
+            eps = r - d
+        bx, by, bz = point_velocity(nd, state, cx, cy, cz)
+        fx, fy, fz, dl = touch(p, j, eps, r, nx, ny, nz, v[i, 0] - bx, v[i, 1] - by, v[i, 2] - bz, dt)
+        lost += dl
+        if eps > 0.0:
+            active += 1
+            f[i, 0] += fx
+            f[i, 1] += fy
+            f[i, 2] += fz
+            push_node(nd, state, loads, cx, cy, cz, -fx, -fy, -fz)
+    q = state.node_q[nd]
+    nt, base = p.tnode.shape[0], p.verts.shape[0]
+    for s in range(p.samples.shape[0]):
+        ox, oy, oz = quat_rotate(q[0], q[1], q[2], q[3], p.samples[s, 0], p.samples[s, 1], p.samples[s, 2])
+        cx, cy, cz = xc[0] + ox, xc[1] + oy, xc[2] + oz
+        r = p.srad[s]
+        for o in range(nt):
+            other = p.tnode[o]
+            d, nx, ny, nz = posed_distance(_target(p, o, own), other, state, cx, cy, cz)
+            eps = r - d
+            arm = r - 0.5 * eps
+            px, py, pz = cx - arm * nx, cy - arm * ny, cz - arm * nz
+            ax, ay, az = point_velocity(nd, state, px, py, pz)
+            bx, by, bz = point_velocity(other, state, px, py, pz)
+            fx, fy, fz, dl = touch(p, base + s * nt + o, eps, r if r > 0.0 else 1.0, nx, ny, nz,
+                                   ax - bx, ay - by, az - bz, dt)
+            lost += dl
+            if eps > 0.0:
+                active += 1
+                push_node(nd, state, loads, px, py, pz, fx, fy, fz)
+                push_node(other, state, loads, px, py, pz, -fx, -fy, -fz)
+    p.dissipated[0] += lost
+    p.active[0] = active
+
+
+@njit(**CACHED)
+def body_energy(p, state):
+    """Return the stored energy: k eps^2 / 2 over every overlapping contact plus the spring
+    energy k_t |delta|^2 / 2 of the touching ones."""
+    x, e = state.x, 0.0
+    nd, own = p.node, p.own
+    for j in range(p.verts.shape[0]):
+        i = p.verts[j]
+        d, nx, ny, nz = posed_distance(own, nd, state, x[i, 0], x[i, 1], x[i, 2])
+        eps = p.vrad[j] - d
+        if eps > 0.0:
+            e += 0.5 * p.k * eps * eps
+    q, xc = state.node_q[nd], state.node_x[nd]
+    nt, base = p.tnode.shape[0], p.verts.shape[0]
+    for s in range(p.samples.shape[0]):
+        ox, oy, oz = quat_rotate(q[0], q[1], q[2], q[3], p.samples[s, 0], p.samples[s, 1], p.samples[s, 2])
+        for o in range(nt):
+            d, nx, ny, nz = posed_distance(_target(p, o, own), p.tnode[o], state, xc[0] + ox, xc[1] + oy,
+                                           xc[2] + oz)
+            eps = p.srad[s] - d
+            if eps > 0.0:
+                e += 0.5 * p.k * eps * eps
+    for j in range(p.mode.shape[0]):
+        if p.mode[j] != FREE:
+            e += 0.5 * p.k_t * (p.delta[j, 0] ** 2 + p.delta[j, 1] ** 2 + p.delta[j, 2] ** 2)
+    return e
