@@ -19,6 +19,7 @@ from .kernels.contact import ContactParams
 from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .kernels.obstacles import ObstacleParams
+from .kernels.active import MuscleTorqueParams
 
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
@@ -144,6 +145,14 @@ def _obstacle_error(p, model):
             or _index_error("obstacle.cell_tri", p.cell_tri, nt))
 
 
+def _muscle_error(p, nl):
+    m = p.lines.shape[0]
+    if p.offsets.shape != (m + 1,) or p.s.shape != p.amplitude.shape:
+        return "muscle torque: offsets need one entry per line and one more, s one per amplitude"
+    return _index_error("muscle_torque.lines", p.lines, nl) or _offsets_error("muscle_torque.offsets", p.offsets,
+                                                                              p.amplitude.shape[0])
+
+
 def params_error(params, model):
     """Return what is wrong with the tables of the built-in effects' records, or None
     (records of other effects are their own kernels' business)."""
@@ -162,6 +171,8 @@ def params_error(params, model):
             problem = _contact_error(p, model)
         elif isinstance(p, ObstacleParams):
             problem = _obstacle_error(p, model)
+        elif isinstance(p, MuscleTorqueParams):
+            problem = _muscle_error(p, nl)
         if problem:
             return problem
     return None
