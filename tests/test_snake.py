@@ -62,3 +62,38 @@ def test_undulator_crawls_head_first_and_its_actuation_does_work():
     d = w @ sim.state.x - start
     assert d[2] > 0.0 and d[2] > abs(d[0])
     assert sim.driver_work() > 0.0
+
+
+def test_one_muscle_over_many_lines_drives_each_as_its_own_muscle_would():
+    """MuscleTorque(lines=[...]) is the sum of one MuscleTorque per line, bit for bit."""
+    import cosnet
+    rubber = cosnet.Material(E=1e6, G=4e5, density=1000.0)
+
+    def two_rods(muscles):
+        net = cosnet.Net()
+        lines = []
+        for k, n in enumerate((6, 9)):
+            a, b = net.add_node((0.0, 0.3 * k, 0.0)), net.add_node((1.0, 0.3 * k, 0.0))
+            lines.append(net.add_line(a, b, material=rubber, section=cosnet.Circle(0.02), elements=n))
+        wave = dict(moment=[0.01, 0.03, 0.02], points=[0.0, 0.5, 1.0], period=0.5, wavelength=0.7, ramp_time=0.1)
+        sim = cosnet.Simulation(net, muscles(lines, wave), dt=1e-4)
+        sim.run(steps=300)
+        return sim.state.x.copy(), sim.state.q.copy()
+
+    together = two_rods(lambda lines, w: [cosnet.MuscleTorque(lines=lines, **w)])
+    apart = two_rods(lambda lines, w: [cosnet.MuscleTorque(line, **w) for line in lines])
+    assert np.ptp(together[0][:, 2]) > 1e-5     # they bend (about d1, the lab y: out of the x-y plane)
+    np.testing.assert_array_equal(together[0], apart[0])
+    np.testing.assert_array_equal(together[1], apart[1])
+
+
+def test_muscle_needs_exactly_one_of_line_and_lines():
+    import cosnet
+    import pytest
+    net = cosnet.Net()
+    line = net.add_line(net.add_node((0, 0, 0)), net.add_node((1, 0, 0)), elements=2,
+                        material=cosnet.Material(E=1e6, G=4e5, density=1000.0), section=cosnet.Circle(0.01))
+    for kw in ({}, {"line": line, "lines": [line]}, {"lines": []}):
+        with pytest.raises(ValueError, match="MuscleTorque: .*line") as e:
+            cosnet.MuscleTorque(moment=1.0, **kw)
+        assert "\n" not in str(e.value)
