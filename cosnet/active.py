@@ -37,9 +37,9 @@ class _Travelling(Effect):
     period, ramp(t) A(s). ramp(t) = min(1, t / ramp_time), 1 without one."""
 
     def _wave(self, line, what, value, k, points, period, wavelength, phase, ramp_time):
-        if not isinstance(line, Line):
+        if not (isinstance(line, Line) or (line is None and getattr(self, "lines", None))):
             raise ValueError(f"{type(self).__name__}: line must be a cosnet Line, got {line!r}")
-        who = f"{type(self).__name__} on {line!r}"
+        who = f"{type(self).__name__} on {line!r}" if line is not None else f"{type(self).__name__} on {self.lines!r}"
         self.line = line
         shape = (k,) if k > 1 else ()
         a = np.array(value, dtype=float)
@@ -64,10 +64,12 @@ class _Travelling(Effect):
         self.wave = np.array([2 * math.pi / period if period > 0 else 0.0, 2 * math.pi / wavelength,
                               float(phase), float(ramp_time)])
 
-    def _along(self, sim):
-        """(A at the line's Voronoi points (n+1, k), their arc lengths (n+1,))."""
-        sim.check_line(self.line, type(self).__name__)
-        m, l = sim.model, self.line.index
+    def _along(self, sim, line=None):
+        """(A at the Voronoi points (n+1, k) of ``line`` (default: the effect's), their arc
+        lengths (n+1,))."""
+        line = self.line if line is None else line
+        sim.check_line(line, type(self).__name__)
+        m, l = sim.model, line.index
         lengths = m.element_rest_length[m.line_element_offsets[l]:m.line_element_offsets[l + 1]]
         s = np.concatenate([[0.0], np.cumsum(lengths)])
         frac = s / s[-1]
@@ -81,30 +83,50 @@ class MuscleTorque(_Travelling):
     """An internal bending moment M(s, t) (N m) about the body direction ``direction`` (d1 by
     default) along ``line``, as PyElastica's MuscleTorques; ``moment`` is A(s) of _Travelling.
     A line with free ends under a steady moment bends to the curvature M / EI about
-    ``direction``. The work it does is ``work(sim)``, part of ``sim.actuation_work()``."""
+    ``direction``. ``lines`` instead of ``line``: several lines, each driven alike along its own
+    arc length, in one kernel call (a crowd of snakes). The work it does is ``work(sim)``, part
+    of ``sim.actuation_work()``."""
 
     kind = "muscle_torque"
     record = MuscleTorqueParams
-    keys = (Key("line", "line", required=True, doc="the line"),
+    keys = (Key("line", "line", doc="the line (or give lines)"),
+            Key("lines", "lines", doc="several lines, each driven alike (instead of line)"),
             Key("moment", _number_or_floats, TORQUE, required=True, doc="A(s): one value, or one per point"),
             Key("direction", direction, doc="body direction of the moment (default d1)")) + WAVE_KEYS
     adds_energy = True
 
-    def __init__(self, line: Line, moment, points=None, direction=(1.0, 0.0, 0.0), period=0.0,
-                 wavelength=math.inf, phase=0.0, ramp_time=0.0):
+    def __init__(self, line: Line | None = None, moment=None, points=None, direction=(1.0, 0.0, 0.0), period=0.0,
+                 wavelength=math.inf, phase=0.0, ramp_time=0.0, lines=None):
+        if (line is None) == (lines is None):
+            raise ValueError(f"MuscleTorque: give line or lines, one of them, got line={line!r}, lines={lines!r}")
+        if lines is not None:
+            if isinstance(lines, (str, Line)) or not len(lines):
+                raise ValueError(f"MuscleTorque: lines must be a non-empty list of lines or line names, got {lines!r}")
+            lines = list(lines)
+        self.lines = lines
+        if moment is None:
+            raise ValueError("MuscleTorque: moment is required")
         self._wave(line, "moment", moment, 1, points, period, wavelength, phase, ramp_time)
-        self.direction = checks.direction(f"MuscleTorque on {line!r}", "direction", direction)
+        self.direction = checks.direction(f"{self._who()}", "direction", direction)
+
+    def _who(self):
+        return f"MuscleTorque on {self.line!r}" if self.lines is None else f"MuscleTorque on {len(self.lines)} lines"
 
     def bind(self, on: Binding):
-        amp, s = self._along(on)
-        return MuscleTorqueParams(self.line.index, self.direction.copy(), amp[:, 0].copy(), s, self.wave.copy(),
+        from .contact import chosen_lines
+        lines = [self.line] if self.lines is None else chosen_lines(on, self.lines, self._who())
+        amps, ss = zip(*(self._along(on, line) for line in lines))
+        offsets = np.concatenate([[0], np.cumsum([a.shape[0] for a in amps])]).astype(np.int64)
+        return MuscleTorqueParams(np.array([x.index for x in lines], np.int64), self.direction.copy(), offsets,
+                                  np.concatenate(amps)[:, 0].copy(), np.concatenate(ss), self.wave.copy(),
                                   np.zeros(1))
 
     def work(self, sim) -> float:
         return float(self.params(sim).work[0])
 
     def describe(self):
-        return f"MuscleTorque({self.line.name!r}, moment={self.values[:, 0].tolist()})"
+        on = self.line.name if self.lines is None else [getattr(x, "name", x) for x in self.lines]
+        return f"MuscleTorque({on!r}, moment={self.values[:, 0].tolist()})"
 
 
 class ActiveCurvature(_Travelling):

@@ -20,6 +20,7 @@ from .kernels.contact import ContactParams
 from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .kernels.obstacles import ObstacleParams
+from .kernels.active import MuscleTorqueParams
 
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
@@ -172,6 +173,12 @@ def _body_error(p, model):
     if bad.size:
         return f"body.tnode holds {bad[0]}, outside [-1, {nn}) (-1: a static obstacle)"
     return _index_error("body.verts", p.verts, nv)
+def _muscle_error(p, nl):
+    m = p.lines.shape[0]
+    if p.offsets.shape != (m + 1,) or p.s.shape != p.amplitude.shape:
+        return "muscle torque: offsets need one entry per line and one more, s one per amplitude"
+    return _index_error("muscle_torque.lines", p.lines, nl) or _offsets_error("muscle_torque.offsets", p.offsets,
+                                                                              p.amplitude.shape[0])
 
 
 def params_error(params, model):
@@ -194,6 +201,8 @@ def params_error(params, model):
             problem = _obstacle_error(p, model)
         elif isinstance(p, BodyParams):
             problem = _body_error(p, model)
+        elif isinstance(p, MuscleTorqueParams):
+            problem = _muscle_error(p, nl)
         if problem:
             return problem
     return None

@@ -21,10 +21,11 @@ from .rotations import relative_rotation
 
 
 class MuscleTorqueParams(NamedTuple):
-    line: int
+    lines: np.ndarray       # (m,) int64 the lines driven, each by the same wave on its own arc length
     direction: np.ndarray   # (3,) unit body-frame direction of the moment
-    amplitude: np.ndarray   # (n+1,) A(s) at the line's Voronoi points (ends unused)
-    s: np.ndarray           # (n+1,) their arc length from the line's start
+    offsets: np.ndarray     # (m + 1,) int64 CSR offsets of each line's rows in amplitude and s
+    amplitude: np.ndarray   # A(s) at each line's Voronoi points (ends unused)
+    s: np.ndarray           # their arc length from the line's start
     wave: np.ndarray        # (4,) 2 pi / period (0: no wave, factor 1), 2 pi / wavelength, phase, ramp time
     work: np.ndarray        # (1,) work done by the moment so far
 
@@ -42,33 +43,46 @@ def muscle_factor(p, t, s):
 @njit(**STEP)
 def add_muscle_torques(p, model, state, loads):
     """Update loads.tau (ne,3) given the muscle moment M(s, t) d at the interior Voronoi points
-    of the line: -M d on the element before each point, +M d on the one after (body frames)."""
+    of each line: -M d on the element before each point, +M d on the one after (body frames)."""
     t = state.clock[0]
-    e0 = model.line_element_offsets[p.line]
-    n = model.line_element_offsets[p.line + 1] - e0
     d = p.direction
-    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
-        m = p.amplitude[k] * muscle_factor(p, t, p.s[k])
-        for c in range(3):
-            loads.tau[e0 + k - 1, c] -= m * d[c]
-            loads.tau[e0 + k, c] += m * d[c]
+    nl = model.line_element_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        e0 = model.line_element_offsets[l]
+        n = model.line_element_offsets[l + 1] - e0
+        r0 = p.offsets[j]
+        for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
+            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k])
+            for c in range(3):
+                loads.tau[e0 + k - 1, c] -= m * d[c]
+                loads.tau[e0 + k, c] += m * d[c]
 
 
 @account_kernel(MuscleTorqueParams)
 @njit(**STEP)
 def account_muscle_work(p, model, state, hh):
     """Update p.work by hh times the moment's power at the current angular velocities,
-    sum M d . (w_k - w_(k-1)) (body frames): taken on both sides of a kick of 2 hh, the
-    work the kick's share of the moment gives the kinetic energy."""
+    sum M d . (w_k - w_(k-1)) over each line's interior Voronoi points (body frames): taken
+    on both sides of a kick of 2 hh, the work the kick's share of the moment gives the
+    kinetic energy."""
     t = state.clock[0]
-    e0 = model.line_element_offsets[p.line]
-    n = model.line_element_offsets[p.line + 1] - e0
     d, w = p.direction, state.w
+    nl = model.line_element_offsets.shape[0] - 1
     power = 0.0
-    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
-        m = p.amplitude[k] * muscle_factor(p, t, p.s[k])
-        a, b = e0 + k - 1, e0 + k
-        power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        e0 = model.line_element_offsets[l]
+        n = model.line_element_offsets[l + 1] - e0
+        r0 = p.offsets[j]
+        for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
+            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k])
+            a, b = e0 + k - 1, e0 + k
+            power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
     p.work[0] += hh * power
 
 
