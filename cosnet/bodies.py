@@ -8,7 +8,6 @@ import itertools
 
 import numpy as np
 
-from . import checks
 from .contact import chosen_lines, smallest_mass
 from .net import Node
 from .obstacles import Obstacle

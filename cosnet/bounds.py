@@ -2,13 +2,14 @@
 
 The kernels index the state by integers read from the model (CSR offsets, line ends, node
 attachments) and from the effects' records (joined line ends, loaded nodes and lines, contact
-segments, obstacle vertices and mesh grids, body vertices and target nodes); they do not check those on every access. These
-tables are built valid, but they are writable arrays a user can reach (``sim.model``,
-``sim.effect_params``), so ``table_error`` checks them, and every array's shape, before a run
-hands them to the kernels: a few vectorised passes over the integer tables, nothing per step.
-Indices computed from coordinates (the contact grid, an obstacle's mesh grid) are clamped or
-range-checked in their kernel instead. ``table_seal`` is a key of everything
-``table_error`` reads, far cheaper than the check: a run checks again only when it changed.
+segments, obstacle vertices and mesh grids, body vertices and target nodes, muscles' lines);
+they do not check those on every access. These tables are built valid, but they are
+writable arrays a user can reach (``sim.model``, ``sim.effect_params``), so ``table_error``
+checks them, and every array's shape, before a run hands them to the kernels: a few
+vectorised passes over the integer tables, nothing per step. Indices computed from
+coordinates (the contact grid, an obstacle's mesh grid) are clamped or range-checked in their
+kernel instead. ``table_seal`` is a key of everything ``table_error`` reads, far cheaper than
+the check: a run checks again only when it changed.
 """
 
 import numpy as np

@@ -248,7 +248,7 @@ def body_energy(p, state):
         if eps > 0.0:
             e += 0.5 * p.k * eps * eps
     q, xc = state.node_q[nd], state.node_x[nd]
-    nt, base = p.tnode.shape[0], p.verts.shape[0]
+    nt = p.tnode.shape[0]
     for s in range(p.samples.shape[0]):
         ox, oy, oz = quat_rotate(q[0], q[1], q[2], q[3], p.samples[s, 0], p.samples[s, 1], p.samples[s, 2])
         for o in range(nt):

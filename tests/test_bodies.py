@@ -52,7 +52,6 @@ def test_restitution_is_the_dashpots_analytic_value():
     cut at zero (no pull) lets go when k x + gamma x' = 0, at w_d t* = pi - atan(2 z sqrt(1 -
     z^2) / (1 - 2 z^2)), and e = exp(-z w t*) |cos w_d t* - z / sqrt(1 - z^2) sin w_d t*|."""
     k, v0 = 1e5, 1.0
-    w = math.sqrt(k / MASS)
     for zeta in (0.05, 0.2):
         gamma = 2.0 * zeta * math.sqrt(k * MASS)
         sim, ball, body = ball_on_floor(g=0.0, k=k, gamma=gamma, height=RADIUS + 0.01, dt=2e-5)
