@@ -111,7 +111,7 @@ class Body(Effect):
         name is unknown or the target is not one it can meet."""
         statics = {e.name: e for e in on.effects if isinstance(e, Obstacle) and e.name}
         bodies = {e.node.name: e for e in on.effects if isinstance(e, Body)}
-        out = []
+        out: list = []
         for x in self.obstacles:
             ob = x if isinstance(x, Obstacle) else statics.get(x)
             if ob is None:
@@ -167,7 +167,8 @@ class Body(Effect):
         for t in targets:
             if isinstance(t, Body):
                 posed = t._posed(on)
-                rows.append((t.node.index, *posed, self._reach(*t._samples(on), _shape(*posed))))
+                their, their_rad = t._samples(on)
+                rows.append((t.node.index, *posed, self._reach(their, their_rad, _shape(*posed))))
             else:
                 rows.append((-1, SHAPES[t.shape], t.origin, t.axis, t.size, t.rot, 0.0))
         nt = len(rows)
