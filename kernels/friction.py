@@ -8,10 +8,20 @@ tangent t (forward or backward, by the sign of e . t) and across it (lateral):
 
     (k_t e_long / mu_long)^2 + (k_t e_lat / mu_lat)^2 <= fn^2.
 
-A sticking contact whose trial leaves the static ellipse (mu_s) starts sliding: its trial is
-scaled back radially onto the kinetic ellipse (mu_k), the dashpot idle, and the spring's
-anchor is dragged so that its displacement is that point b. A sliding contact whose trial
-falls inside the kinetic ellipse sticks again. A direction with mu = 0 carries no friction.
+A sticking contact whose trial leaves the static ellipse (mu_s) starts sliding, the dashpot
+idle, and the spring's anchor is dragged so that its displacement is the point b of the
+kinetic ellipse (mu_k) that resists each component of the trial's direction u with its own
+coefficient:
+
+    k_t b = fn (mu_long u_long t + mu_lat u_lat l),    u = e / |e|,  l the lateral direction,
+
+the anisotropic Coulomb law of slithering locomotion (Hu, Nirody, Scott and Shelley, PNAS
+2009; PyElastica's anisotropic plane): a sliding force -fn M u for a slip along u. (Scaling
+the trial radially back onto the ellipse instead would resist the along-line share of a
+mostly sideways slip with the lateral coefficient, and a snake would barely advance.) Sliding
+along the line or straight across it, both give mu fn against the slip. A sliding contact
+whose trial falls inside the kinetic ellipse sticks again. A direction with mu = 0 carries
+no friction, and the slip's direction is then taken in the other alone.
 """
 
 import math
@@ -62,15 +72,22 @@ def stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, sliding, mu_s, mu_k, k_t, fn)
     mu = mu_k if sliding else mu_s
     if not ellipse(along, lat, mu[which], mu[2], k_t, fn) > 1.0:
         return ex, ey, ez, False, 0.0
-    # a direction without friction lets its share go; the rest returns radially onto the
-    # kinetic ellipse, the dashpot idle
+    # a direction without friction lets its share go; each remaining component of the
+    # trial's direction is resisted with its own kinetic coefficient (module docstring)
     if mu_k[which] * fn <= 0.0:
         along = 0.0
     if mu_k[2] * fn <= 0.0:
         lx = ly = lz = lat = 0.0
-    q = ellipse(along, lat, mu_k[which], mu_k[2], k_t, fn)
-    scale = 1.0 / q if q > 1.0 else 1.0
-    bx, by, bz = scale * (along * tx + lx), scale * (along * ty + ly), scale * (along * tz + lz)
+    size = math.sqrt(along * along + lat * lat)
+    if not ellipse(along, lat, mu_k[which], mu_k[2], k_t, fn) > 1.0:
+        # what a frictionless direction left is inside: it sticks as it is
+        ca, cl = 1.0, 1.0
+    elif size > 0.0:
+        grip = fn / (k_t * size)
+        ca, cl = grip * mu_k[which], grip * mu_k[2]
+    else:
+        ca = cl = 0.0
+    bx, by, bz = ca * along * tx + cl * lx, ca * along * ty + cl * ly, ca * along * tz + cl * lz
     # the plastic work: the friction force on the anchor's slip (the spring's own energy drop
     # would also count the drift's O(h^2) excess over a constant force)
     lost = k_t * (bx * (ax - bx) + by * (ay - by) + bz * (az - bz))

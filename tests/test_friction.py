@@ -117,6 +117,25 @@ def test_sliding_decelerates_at_mu_k_g_in_each_direction(along, v, mu):
     assert a == pytest.approx(mu * G, rel=0.01)
 
 
+def test_oblique_slide_is_resisted_component_by_component():
+    """Sliding obliquely (unit slip u at 53 degrees to the line), the friction resists each
+    component with its own kinetic coefficient, a = -g (mu_forward u_along, mu_lateral u_lat)
+    (Hu et al.'s anisotropic law): here (0.12, 0.48) g, where a force opposite the slip on the
+    same ellipse would give (0.18, 0.24) g. Fast, over a short window, so u barely turns."""
+    ob = plane(mu_s=(0.3, 0.5, 0.7), mu_k=(0.2, 0.4, 0.6))
+    sim, line, nodes = rod(ob, along=(1, 0, 0))
+    push(sim, line, nodes, (3.0, 4.0, 0.0))
+    sim.run(until=0.01)            # past the stick springs' start
+    v1 = velocity(sim, line).copy()
+    sim.run(until=0.03)
+    v2 = velocity(sim, line)
+    a = (v2 - v1) / 0.02
+    u = (v1 + v2) / np.linalg.norm(v1 + v2)
+    assert ob.sliding(sim) == ob.active_contacts(sim) > 0
+    assert a[0] == pytest.approx(-G * 0.2 * u[0], rel=0.01)
+    assert a[1] == pytest.approx(-G * 0.6 * u[1], rel=0.01)
+
+
 def energy_balance_error(dt_factor):
     """A rod thrown along the plane (elastic normal law) until friction stops it: the largest
     departure of energy + dissipated from its start, over the initial kinetic energy, and

@@ -61,7 +61,7 @@ def test_undulator_crawls_head_first_and_its_actuation_does_work():
     sim.run(until=3.0)
     d = w @ sim.state.x - start
     assert d[2] > 0.0 and d[2] > abs(d[0])
-    assert sim.driver_work() > 0.0
+    assert sim.actuation_work() > 0.0
 
 
 def test_one_muscle_over_many_lines_drives_each_as_its_own_muscle_would():
