@@ -331,8 +331,8 @@ def _probe_names(variants) -> list[str]:
 
 def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series=None):
     """Run the variants ``todo`` on the cluster, writing each task's results into the store
-    ``open_store()`` creates or opens -- while the first variant compiles or loads the
-    kernels on a worker."""
+    ``open_store()`` creates or opens -- while the first variant compiles the kernels on a
+    worker, or, when this machine's cache holds them, while the first variants run."""
     from distributed import as_completed
     client, cluster = _client(client, scheduler, workers)
     try:
@@ -341,20 +341,27 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
             return
         # a local cluster shares this machine's kernel cache: when it holds the step already,
         # every worker loads it at once and nothing needs warming
-        warm = None if cluster is not None and _kernels_cached(todo[0]) else \
-            client.submit(warm_up, todo[0].doc, str(spec.path), pure=False)
-        out = open_store()
         info = client.scheduler_info()
         nthreads = sum(w["nthreads"] for w in info["workers"].values()) or 1
         dash = getattr(client, "dashboard_link", None) if _has_dashboard(info) else None
         groups = _batches(todo, batch, nthreads)
-        try:
-            if warm is not None:
+
+        def submit():
+            return {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
+                                  spec.until, series, pure=False, retries=retries): g for g in groups}
+        if cluster is not None and _kernels_cached(todo[0]):
+            # every worker loads the step from this machine's cache at once: the variants
+            # start now, and the store is created while the first of them run
+            futures = submit()
+            out = open_store()
+        else:
+            warm = client.submit(warm_up, todo[0].doc, str(spec.path), pure=False)
+            out = open_store()
+            try:
                 warm.result()
-        except Exception:  # the variant fails in its own task, with its message recorded
-            pass
-        futures = {client.submit(run_batch, [(v.index, v.doc, str(spec.path)) for v in g],
-                                 spec.until, series, pure=False, retries=retries): g for g in groups}
+            except Exception:  # the variant fails in its own task, with its message recorded
+                pass
+            futures = submit()
         track = _Tracker(len(todo), len(groups[0]), dash, progress)
         track.update(client)
         ac = as_completed(futures)
