@@ -10,6 +10,7 @@ from scipy.interpolate import CubicSpline
 from . import checks
 from .registry import Binding, Effect, Key
 from .scene_values import CURVATURE, LENGTH, TIME, TORQUE, array, direction, floats, nonnegative, number, positive, vec3
+from .drives import PATH_UNITS, Path, path_table
 from .kernels.active import ActiveCurvatureParams, MuscleTorqueParams
 from .net import Line
 
@@ -27,16 +28,20 @@ WAVE_KEYS = (Key("points", floats, doc="fractions of the rest length where A(s) 
              Key("period", nonnegative, TIME, doc="period T of the travelling wave (0: none)"),
              Key("wavelength", positive, LENGTH, doc="wavelength along the line"),
              Key("phase", number, doc="phase (rad)"),
-             Key("ramp_time", nonnegative, TIME, doc="time over which it is switched on linearly"))
+             Key("ramp_time", nonnegative, TIME, doc="time over which it is switched on linearly"),
+             Key("schedule", path_table, PATH_UNITS["factor"],
+                 doc="factor g(t) in time {rate, amplitude, omega, phase, times, values} (1 without)"))
 
 
 class _Travelling(Effect):
-    """A quantity along a line: ramp(t) A(s) sin(2 pi (t / period - s / wavelength) + phase),
+    """A quantity along a line: ramp(t) g(t) A(s) sin(2 pi (t / period - s / wavelength) + phase),
     A(s) given at ``points`` (fractions of the rest length, increasing within [0, 1]) and joined
     by a natural cubic spline (zero outside them), or one value for the whole line; without a
-    period, ramp(t) A(s). ramp(t) = min(1, t / ramp_time), 1 without one."""
+    period, ramp(t) g(t) A(s). ramp(t) = min(1, t / ramp_time), 1 without one; g(t) the
+    ``schedule``, a Path of one component (a table of times and values: the clamped cubic
+    spline through them, held beyond them; a rate; a harmonic), 1 without one."""
 
-    def _wave(self, line, what, value, k, points, period, wavelength, phase, ramp_time):
+    def _wave(self, line, what, value, k, points, period, wavelength, phase, ramp_time, schedule=None):
         if not (isinstance(line, Line) or (line is None and getattr(self, "lines", None))):
             raise ValueError(f"{type(self).__name__}: line must be a cosnet Line, got {line!r}")
         who = f"{type(self).__name__} on {line!r}" if line is not None else f"{type(self).__name__} on {self.lines!r}"
@@ -62,7 +67,16 @@ class _Travelling(Effect):
             if not ok:
                 raise ValueError(f"{who}: {name} out of range, got {x!r}")
         self.wave = np.array([2 * math.pi / period if period > 0 else 0.0, 2 * math.pi / wavelength,
-                              float(phase), float(ramp_time)])
+                              float(phase), float(ramp_time), float(schedule is not None)])
+        rate, amp, turn, times, coef = (Path.of(schedule, f"{who}: schedule").arrays(1, f"{who}: schedule")
+                                        if schedule is not None else Path().arrays(1, who))
+        self.schedule = schedule
+        self._sched = (rate, amp, turn, times, coef)
+
+    def _schedule_arrays(self) -> tuple:
+        """The schedule's arrays in the record's order (copies: the record owns them)."""
+        rate, amp, turn, times, coef = self._sched
+        return rate.copy(), amp.copy(), turn.copy(), times.copy(), coef.copy(), np.zeros(1), np.zeros(3)
 
     def _along(self, sim, line=None):
         """(A at the Voronoi points (n+1, k) of ``line`` (default: the effect's), their arc
@@ -96,7 +110,7 @@ class MuscleTorque(_Travelling):
     adds_energy = True
 
     def __init__(self, line: Line | None = None, moment=None, points=None, direction=(1.0, 0.0, 0.0), period=0.0,
-                 wavelength=math.inf, phase=0.0, ramp_time=0.0, lines=None):
+                 wavelength=math.inf, phase=0.0, ramp_time=0.0, lines=None, schedule=None):
         if (line is None) == (lines is None):
             raise ValueError(f"MuscleTorque: give line or lines, one of them, got line={line!r}, lines={lines!r}")
         if lines is not None:
@@ -106,7 +120,7 @@ class MuscleTorque(_Travelling):
         self.lines = lines
         if moment is None:
             raise ValueError("MuscleTorque: moment is required")
-        self._wave(line, "moment", moment, 1, points, period, wavelength, phase, ramp_time)
+        self._wave(line, "moment", moment, 1, points, period, wavelength, phase, ramp_time, schedule)
         self.direction = checks.direction(f"{self._who()}", "direction", direction)
 
     def _who(self):
@@ -119,7 +133,7 @@ class MuscleTorque(_Travelling):
         offsets = np.concatenate([[0], np.cumsum([a.shape[0] for a in amps])]).astype(np.int64)
         return MuscleTorqueParams(np.array([x.index for x in lines], np.int64), self.direction.copy(), offsets,
                                   np.concatenate(amps)[:, 0].copy(), np.concatenate(ss), self.wave.copy(),
-                                  np.zeros(1))
+                                  np.zeros(1), *self._schedule_arrays())
 
     def work(self, sim) -> float:
         return float(self.params(sim).work[0])
@@ -144,8 +158,8 @@ class ActiveCurvature(_Travelling):
     adds_energy = True
 
     def __init__(self, line: Line, curvature, points=None, period=0.0, wavelength=math.inf, phase=0.0,
-                 ramp_time=0.0):
-        self._wave(line, "curvature", curvature, 3, points, period, wavelength, phase, ramp_time)
+                 ramp_time=0.0, schedule=None):
+        self._wave(line, "curvature", curvature, 3, points, period, wavelength, phase, ramp_time, schedule)
 
     def bind(self, on: Binding):
         from . import measure
@@ -153,7 +167,8 @@ class ActiveCurvature(_Travelling):
         m, l = on.model, self.line.index
         base = m.voronoi_rest_curvature[m.line_vertex_offsets[l]:m.line_vertex_offsets[l + 1]].copy()
         u = measure.vertex_fields(m, on.state, l, l + 1)["curvature"] + base   # theta / l now
-        return ActiveCurvatureParams(l, base, np.ascontiguousarray(amp), s, self.wave.copy(), np.zeros(1), u)
+        return ActiveCurvatureParams(l, base, np.ascontiguousarray(amp), s, self.wave.copy(), np.zeros(1), u,
+                                     *self._schedule_arrays())
 
     def work(self, sim) -> float:
         return float(self.params(sim).work[0])

@@ -26,7 +26,8 @@ from .net import Node
 PATH_KEYS = ("rate", "amplitude", "omega", "phase", "times", "values", "quaternions")
 PATH_UNITS = {"position": {"rate": VELOCITY, "amplitude": LENGTH, "values": LENGTH, "times": TIME, "omega": RATE},
               "rotation": {"rate": ANGULAR_VELOCITY, "times": TIME, "omega": RATE},
-              "orientation": {"rate": ANGULAR_VELOCITY, "times": TIME, "omega": RATE}}
+              "orientation": {"rate": ANGULAR_VELOCITY, "times": TIME, "omega": RATE},
+              "factor": {"rate": RATE, "times": TIME, "omega": RATE}}
 # quaternions further than this from unit norm are refused rather than normalised
 QUAT_NORM_TOL = 1e-3
 

@@ -17,6 +17,7 @@ from numba import njit
 
 from .backend import STEP
 from .compose import account_kernel, constraint_kernels, load_kernel
+from .drives import eval_path
 from .rotations import relative_rotation
 
 
@@ -26,17 +27,37 @@ class MuscleTorqueParams(NamedTuple):
     offsets: np.ndarray     # (m + 1,) int64 CSR offsets of each line's rows in amplitude and s
     amplitude: np.ndarray   # A(s) at each line's Voronoi points (ends unused)
     s: np.ndarray           # their arc length from the line's start
-    wave: np.ndarray        # (4,) 2 pi / period (0: no wave, factor 1), 2 pi / wavelength, phase, ramp time
+    wave: np.ndarray        # (5,) 2 pi / period (0: no wave, factor 1), 2 pi / wavelength, phase, ramp time,
+                            # 1 with a schedule g(t) (0 without)
     work: np.ndarray        # (1,) work done by the moment so far
+    # the schedule g(t), a path of one component as kernels.drives.eval_path reads it
+    sched_rate: np.ndarray  # (1,)
+    sched_amp: np.ndarray   # (1,)
+    sched_wave: np.ndarray  # (2,) omega, phase
+    sched_times: np.ndarray  # (m,) spline knots (m = 0: no table)
+    sched_coef: np.ndarray  # (max(m-1, 0), 4, 1)
+    sched_zero: np.ndarray  # (1,) zero: nothing is subtracted from g
+    sched_out: np.ndarray   # (3,) scratch: g, g', g''
 
 
 @njit(**STEP)
-def muscle_factor(p, t, s):
-    """Return ramp(t) sin(2 pi (t / T - s / lambda) + phase), or ramp(t) without a wave."""
+def time_factor(p, t):
+    """Return ramp(t) g(t): the ramp min(1, t / ramp time) (1 without one) times the
+    schedule's value (1 without one)."""
     ramp = 1.0 if p.wave[3] <= 0.0 else min(1.0, t / p.wave[3])
-    if p.wave[0] == 0.0:
+    if p.wave[4] == 0.0:
         return ramp
-    return ramp * math.sin(p.wave[0] * t - p.wave[1] * s + p.wave[2])
+    eval_path(t, p.sched_rate, p.sched_amp, p.sched_wave, p.sched_times, p.sched_coef, p.sched_zero,
+              p.sched_out, 0)
+    return ramp * p.sched_out[0]
+
+
+@njit(**STEP)
+def muscle_factor(p, t, s, g):
+    """Return g sin(2 pi (t / T - s / lambda) + phase), or g without a wave (g: time_factor)."""
+    if p.wave[0] == 0.0:
+        return g
+    return g * math.sin(p.wave[0] * t - p.wave[1] * s + p.wave[2])
 
 
 @load_kernel(MuscleTorqueParams)
@@ -45,6 +66,7 @@ def add_muscle_torques(p, model, state, loads):
     """Update loads.tau (ne,3) given the muscle moment M(s, t) d at the interior Voronoi points
     of each line: -M d on the element before each point, +M d on the one after (body frames)."""
     t = state.clock[0]
+    g = time_factor(p, t)
     d = p.direction
     nl = model.line_element_offsets.shape[0] - 1
     for j in range(p.lines.shape[0]):
@@ -55,7 +77,7 @@ def add_muscle_torques(p, model, state, loads):
         n = model.line_element_offsets[l + 1] - e0
         r0 = p.offsets[j]
         for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
-            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k])
+            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k], g)
             for c in range(3):
                 loads.tau[e0 + k - 1, c] -= m * d[c]
                 loads.tau[e0 + k, c] += m * d[c]
@@ -69,6 +91,7 @@ def account_muscle_work(p, model, state, hh):
     on both sides of a kick of 2 hh, the work the kick's share of the moment gives the
     kinetic energy."""
     t = state.clock[0]
+    g = time_factor(p, t)
     d, w = p.direction, state.w
     nl = model.line_element_offsets.shape[0] - 1
     power = 0.0
@@ -80,7 +103,7 @@ def account_muscle_work(p, model, state, hh):
         n = model.line_element_offsets[l + 1] - e0
         r0 = p.offsets[j]
         for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
-            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k])
+            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k], g)
             a, b = e0 + k - 1, e0 + k
             power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
     p.work[0] += hh * power
@@ -91,19 +114,27 @@ class ActiveCurvatureParams(NamedTuple):
     base: np.ndarray        # (n+1, 3) the line's rest curvature as built, principal frame
     amplitude: np.ndarray   # (n+1, 3) A(s) at the Voronoi points (ends unused)
     s: np.ndarray           # (n+1,) their arc length from the line's start
-    wave: np.ndarray        # (4,) as MuscleTorqueParams.wave
+    wave: np.ndarray        # (5,) as MuscleTorqueParams.wave
     work: np.ndarray        # (1,) work done by the actuation so far
     last: np.ndarray        # (n+1, 3) curvature theta / l at the end of the previous drift
+    sched_rate: np.ndarray  # the schedule, as MuscleTorqueParams'
+    sched_amp: np.ndarray
+    sched_wave: np.ndarray
+    sched_times: np.ndarray
+    sched_coef: np.ndarray
+    sched_zero: np.ndarray
+    sched_out: np.ndarray
 
 
 @njit(**STEP)
 def set_rest_curvature(p, model, state, h):
     """Update model.voronoi_rest_curvature at the line's interior Voronoi points to
-    u0 = base + A(s) factor(s, t) at t = state.clock[0], and p.work by the strain energy that
+    u0 = base + A(s) factor(s, t) (muscle_factor) at t = state.clock[0], and p.work by the strain energy that
     change adds, sum 1/2 l B ((u - u0_new)^2 - (u - u0_old)^2), averaged over the shapes u at
     the drift's two ends (p.last, then now): the splitting holds u0 from one kick to the
     middle of the next drift, so a change taken at either end alone is first order."""
     t = state.clock[0]
+    g = time_factor(p, t)
     v0 = model.line_vertex_offsets[p.line]
     e0 = model.line_element_offsets[p.line]
     n = model.line_element_offsets[p.line + 1] - e0
@@ -112,7 +143,7 @@ def set_rest_curvature(p, model, state, h):
     for k in range(1, min(n, p.amplitude.shape[0] - 1)):
         a, b, vt = e0 + k - 1, e0 + k, v0 + k
         theta = relative_rotation(q[a, 0], q[a, 1], q[a, 2], q[a, 3], q[b, 0], q[b, 1], q[b, 2], q[b, 3])
-        f = muscle_factor(p, t, p.s[k])
+        f = muscle_factor(p, t, p.s[k], g)
         lv = model.voronoi_rest_length[vt]
         inv = model.voronoi_inv_rest_length[vt]
         for c in range(3):

@@ -156,3 +156,79 @@ def test_energy_balances_driver_and_muscle_work_and_damping_to_second_order():
     e2, _ = account_error(1e-4)
     assert least > 100 * e1
     assert 3.4 < e1 / e2 < 4.6
+
+
+SCHEDULE = dict(times=[0.0, 0.5, 1.0, 1.5], values=[0.0, 1.0, 1.0, 0.4])
+
+
+def test_a_scheduled_rest_curvature_follows_its_table_exactly():
+    """schedule (a table of times and values): u0 = A g(t) at the interior Voronoi points after
+    every step, g the clamped cubic spline through the table (held beyond it), to round-off."""
+    from scipy.interpolate import CubicSpline
+    net, line = free_rod(6)
+    curve = cosnet.ActiveCurvature(line, curvature=(2.0, 0.0, 0.5), schedule=SCHEDULE)
+    sim = cosnet.Simulation(net, [curve, cosnet.Damping(1.0)])
+    g = CubicSpline(SCHEDULE["times"], SCHEDULE["values"], bc_type="clamped")
+    v = slice(int(sim.model.line_vertex_offsets[0]) + 1, int(sim.model.line_vertex_offsets[1]) - 1)
+    for t in (0.13, 0.5, 0.91, 1.37, 2.2):
+        sim.run(until=t)
+        want = float(g(min(sim.time, 1.5)))
+        np.testing.assert_allclose(sim.model.voronoi_rest_curvature[v], [[2.0 * want, 0.0, 0.5 * want]] * 5,
+                                   rtol=1e-12, atol=1e-14)
+
+
+def schedule_energy_error(fraction):
+    """max |E - W - E(0)| and max |W| of a free line whose rest curvature follows SCHEDULE (no
+    damping), at ``fraction`` of the stable step, sampled at the same times at every dt."""
+    net, line = free_rod(8)
+    curve = cosnet.ActiveCurvature(line, curvature=(3.0, 1.0, 0.5), schedule=SCHEDULE)
+    dt = cosnet.Simulation(net, [curve]).dt * fraction
+    sim = cosnet.Simulation(net, [curve], dt=dt)
+    e0 = sim.energy()
+    worst, most = 0.0, 0.0
+    for _ in range(20):
+        sim.run(steps=round(50 / fraction))
+        worst = max(worst, abs(sim.energy() - sim.actuation_work() - e0))
+        most = max(most, abs(sim.actuation_work()))
+    return worst, most
+
+
+def test_energy_minus_scheduled_actuation_work_is_conserved_to_second_order():
+    e1, most = schedule_energy_error(0.5)
+    e2, _ = schedule_energy_error(0.25)
+    assert e1 < 1e-3 * most
+    assert 3.4 < e1 / e2 < 4.8
+
+
+def test_a_bad_schedule_is_refused_in_one_line():
+    _, line = free_rod(2)
+    with pytest.raises(ValueError, match=r"^ActiveCurvature on .*: schedule: times must increase strictly"):
+        cosnet.ActiveCurvature(line, curvature=(1.0, 0.0, 0.0), schedule=dict(times=[0.0, 1.0, 1.0], values=[0, 1, 2]))
+    scene = """
+[materials.m]
+E = 1e6
+G = 4e5
+density = 1000.0
+[sections.s]
+kind = "circle"
+radius = 0.01
+[nodes.a]
+position = [0.0, 0.0, 0.0]
+[nodes.b]
+position = [1.0, 0.0, 0.0]
+[lines.rod]
+start = "a"
+end = "b"
+material = "m"
+section = "s"
+elements = 4
+[[effects]]
+kind = "active_curvature"
+line = "rod"
+curvature = [1.0, 0.0, 0.0]
+schedule = { times = [0.0, 1.0], value = [0.0, 1.0] }
+"""
+    import tomllib
+    with pytest.raises(ValueError, match=r"schedule") as e:
+        build_scene(tomllib.loads(scene))
+    assert "\n" not in str(e.value)
