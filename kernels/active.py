@@ -60,39 +60,14 @@ def muscle_factor(p, t, s, g):
     return g * math.sin(p.wave[0] * t - p.wave[1] * s + p.wave[2])
 
 
-@load_kernel(MuscleTorqueParams)
 @njit(**STEP)
-def add_muscle_torques(p, model, state, loads):
-    """Update loads.tau (ne,3) given the muscle moment M(s, t) d at the interior Voronoi points
-    of each line: -M d on the element before each point, +M d on the one after (body frames)."""
-    t = state.clock[0]
+def muscle_pass(p, model, t, w, tau, add):
+    """Return the moment's power sum M d . (w_k - w_(k-1)) over each line's interior Voronoi
+    points at time t (body frames); with ``add``, also update tau (ne,3) by -M d on the
+    element before each point and +M d on the one after. One loop for the load and its
+    account, so both see the same moments."""
     g = time_factor(p, t)
     d = p.direction
-    nl = model.line_element_offsets.shape[0] - 1
-    for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl:
-            continue
-        e0 = model.line_element_offsets[l]
-        n = model.line_element_offsets[l + 1] - e0
-        r0 = p.offsets[j]
-        for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
-            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k], g)
-            for c in range(3):
-                loads.tau[e0 + k - 1, c] -= m * d[c]
-                loads.tau[e0 + k, c] += m * d[c]
-
-
-@account_kernel(MuscleTorqueParams)
-@njit(**STEP)
-def account_muscle_work(p, model, state, hh):
-    """Update p.work by hh times the moment's power at the current angular velocities,
-    sum M d . (w_k - w_(k-1)) over each line's interior Voronoi points (body frames): taken
-    on both sides of a kick of 2 hh, the work the kick's share of the moment gives the
-    kinetic energy."""
-    t = state.clock[0]
-    g = time_factor(p, t)
-    d, w = p.direction, state.w
     nl = model.line_element_offsets.shape[0] - 1
     power = 0.0
     for j in range(p.lines.shape[0]):
@@ -105,8 +80,31 @@ def account_muscle_work(p, model, state, hh):
         for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
             m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k], g)
             a, b = e0 + k - 1, e0 + k
-            power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
-    p.work[0] += hh * power
+            if add:
+                for c in range(3):
+                    tau[a, c] -= m * d[c]
+                    tau[b, c] += m * d[c]
+            else:
+                power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
+    return power
+
+
+@load_kernel(MuscleTorqueParams)
+@njit(**STEP)
+def add_muscle_torques(p, model, state, loads):
+    """Update loads.tau (ne,3) given the muscle moment M(s, t) d at the interior Voronoi points
+    of each line: -M d on the element before each point, +M d on the one after (body frames)."""
+    muscle_pass(p, model, state.clock[0], state.w, loads.tau, True)
+
+
+@account_kernel(MuscleTorqueParams)
+@njit(**STEP)
+def account_muscle_work(p, model, state, hh):
+    """Update p.work by hh times the moment's power at the current angular velocities,
+    sum M d . (w_k - w_(k-1)) over each line's interior Voronoi points (body frames): taken
+    on both sides of a kick of 2 hh, the work the kick's share of the moment gives the
+    kinetic energy."""
+    p.work[0] += hh * muscle_pass(p, model, state.clock[0], state.w, state.w, False)
 
 
 class ActiveCurvatureParams(NamedTuple):
