@@ -16,7 +16,7 @@ from numba import njit, prange
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-from .rotations import INNER, KERNEL
+from .rotations import INNER, KERNEL, stable_cache_key
 
 # Threads waiting for work sleep instead of spinning. GNU OpenMP, numba's usual threading
 # layer, spins between parallel loops by default; a thread spinning on a core shared with
@@ -96,16 +96,19 @@ def each_node(body):
     (one call per block). body must not be decorated: it is compiled here."""
     inline = njit(**dict(KERNEL, inline="always"))(body)
 
+    @stable_cache_key
     @njit(**STEP)
     def serial(n, a, b, c, d):
         for i in range(n):
             inline(i, a, b, c, d)
 
+    @stable_cache_key
     @njit(**STEP)  # not inline="always": called inside prange (see above)
     def block(i0, i1, a, b, c, d):
         for i in range(i0, i1):
             inline(i, a, b, c, d)
 
+    @stable_cache_key
     @njit(**INNER, parallel=True)
     def parallel(n, a, b, c, d):
         for k in prange((n + NODE_BLOCK - 1) // NODE_BLOCK):

@@ -15,7 +15,7 @@ from numba import njit, prange
 
 from .backend import PASS, STEP, dispatch
 from .layout import columns, quat_columns, uint
-from .rotations import (INLINE, INNER, cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
+from .rotations import (INLINE, INNER, cross, stable_cache_key, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
                         relative_rotation, small_rotation)
 
 # elements per block of whole lines (the unit of the threaded internal loads; a block's
@@ -246,6 +246,7 @@ def vertex_part(v0, e0, j0, j1, model, state, loads):
 def in_parts(part):
     """Return a threaded kernel f(v0, e0, j0, j1, model, state, loads) running part over
     j0 .. j1-1 in parts of LINE_PART (a task each)."""
+    @stable_cache_key
     @njit(**INNER, parallel=True)
     def run(v0, e0, j0, j1, model, state, loads):
         for p in prange((j1 - j0 + LINE_PART - 1) // LINE_PART):

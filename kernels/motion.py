@@ -14,7 +14,7 @@ from numba import njit, prange
 from .backend import ENTRY, PASS, STEP, dispatch, each_node
 from .layout import columns, quat_columns
 from .rotations import (INLINE, INNER, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate,
-                        quat_rotate_inv)
+                        quat_rotate_inv, stable_cache_key)
 
 # rows per task of the threaded element loops (each block runs the vectorised serial loop)
 BLOCK = 4096
@@ -30,10 +30,12 @@ def each_row_block(block):
     """Return (serial, parallel) kernels f(model, state, c, d) running
     block(model, state, c, d, vs, ve, es, ee) over every vertex and element: the serial one
     in one call, the parallel one a block of BLOCK vertices and elements per task."""
+    @stable_cache_key
     @njit(**STEP)
     def serial(model, state, c, d):
         block(model, state, c, d, 0, state.x.shape[0], 0, state.q.shape[0])
 
+    @stable_cache_key
     @njit(**INNER, parallel=True)
     def parallel(model, state, c, d):
         nv, ne = state.x.shape[0], state.q.shape[0]

@@ -8,6 +8,7 @@ body-frame angular velocity w obeys q' = q * (0, w) / 2, i.e. Lambda(w^d) = D^T 
 import hashlib
 import math
 import os
+import pickle
 
 import numba
 from llvmlite import binding as llvm
@@ -78,6 +79,36 @@ def _lock_cache_saves():
 
 
 _lock_cache_saves()
+
+
+def _describe(value):
+    """Return a description of a closure cell that every process gives alike: a jitted
+    function by its module, name, bytecode and own cells; anything else as it is."""
+    py = getattr(value, "py_func", value)
+    code = getattr(py, "__code__", None)
+    if code is None:
+        return value
+    cells = tuple(_describe(c.cell_contents) for c in (py.__closure__ or ()))
+    return (py.__module__, py.__qualname__, hashlib.sha256(code.co_code).hexdigest(), cells)
+
+
+def stable_cache_key(dispatcher):
+    """Give a closure compiled by ``njit(cache=True)`` a cache key that is the same in every
+    process, and return it. Numba keys a closure by the pickle of its cells; a cell holding
+    a jitted function pickles with a random id drawn per process, so such a closure never
+    found itself in the cache: every process compiled it again and its index grew by one
+    entry per process. The cells are described by what they compute instead (_describe)."""
+    cache = dispatcher._cache
+    if not hasattr(cache, "_index_key"):  # caching off (no cache directory)
+        return dispatcher
+    py = dispatcher.py_func
+    cells = pickle.dumps(tuple(_describe(c.cell_contents) for c in (py.__closure__ or ())))
+    code = hashlib.sha256(py.__code__.co_code).hexdigest()
+
+    def index_key(sig, codegen):
+        return (sig, codegen.magic_tuple(), (code, hashlib.sha256(cells).hexdigest()))
+    cache._index_key = index_key
+    return dispatcher
 
 
 def _cache_options() -> dict:
