@@ -7,7 +7,9 @@ being linear in N beyond), both at dt = 1e-4 s (PyElastica's step; cosnet's stab
 this snake is about the same).
 
 rod-steps/s = N x steps / wall time of the steps (compilation and set-up excluded; best of
-rounds, each code timed in turn). cosnet runs with 1 and 2 threads.
+rounds, each code timed in turn). cosnet runs with 1 and 2 threads in one process, and as 2
+processes of one thread each, N/2 snakes apiece, started together (what a user does with
+independent rods on a 2-core machine; rate = N x steps / the slower process's time).
 
 --profile: where a cosnet step spends its time at the largest N (each stage repeated inside
 one compiled loop, as bench/profile_step.py).
@@ -18,6 +20,7 @@ Usage: python bench/many_snakes.py [--quick] [--profile] [N ...]   writes bench/
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
 import sys
 import time
@@ -71,6 +74,34 @@ def pe_snakes(count):
     return sim, rods
 
 
+def _half(count, rounds, start, out):
+    """One of two processes: time count snakes on one thread, each round started with the
+    other process's."""
+    sim = cn_snakes(count, 1)
+    sim.run(steps=STEPS)
+    times = []
+    for _ in range(rounds):
+        start.wait()
+        t0 = time.perf_counter()
+        sim.run(steps=STEPS)
+        times.append(time.perf_counter() - t0)
+    out.put(times)
+
+
+def two_processes(count, rounds):
+    """rod-steps/s of count snakes split over two single-threaded processes run at once
+    (best round; a round lasts as long as its slower process)."""
+    ctx = multiprocessing.get_context("spawn")
+    start, out = ctx.Barrier(2), ctx.Queue()
+    procs = [ctx.Process(target=_half, args=(n, rounds, start, out)) for n in (count // 2, count - count // 2)]
+    for p in procs:
+        p.start()
+    times = [out.get() for _ in procs]
+    for p in procs:
+        p.join()
+    return count * STEPS / min(max(pair) for pair in zip(*times))
+
+
 def rate(count, pe_too, rounds):
     """rod-steps/s of cosnet (1 and 2 threads) and PyElastica for count snakes."""
     sims = {f"cosnet {t} thread{'s' if t > 1 else ''}": cn_snakes(count, t) for t in (1, 2)}
@@ -94,8 +125,10 @@ def rate(count, pe_too, rounds):
             fn()
             best[name] = min(best[name], time.perf_counter() - t0)
     finite = all(np.isfinite(s.state.x).all() for s in sims.values())
-    return {"snakes": count, "steps": STEPS, "dt": DT, "finite": bool(finite),
-            **{f"rod_steps_per_s[{name}]": count * STEPS / b for name, b in best.items()}}
+    rates = {f"rod_steps_per_s[{name}]": count * STEPS / b for name, b in best.items()}
+    if count >= 2:
+        rates["rod_steps_per_s[cosnet 2 processes]"] = two_processes(count, rounds)
+    return {"snakes": count, "steps": STEPS, "dt": DT, "finite": bool(finite), **rates}
 
 
 def profile(count):
@@ -140,7 +173,7 @@ def main():
     for n in counts:
         rows.append(rate(n, pe_too=n <= 100, rounds=2 if n >= 1000 else 3))
         print(rows[-1], flush=True)
-    names = [k for k in rows[0] if k.startswith("rod_steps")]
+    names = list(dict.fromkeys(k for r in rows for k in r if k.startswith("rod_steps")))
     table(f"{ELEMENTS}-element snakes on frictional ground, {STEPS} steps of {DT} s: rod-steps per second "
           "(best of rounds)", ["snakes"] + [k[len("rod_steps_per_s["):-1] for k in names],
           [[r["snakes"]] + [r.get(k, float("nan")) for k in names] for r in rows])

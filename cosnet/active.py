@@ -131,9 +131,13 @@ class MuscleTorque(_Travelling):
         lines = [self.line] if self.lines is None else chosen_lines(on, self.lines, self._who())
         amps, ss = zip(*(self._along(on, line) for line in lines))
         offsets = np.concatenate([[0], np.cumsum([a.shape[0] for a in amps])]).astype(np.int64)
+        s = np.concatenate(ss)
+        # each point's static phase of the wave (kernels.active.set_muscle_moments)
+        phase = self.wave[1] * s if self.wave[0] != 0.0 else np.zeros_like(s)
         return MuscleTorqueParams(np.array([x.index for x in lines], np.int64), self.direction.copy(), offsets,
-                                  np.concatenate(amps)[:, 0].copy(), np.concatenate(ss), self.wave.copy(),
-                                  np.zeros(1), *self._schedule_arrays())
+                                  np.concatenate(amps)[:, 0].copy(), s, self.wave.copy(),
+                                  np.zeros(1), *self._schedule_arrays(), np.cos(phase), np.sin(phase),
+                                  np.zeros_like(s))
 
     def work(self, sim) -> float:
         return float(self.params(sim).work[0])

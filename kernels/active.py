@@ -38,6 +38,9 @@ class MuscleTorqueParams(NamedTuple):
     sched_coef: np.ndarray  # (max(m-1, 0), 4, 1)
     sched_zero: np.ndarray  # (1,) zero: nothing is subtracted from g
     sched_out: np.ndarray   # (3,) scratch: g, g', g''
+    wave_cos: np.ndarray    # cos(2 pi s / lambda) at each row (1 without a wave)
+    wave_sin: np.ndarray    # sin(2 pi s / lambda) at each row (0 without a wave)
+    moment: np.ndarray      # scratch: M at each row, as the last load set it (its account reads it)
 
 
 @njit(**STEP)
@@ -61,13 +64,53 @@ def muscle_factor(p, t, s, g):
 
 
 @njit(**STEP)
-def muscle_pass(p, model, t, w, tau, add):
-    """Return the moment's power sum M d . (w_k - w_(k-1)) over each line's interior Voronoi
-    points at time t (body frames); with ``add``, also update tau (ne,3) by -M d on the
-    element before each point and +M d on the one after. One loop for the load and its
-    account, so both see the same moments."""
+def set_muscle_moments(p, model, t, tau):
+    """Update p.moment at each line's interior Voronoi points to M(s, t) = A(s) ramp g(t)
+    sin(2 pi (t / T - s / lambda) + phase), and tau (ne,3) by -M d on the element before
+    each point and +M d on the one after (body frames). The sine of each point is that of
+    the wave's phase at t and of its own static phase 2 pi s / lambda, combined: one sine per
+    call, not one per point."""
     g = time_factor(p, t)
+    sw, cw = 1.0, 0.0   # no wave: the factor is g alone (wave_cos = 1, wave_sin = 0)
+    if p.wave[0] != 0.0:
+        a = p.wave[0] * t + p.wave[2]
+        sw, cw = math.sin(a), math.cos(a)
     d = p.direction
+    nl = model.line_element_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        e0 = model.line_element_offsets[l]
+        n = model.line_element_offsets[l + 1] - e0
+        r0 = p.offsets[j]
+        for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
+            r = r0 + k
+            m = p.amplitude[r] * (g * (sw * p.wave_cos[r] - cw * p.wave_sin[r]))
+            p.moment[r] = m
+            a, b = e0 + k - 1, e0 + k
+            for c in range(3):
+                tau[a, c] -= m * d[c]
+                tau[b, c] += m * d[c]
+
+
+@load_kernel(MuscleTorqueParams)
+@njit(**STEP)
+def add_muscle_torques(p, model, state, loads):
+    """Update loads.tau (ne,3) and p.moment given the muscle moment M(s, t) d at the interior
+    Voronoi points of each line: -M d on the element before each point, +M d on the one after
+    (body frames)."""
+    set_muscle_moments(p, model, state.clock[0], loads.tau)
+
+
+@account_kernel(MuscleTorqueParams)
+@njit(**STEP)
+def account_muscle_work(p, model, state, hh):
+    """Update p.work by hh times the moment's power at the current angular velocities,
+    sum M d . (w_k - w_(k-1)) over each line's interior Voronoi points (body frames), M the
+    moments the kick's load set (p.moment): taken on both sides of a kick of 2 hh, the work
+    the kick's share of the moment gives the kinetic energy."""
+    d, w = p.direction, state.w
     nl = model.line_element_offsets.shape[0] - 1
     power = 0.0
     for j in range(p.lines.shape[0]):
@@ -78,33 +121,10 @@ def muscle_pass(p, model, t, w, tau, add):
         n = model.line_element_offsets[l + 1] - e0
         r0 = p.offsets[j]
         for k in range(1, min(n, p.offsets[j + 1] - r0 - 1)):
-            m = p.amplitude[r0 + k] * muscle_factor(p, t, p.s[r0 + k], g)
+            m = p.moment[r0 + k]
             a, b = e0 + k - 1, e0 + k
-            if add:
-                for c in range(3):
-                    tau[a, c] -= m * d[c]
-                    tau[b, c] += m * d[c]
-            else:
-                power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
-    return power
-
-
-@load_kernel(MuscleTorqueParams)
-@njit(**STEP)
-def add_muscle_torques(p, model, state, loads):
-    """Update loads.tau (ne,3) given the muscle moment M(s, t) d at the interior Voronoi points
-    of each line: -M d on the element before each point, +M d on the one after (body frames)."""
-    muscle_pass(p, model, state.clock[0], state.w, loads.tau, True)
-
-
-@account_kernel(MuscleTorqueParams)
-@njit(**STEP)
-def account_muscle_work(p, model, state, hh):
-    """Update p.work by hh times the moment's power at the current angular velocities,
-    sum M d . (w_k - w_(k-1)) over each line's interior Voronoi points (body frames): taken
-    on both sides of a kick of 2 hh, the work the kick's share of the moment gives the
-    kinetic energy."""
-    p.work[0] += hh * muscle_pass(p, model, state.clock[0], state.w, state.w, False)
+            power += m * (d[0] * (w[b, 0] - w[a, 0]) + d[1] * (w[b, 1] - w[a, 1]) + d[2] * (w[b, 2] - w[a, 2]))
+    p.work[0] += hh * power
 
 
 class ActiveCurvatureParams(NamedTuple):

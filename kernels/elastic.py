@@ -297,8 +297,11 @@ def compute_internal_loads_parallel(model, state, loads):
     per task, and each line longer than LONG_LINE split across the threads."""
     nl = model.line_vertex_offsets.shape[0] - 1
     per = lines_per_block(model)
-    for b in prange((nl + per - 1) // per):
-        compute_short_lines(b * per, min((b + 1) * per, nl), model, state, loads)
+    if nl <= per:  # one task: run it here (backend.SOLO)
+        compute_short_lines(0, nl, model, state, loads)
+    else:
+        for b in prange((nl + per - 1) // per):
+            compute_short_lines(b * per, min((b + 1) * per, nl), model, state, loads)
     longest_lines(nl, model, state, loads)
 
 

@@ -39,6 +39,9 @@ def each_row_block(block):
     @njit(**INNER, parallel=True)
     def parallel(model, state, c, d):
         nv, ne = state.x.shape[0], state.q.shape[0]
+        if max(nv, ne) <= BLOCK:  # one task: run it here (backend.SOLO)
+            block(model, state, c, d, 0, nv, 0, ne)
+            return
         for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
             vs, ve = block_rows(b, nv)
             es, ee = block_rows(b, ne)
