@@ -123,3 +123,16 @@ def test_the_site_lists_every_page():
     nav = re.findall(r":\s*([\w/]+\.md)\s*$", (REPO / "mkdocs.yml").read_text(encoding="utf-8"), re.M)
     pages = sorted(p.name for p in (REPO / "docs").glob("*.md"))
     assert sorted(nav) == pages
+
+
+def test_the_gallery_shows_every_case():
+    """docs/cases.md lists every case of cases/ in its table and draws each in its gallery
+    (the default case, the footbridge, on the home page)."""
+    page = (REPO / "docs" / "cases.md").read_text(encoding="utf-8")
+    for scene in sorted((REPO / "cases").glob("*.toml")):
+        name = scene.stem
+        assert f"| `{name}`" in page, f"docs/cases.md has no row for {name}"
+        picture = "docs/bridge.png" if name == "bridge" else f"docs/cases/{name}.png"
+        assert (REPO / picture).exists(), f"no picture {picture}"
+        if name != "bridge":
+            assert f"](cases/{name}.png)" in page, f"docs/cases.md does not draw {name}"
