@@ -254,6 +254,9 @@ def test_rest_stretch_switched_on_slowly_makes_a_free_line_longer_without_force(
     assert np.linalg.norm(x[-1] - x[0]) == pytest.approx(1.2, rel=1e-8)
     np.testing.assert_allclose(sim.model.element_rest_strain, [[0.0, 0.0, 1.2]] * 8, rtol=1e-15)
     assert np.abs(sim.line_fields(line)["force"]).max() < 1e-8 * EA
+    # a net whose rest strain nothing changes carries none, and steps without the pass that adds it
+    plain = cosnet.Simulation(net, [cosnet.ActiveCurvature(line, curvature=(1.0, 0.0, 0.0)), cosnet.Damping(5.0)])
+    assert plain.model.element_rest_strain.shape == (0, 3)
 
 
 def test_rest_stretch_of_a_line_clamped_at_both_ends_is_an_axial_force_minus_ea_e():
