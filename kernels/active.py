@@ -141,7 +141,8 @@ def change_rest_curvature(p, model, state, t, g):
     n = model.line_element_offsets[p.line + 1] - e0
     q = state.q
     u0 = model.voronoi_rest_curvature
-    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
+    rows = min(p.amplitude.shape[0], p.base.shape[0], p.s.shape[0], p.last.shape[0])   # a record edited by hand
+    for k in range(1, min(n, rows - 1)):
         a, b, vt = e0 + k - 1, e0 + k, v0 + k
         theta = relative_rotation(q[a, 0], q[a, 1], q[a, 2], q[a, 3], q[b, 0], q[b, 1], q[b, 2], q[b, 3])
         f = muscle_factor(p, t, p.s[k], g)
@@ -169,7 +170,8 @@ def change_rest_strain(p, model, state, t, g):
     rest = model.element_rest_strain
     if rest.shape[0] != model.element_rest_length.shape[0]:
         return
-    for k in range(min(n, p.strain_amplitude.shape[0])):
+    rows = min(p.strain_amplitude.shape[0], p.strain_base.shape[0], p.strain_s.shape[0], p.strain_last.shape[0])
+    for k in range(min(n, rows)):
         e, a, b = e0 + k, v0 + k, v0 + k + 1
         sx, sy, sz = quat_rotate_inv(q[e, 0], q[e, 1], q[e, 2], q[e, 3],
                                      x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2])
