@@ -28,6 +28,8 @@ QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # 0 lines + 1, 1 vertices, 2 elements, 3 line ends, 4 nodes, 5 nodes + 1, 6 one row
 ROWS = {"line_vertex_offsets": 0, "line_element_offsets": 0, "node_attach_offsets": 5, "clock": 6,
         "node_attach_list": 3, "x": 1, "v": 1, "f": 1, "q": 2, "w": 2, "tau": 2}
+# arrays that may also have no rows at all (a net that does not use them)
+MAY_BE_EMPTY = {"element_rest_strain"}
 ROW_PREFIXES = (("vertex_", 1), ("voronoi_", 1), ("bend_", 1), ("element_", 2), ("elem_", 2),
                 ("attach_", 3), ("end_", 3), ("node_", 4))
 
@@ -49,6 +51,8 @@ def _shape_error(what, record, counts):
         if which is None:
             continue
         rows = counts[which]
+        if name in MAY_BE_EMPTY and a.shape[0] == 0:
+            continue
         if a.shape[0] != rows or (a.ndim == 2 and a.shape[1] != (4 if name in QUATERNIONS else 3)):
             return f"{what}.{name} has shape {a.shape}, the net needs {rows} rows"
     return None

@@ -209,10 +209,12 @@ def _principal_frame(I, locked):
     return P, diag
 
 
-def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0) -> tuple[Model, State, list[LineGrid]]:
+def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0,
+            rest_strain: bool = False) -> tuple[Model, State, list[LineGrid]]:
     """Return the static Model, the initial State (at rest) and each line's grid, each line
     treated by its fast-modes setting (else ``fast_modes``) given the net's load scale (N);
-    see cosnet.fast_modes."""
+    see cosnet.fast_modes. ``rest_strain``: give the model a rest strain v0 = d3 per element,
+    for an active line to change (else it has none, and the step no rest-strain pass)."""
     net.validate()
     grids = [build_line_grid(l) for l in net.lines]
     for line, g in zip(net.lines, grids):
@@ -292,6 +294,7 @@ def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0) -> tuple[M
             vertex_inv_mass3=np.repeat(inv_mass[:, None], 3, axis=1),
             element_rest_length=rest_length, element_inv_rest_length=1.0 / rest_length,
             element_stiffness=cat("stiffness", (0, 3)),
+            element_rest_strain=np.tile([0.0, 0.0, 1.0], (rest_length.shape[0] if rest_strain else 0, 1)),
             element_inertia=inertia, element_inv_inertia=1.0 / inertia if inertia.size else inertia,
             voronoi_rest_length=cat("vor_length", (0,)),
             voronoi_inv_rest_length=1.0 / cat("vor_length", (0,)), voronoi_stiffness=cat("bend", (0, 3)),

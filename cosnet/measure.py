@@ -27,7 +27,7 @@ class Strains(NamedTuple):
 
     elements: slice       # global element range
     vertices: slice       # global vertex (Voronoi point) range
-    stretch: tuple        # 3 columns: v - d3 per element, principal frame (3.22)
+    stretch: tuple        # 3 columns: v - v0 per element (v0: the rest strain), principal frame (3.22)
     theta: tuple          # 3 columns: rotation vector between the frames on either side (3.24)
     left: tuple           # 4 columns: frame on the left of each Voronoi point
     curvature: tuple      # 3 columns: u - u0 = theta / L - u0 (3.22)
@@ -62,13 +62,16 @@ def end_frames(model: Model, state: State, ends) -> tuple:
 
 
 def element_stretch(model: Model, state: State, b: Block) -> tuple:
-    """Columns of v - d3 = D^T (x_{e+1} - x_e) / l - e3 of the elements of block b,
-    principal frame (3.22)."""
+    """Columns of v - v0 = D^T (x_{e+1} - x_e) / l - v0 of the elements of block b, v0 the
+    rest strain (d3 in a model without one), principal frame (3.22)."""
     x = state.x[b.vertices]
     dx = tuple(np.diff(x[:, k])[b.left_vertex] for k in range(3))
     inv_l = model.element_inv_rest_length[b.elements]
     sx, sy, sz = qrot(cols(state.q[b.elements]), dx, inverse=True)
-    return sx * inv_l, sy * inv_l, sz * inv_l - 1.0
+    if not model.element_rest_strain.shape[0]:
+        return sx * inv_l, sy * inv_l, sz * inv_l - 1.0
+    v0 = cols(model.element_rest_strain[b.elements])
+    return sx * inv_l - v0[0], sy * inv_l - v0[1], sz * inv_l - v0[2]
 
 
 def line_strains(model: Model, state: State, b: Block) -> Strains:
@@ -114,7 +117,7 @@ def strain_energy(model: Model, st: Strains) -> float:
 def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
     """Per-vertex fields of lines l0 .. l1-1, each (nv_b, ...): director frames (quaternions;
     the mid-rotation between neighbouring frames, the line-end frame at the ends), force n and
-    torque m in the lab (3.22), strain v - d3 and curvature u - u0 in the director frame."""
+    torque m in the lab (3.22), strain v - v0 and curvature u - u0 in the director frame."""
     b = block_of(model, l0, l1)
     st = line_strains(model, state, b)
     e, v = st.elements, st.vertices
@@ -142,7 +145,7 @@ def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
 
 
 def worst_strain(model: Model, state: State) -> tuple[float, int]:
-    """(max |v - d3|_1 over elements, its element): stretch and shear (3.22); a NaN counts as
+    """(max |v - v0|_1 over elements, its element): stretch and shear (3.22); a NaN counts as
     the worst."""
     if model.element_rest_length.shape[0] == 0:
         return 0.0, 0

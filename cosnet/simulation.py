@@ -95,7 +95,8 @@ class Simulation:
         self.stepper = stepper
         self.safety = float(safety)
         self.fast_modes = _fast.fast_modes_value("Simulation", fast_modes)
-        self.model, self.state, self.grids = flatten(net, fast_modes, _fast.load_scale(net, effects))
+        self.model, self.state, self.grids = flatten(net, fast_modes, _fast.load_scale(net, effects),
+                                                     any(getattr(e, "changes_rest_strain", False) for e in effects))
         self.line_factors = [g.factors for g in self.grids]
         self.loads = empty_loads(self.model)
         self.effects = list(effects)
@@ -364,7 +365,7 @@ class Simulation:
 
     def line_fields(self, line: Line) -> dict:
         """Per-vertex fields of a line, each (n+1, ...): position, velocity, d1, d2, d3, force
-        n and torque m (lab), strain v - d3 and curvature u - u0 (director frame) (3.22)."""
+        n and torque m (lab), strain v - v0 and curvature u - u0 (director frame) (3.22)."""
         self.check_line(line)
         return self._fields(line.index, line.index + 1)
 

@@ -17,7 +17,7 @@ from .bounds import table_error, table_seal
 from .kernels.checksum import scan_state
 from .kernels.stepping import CHUNK_STEPS
 
-STRAIN_LIMIT = 1.0  # |v - d3| beyond this (100 % stretch or shear) means the run has blown up
+STRAIN_LIMIT = 1.0  # |v - v0| beyond this (100 % stretch or shear) means the run has blown up
 ENERGY_GROWTH = 10.0  # energy rising by this many times its scale, with nothing feeding it in
 # a node turning against its line end (measure.node_wobble) by more than WOBBLE_FLOOR rad at
 # the grid scale, grown by WOBBLE_GROWTH times at each of two samples in a row, is fluttering
@@ -128,7 +128,7 @@ class Watch:
         _fast.check_strain(sim)
         worst, e = measure.worst_strain(sim.model, sim.state)
         if worst > STRAIN_LIMIT:
-            quantity = f"strain |v - d3| = {worst:.3g} (limit {STRAIN_LIMIT:g})"
+            quantity = f"strain |v - v0| = {worst:.3g} (limit {STRAIN_LIMIT:g})"
             if sim.dt <= sim.stable_dt():
                 quantity += (" although dt is within the stable step: the loads likely exceed what "
                              "the line can bear (a physical overload, not a time-step problem)")

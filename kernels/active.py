@@ -1,6 +1,6 @@
 """Kernels of active lines: muscle torques, an internal bending moment prescribed along a line
 and in time (PyElastica's MuscleTorques: a travelling wave with a spline amplitude), and a
-rest curvature changing in time (ActiveCurvature), set after every drift at the stage's time
+rest curvature and rest strain changing in time (ActiveCurvature), set after every drift at the stage's time
 like a driven node's pose (compose.constraint_kernels): the energy that change puts into the
 strain energy at the current shape is the work of the actuation.
 
@@ -18,7 +18,7 @@ from numba import njit
 from .backend import STEP
 from .compose import account_kernel, constraint_kernels, load_kernel
 from .drives import eval_path
-from .rotations import relative_rotation
+from .rotations import quat_rotate_inv, relative_rotation
 
 
 class MuscleTorqueParams(NamedTuple):
@@ -129,12 +129,16 @@ def account_muscle_work(p, model, state, hh):
 
 class ActiveCurvatureParams(NamedTuple):
     line: int
-    base: np.ndarray        # (n+1, 3) the line's rest curvature as built, principal frame
+    base: np.ndarray        # (n+1, 3) the line's rest curvature as built, principal frame (0 rows: not changed)
     amplitude: np.ndarray   # (n+1, 3) A(s) at the Voronoi points (ends unused)
     s: np.ndarray           # (n+1,) their arc length from the line's start
     wave: np.ndarray        # (5,) as MuscleTorqueParams.wave
     work: np.ndarray        # (1,) work done by the actuation so far
     last: np.ndarray        # (n+1, 3) curvature theta / l at the end of the previous drift
+    strain_base: np.ndarray  # (n, 3) the line's rest strain v0 as built, principal frame (0 rows: not changed)
+    strain_amplitude: np.ndarray  # (n, 3) A(s) of shear d1, shear d2, stretch at the element midpoints
+    strain_s: np.ndarray    # (n,) their arc length from the line's start
+    strain_last: np.ndarray  # (n, 3) strain v = D^T r' / l at the end of the previous drift
     sched_rate: np.ndarray  # the schedule, as MuscleTorqueParams'
     sched_amp: np.ndarray
     sched_wave: np.ndarray
@@ -145,20 +149,20 @@ class ActiveCurvatureParams(NamedTuple):
 
 
 @njit(**STEP)
-def set_rest_curvature(p, model, state, h):
+def change_rest_curvature(p, model, state, t, g):
     """Update model.voronoi_rest_curvature at the line's interior Voronoi points to
-    u0 = base + A(s) factor(s, t) (muscle_factor) at t = state.clock[0], and p.work by the strain energy that
-    change adds, sum 1/2 l B ((u - u0_new)^2 - (u - u0_old)^2), averaged over the shapes u at
-    the drift's two ends (p.last, then now): the splitting holds u0 from one kick to the
-    middle of the next drift, so a change taken at either end alone is first order."""
-    t = state.clock[0]
-    g = time_factor(p, t)
+    u0 = base + A(s) factor(s, t) (muscle_factor; g: time_factor at t), and p.work by the
+    strain energy that change adds, sum 1/2 l B ((u - u0_new)^2 - (u - u0_old)^2), averaged
+    over the shapes u at the drift's two ends (p.last, then now): the splitting holds u0 from
+    one kick to the middle of the next drift, so a change taken at either end alone is first
+    order."""
     v0 = model.line_vertex_offsets[p.line]
     e0 = model.line_element_offsets[p.line]
     n = model.line_element_offsets[p.line + 1] - e0
     q = state.q
     u0 = model.voronoi_rest_curvature
-    for k in range(1, min(n, p.amplitude.shape[0] - 1)):
+    rows = min(p.amplitude.shape[0], p.base.shape[0], p.s.shape[0], p.last.shape[0])   # a record edited by hand
+    for k in range(1, min(n, rows - 1)):
         a, b, vt = e0 + k - 1, e0 + k, v0 + k
         theta = relative_rotation(q[a, 0], q[a, 1], q[a, 2], q[a, 3], q[b, 0], q[b, 1], q[b, 2], q[b, 3])
         f = muscle_factor(p, t, p.s[k], g)
@@ -174,8 +178,49 @@ def set_rest_curvature(p, model, state, h):
 
 
 @njit(**STEP)
-def keep_rest_curvature(p, model, state, arg):
-    """Leave everything as it is: a kick does not change the rest curvature."""
+def change_rest_strain(p, model, state, t, g):
+    """Update model.element_rest_strain of the line's elements to v0 = base + A(s) factor(s, t)
+    and p.work by the strain energy that change adds, sum 1/2 l K ((v - v0_new)^2 -
+    (v - v0_old)^2), averaged over the strains v = D^T r' / l at the drift's two ends, as
+    change_rest_curvature."""
+    v0 = model.line_vertex_offsets[p.line]
+    e0 = model.line_element_offsets[p.line]
+    n = model.line_element_offsets[p.line + 1] - e0
+    x, q = state.x, state.q
+    rest = model.element_rest_strain
+    if rest.shape[0] != model.element_rest_length.shape[0]:
+        return
+    rows = min(p.strain_amplitude.shape[0], p.strain_base.shape[0], p.strain_s.shape[0], p.strain_last.shape[0])
+    for k in range(min(n, rows)):
+        e, a, b = e0 + k, v0 + k, v0 + k + 1
+        sx, sy, sz = quat_rotate_inv(q[e, 0], q[e, 1], q[e, 2], q[e, 3],
+                                     x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2])
+        il, le = model.element_inv_rest_length[e], model.element_rest_length[e]
+        f = muscle_factor(p, t, p.strain_s[k], g)
+        for c in range(3):
+            new, old = p.strain_base[k, c] + p.strain_amplitude[k, c] * f, rest[e, c]
+            v, w = (sx if c == 0 else sy if c == 1 else sz) * il, p.strain_last[k, c]
+            kk = model.element_stiffness[e, c]
+            p.work[0] += 0.25 * le * kk * ((v - new) ** 2 - (v - old) ** 2 + (w - new) ** 2 - (w - old) ** 2)
+            rest[e, c] = new
+            p.strain_last[k, c] = v
 
 
-constraint_kernels(ActiveCurvatureParams, set_rest_curvature, keep_rest_curvature)
+@njit(**STEP)
+def set_rest_shape(p, model, state, h):
+    """Update the line's rest curvature and rest strain (change_rest_curvature,
+    change_rest_strain) and p.work at t = state.clock[0]."""
+    if p.line < 0 or p.line >= model.line_element_offsets.shape[0] - 1:
+        return
+    t = state.clock[0]
+    g = time_factor(p, t)
+    change_rest_curvature(p, model, state, t, g)
+    change_rest_strain(p, model, state, t, g)
+
+
+@njit(**STEP)
+def keep_rest_shape(p, model, state, arg):
+    """Leave everything as it is: a kick does not change the rest curvature or strain."""
+
+
+constraint_kernels(ActiveCurvatureParams, set_rest_shape, keep_rest_shape)

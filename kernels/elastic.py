@@ -9,6 +9,11 @@ discrete internal force across a section is n = D K (v - d3) and the internal to
 m = D B (u - u0) (3.22) (the paper's "contact force" and "contact torque"; here contact is
 the rod-rod Contact effect),
 and the time stepper is variational: energy has no secular drift.
+
+An active line changes the rest strain v0 from d3 (model.element_rest_strain, empty in a model
+without one): its elements then carry the extra force n = -D K (v0 - d3), the gradient of the
+energy's change to l/2 (v - v0)^T K (v - v0), added by a pass of its own (prestress_span) after
+the stretch pass, so a net without one steps exactly as before.
 """
 
 from numba import njit, prange
@@ -121,6 +126,26 @@ def stretch_span(v0, e0, j0, j1, x, q, stiff, inv_len, left, right, force, tau):
 
 
 @njit(**INLINE)
+def prestress_span(v0, e0, j0, j1, x, q, stiff, rest, force, tau):
+    """Update force and tau of elements j0 .. j1-1 of a line (as stretch_span) with the extra
+    internal force -D K (v0 - d3) of a rest strain v0 (rest: its columns) and its torque
+    r' x n (3.3), (3.22)."""
+    for j in range(j0, j1):
+        e, v, w = e0 + uint(j), v0 + uint(j), v0 + uint(j + 1)
+        qw, qx, qy, qz = q[0][e], q[1][e], q[2][e], q[3][e]
+        sx, sy, sz = quat_rotate_inv(qw, qx, qy, qz, x[0][w] - x[0][v], x[1][w] - x[1][v], x[2][w] - x[2][v])
+        nx, ny, nz = -stiff[0][e] * rest[0][e], -stiff[1][e] * rest[1][e], stiff[2][e] * (1.0 - rest[2][e])
+        fx, fy, fz = quat_rotate(qw, qx, qy, qz, nx, ny, nz)
+        force[0][e] += fx
+        force[1][e] += fy
+        force[2][e] += fz
+        cx, cy, cz = cross(sx, sy, sz, nx, ny, nz)
+        tau[0][e] += cx
+        tau[1][e] += cy
+        tau[2][e] += cz
+
+
+@njit(**INLINE)
 def vertex_span(v0, e0, j0, j1, force, f):
     """Update f at the interior vertices j0 .. j1-1 (1 <= j0, j1 <= n) of a line (as
     bend_span) with the difference of the internal forces of the elements on either side (3.2)."""
@@ -167,6 +192,19 @@ def stretch_lines(l0, l1, voff, eoff, x, q, stiff, inv_len, left, right, force, 
 
 
 @njit(**PASS)
+def prestress_lines(l0, l1, voff, eoff, x, q, stiff, rest, force, tau):
+    """Update force and tau of the elements of lines l0 .. l1-1 (prestress_span)."""
+    for l in range(l0, l1):
+        prestress_span(uint(voff[l]), uint(eoff[l]), 0, eoff[l + 1] - eoff[l], x, q, stiff, rest, force, tau)
+
+
+@njit(**INLINE)
+def has_rest_strain(model):
+    """Return whether the model carries a rest strain for every element (an active line)."""
+    return model.element_rest_strain.shape[0] == model.element_rest_length.shape[0] > 0
+
+
+@njit(**PASS)
 def vertex_lines(l0, l1, voff, eoff, force, f):
     """Update f at the interior vertices of lines l0 .. l1-1 (vertex_span; vectorised along
     each line, as bend_lines; finish_line does the end vertices)."""
@@ -207,6 +245,8 @@ def compute_line_block(l0, l1, model, state, loads):
     for l in range(l0, l1):
         bend_ends(l, model, state, vor, q, left, right)
     stretch_lines(l0, l1, voff, eoff, x, q, stiff, model.element_inv_rest_length, left, right, force, tau)
+    if has_rest_strain(model):
+        prestress_lines(l0, l1, voff, eoff, x, q, stiff, columns(model.element_rest_strain), force, tau)
     vertex_lines(l0, l1, voff, eoff, force, f)
     for l in range(l0, l1):
         finish_line(l, voff, eoff, force, f, left, right, loads.end_tau)
@@ -269,6 +309,9 @@ def compute_long_line(l, model, state, loads):
     left, right = columns(loads.bend_left), columns(loads.bend_right)
     bend_ends(l, model, state, vor, q, left, right)
     stretch_parts(v0, e0, 0, n, model, state, loads)
+    if has_rest_strain(model):  # on one thread: a long active line is rare
+        prestress_span(v0, e0, 0, n, columns(state.x), quat_columns(state.q), columns(model.element_stiffness),
+                       columns(model.element_rest_strain), columns(loads.elem_force), columns(loads.tau))
     vertex_parts(v0, e0, 1, n, model, state, loads)
     finish_line(l, voff, eoff, columns(loads.elem_force), columns(loads.f), left, right, loads.end_tau)
 

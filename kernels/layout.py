@@ -42,6 +42,8 @@ class Model(NamedTuple):
     element_rest_length: np.ndarray   # (ne,)
     element_inv_rest_length: np.ndarray  # (ne,) 1 / rest length
     element_stiffness: np.ndarray     # (ne, 3) K = (k G A, k G A, E A), principal frame (3.23)
+    element_rest_strain: np.ndarray   # (ne, 3) rest strain v0, principal frame (3.22), (0, 3) when v0 = d3
+                                      # = (0, 0, 1) everywhere and stays so (no active line changes it)
     element_inertia: np.ndarray       # (ne, 3) rotary inertia rho l (I1, I2, I1 + I2) (3.4)
     element_inv_inertia: np.ndarray   # (ne, 3)
     voronoi_rest_length: np.ndarray   # (nv,) Voronoi length (half an element at the line ends)

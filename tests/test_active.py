@@ -1,4 +1,5 @@
-"""Active lines: a steady muscle torque bends a free line to the curvature M / EI."""
+"""Active lines: a steady muscle torque bends a free line to the curvature M / EI; a rest
+curvature, stretch or shear changing in time, and the work it does."""
 
 import math
 
@@ -93,12 +94,15 @@ def test_rest_curvature_switched_on_slowly_makes_a_free_line_a_circle():
     assert 3.6 < errors[0] / errors[1] < 4.4
 
 
-def actuation_energy_error(fraction):
-    """max |E - W - E(0)| and max |W| over 1000 stable steps of a travelling wave of rest curvature on a
-    free line, no damping, at ``fraction`` of the stable step."""
+CURVATURE_WAVE = dict(curvature=[[0.0, 0.0, 0.0], [3.0, 1.0, 0.5], [0.0, 0.0, 0.0]])
+
+
+def actuation_energy_error(fraction, amplitudes=CURVATURE_WAVE):
+    """max |E - W - E(0)| and max |W| over 1000 stable steps of a travelling wave of rest
+    curvature (or of the ``amplitudes`` given, at the same points) on a free line, no damping,
+    at ``fraction`` of the stable step."""
     net, line = free_rod(8)
-    wave = cosnet.ActiveCurvature(line, curvature=[[0.0, 0.0, 0.0], [3.0, 1.0, 0.5], [0.0, 0.0, 0.0]],
-                                  points=[0.0, 0.5, 1.0], period=0.5, wavelength=0.7)
+    wave = cosnet.ActiveCurvature(line, points=[0.0, 0.5, 1.0], period=0.5, wavelength=0.7, **amplitudes)
     dt = cosnet.Simulation(net, [wave, cosnet.Damping(0.0)]).dt * fraction
     sim = cosnet.Simulation(net, [wave, cosnet.Damping(0.0)], dt=dt)
     e0 = sim.energy()
@@ -231,4 +235,106 @@ schedule = { times = [0.0, 1.0], value = [0.0, 1.0] }
     import tomllib
     with pytest.raises(ValueError, match=r"schedule") as e:
         build_scene(tomllib.loads(scene))
+    assert "\n" not in str(e.value)
+
+
+# ---------------------------------------------------------------- rest stretch and shear
+RAMP = dict(times=[0.0, 1.0], values=[0.0, 1.0])
+EA = RUBBER.E * math.pi * 0.02 ** 2
+
+
+def test_rest_stretch_switched_on_slowly_makes_a_free_line_longer_without_force():
+    """v0 = (1 + e) d3 switched on over 1 s with damping: the free line (no gravity) takes the
+    length (1 + e) L, and no axial force is left in it (n = K (v - v0) -> 0)."""
+    net, line = free_rod(8)
+    grow = cosnet.ActiveCurvature(line, stretch=0.2, schedule=RAMP)
+    sim = cosnet.Simulation(net, [grow, cosnet.Damping(5.0)])
+    sim.run(until=5.0)
+    x = sim.line_positions(line)
+    assert np.linalg.norm(x[-1] - x[0]) == pytest.approx(1.2, rel=1e-8)
+    np.testing.assert_allclose(sim.model.element_rest_strain, [[0.0, 0.0, 1.2]] * 8, rtol=1e-15)
+    assert np.abs(sim.line_fields(line)["force"]).max() < 1e-8 * EA
+    # a net whose rest strain nothing changes carries none, and steps without the pass that adds it
+    plain = cosnet.Simulation(net, [cosnet.ActiveCurvature(line, curvature=(1.0, 0.0, 0.0)), cosnet.Damping(5.0)])
+    assert plain.model.element_rest_strain.shape == (0, 3)
+
+
+def test_rest_stretch_of_a_line_clamped_at_both_ends_is_an_axial_force_minus_ea_e():
+    """Both ends fixed, so the line keeps its length: v = d3 and n = K (d3 - (1 + e) d3) = -EA e
+    along it, exactly (a contraction e < 0 pulls: the line stays straight)."""
+    net = cosnet.Net()
+    a = net.add_node((0.0, 0.0, 0.0), fixed=True, name="a")
+    b = net.add_node((1.0, 0.0, 0.0), fixed=True, name="b")
+    line = net.add_line(a, b, material=RUBBER, section=cosnet.Circle(0.02), elements=8, name="rod")
+    e = -0.15
+    sim = cosnet.Simulation(net, [cosnet.ActiveCurvature(line, stretch=e, ramp_time=0.5), cosnet.Damping(5.0)])
+    sim.run(until=3.0)
+    n = sim.line_fields(line)["force"]
+    np.testing.assert_allclose(n[:, 0], -EA * e, rtol=1e-6)
+    np.testing.assert_allclose(n[:, 1:], 0.0, atol=1e-9 * EA)
+
+
+def test_energy_minus_stretch_and_shear_actuation_work_is_conserved_to_second_order():
+    """A travelling wave of rest stretch and shear: the strain energy each change of v0 adds
+    balances the energy to Verlet's order, as for the rest curvature. It drives the axial and
+    shear modes, whose frequencies set the stable step, so Verlet's error is larger than for a
+    bending wave at the same fraction of that step: a quarter and an eighth of it here."""
+    wave = dict(stretch=[0.0, 0.3, 0.0], shear=[[0.0, 0.0], [0.03, -0.02], [0.0, 0.0]])
+    e1, most = actuation_energy_error(0.25, wave)
+    e2, _ = actuation_energy_error(0.125, wave)
+    assert e1 < 1e-3 * most
+    assert 3.4 < e1 / e2 < 4.8
+
+
+def test_a_rest_stretch_that_could_reach_zero_length_is_refused_in_one_line():
+    """1 + e f(t) > 0 for every value f the time law takes: a wave swings both ways, a ramp
+    passes through 0, a schedule's table, harmonic and rate bound it."""
+    _, line = free_rod(4)
+    for bad in (dict(stretch=-1.0), dict(stretch=-1.2, ramp_time=1.0), dict(stretch=1.0, period=1.0),
+                dict(stretch=[0.0, 0.5, 0.0], points=[0.0, 0.5, 1.0], schedule=dict(amplitude=2.0, omega=3.0)),
+                dict(stretch=0.5, schedule=dict(times=[0.0, 1.0], values=[0.0, -2.0])),
+                dict(stretch=0.01, schedule=dict(rate=-1.0))):
+        with pytest.raises(ValueError, match=r"^ActiveCurvature on .*: stretch .* makes the rest stretch "
+                                             r"1 \+ e = (-inf|[-0-9.e]+) <= 0$"):
+            cosnet.ActiveCurvature(line, **bad)
+    for good in (dict(stretch=3.0, ramp_time=1.0), dict(stretch=-0.9, period=1.0),
+                 dict(stretch=0.5, schedule=dict(times=[0.0, 1.0], values=[0.0, 1.5])),
+                 dict(stretch=0.01, schedule=dict(rate=1.0))):
+        cosnet.ActiveCurvature(line, **good)
+    with pytest.raises(ValueError, match=r"^ActiveCurvature on .*: give curvature, stretch or shear"):
+        cosnet.ActiveCurvature(line)
+
+
+STRETCH_SCENE = """
+[materials.m]
+E = 1e6
+G = 4e5
+density = 1000.0
+[nodes.a]
+position = [0, 0, 0]
+[nodes.b]
+position = [1, 0, 0]
+[lines.rod]
+start = "a"
+end = "b"
+material = "m"
+section = { kind = "circle", radius = 0.02 }
+elements = 4
+[[effects]]
+kind = "active_curvature"
+line = "rod"
+"""
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("stretch = -1.5", r"\(active_curvature\).*stretch -1.5 .* 1 \+ e = -0.5 <= 0"),
+    ("stretch = 0.1\nstreth = 0.2", r"\(active_curvature\).*streth"),
+    ("shear = [0.1]", r"\(active_curvature\) shear: must have shape \(2,\)"),
+    ("stretch = [0.1, 0.2]\npoints = [0.0, 0.5, 1.0]",
+     r"\(active_curvature\).*stretch must give one finite value per point"),
+])
+def test_bad_stretch_keys_in_a_scene_are_refused_in_one_line(extra, message):
+    import tomllib
+    with pytest.raises(ValueError, match=message) as e:
+        build_scene(tomllib.loads(STRETCH_SCENE + extra))
     assert "\n" not in str(e.value)
