@@ -145,7 +145,9 @@ def _obstacle_error(p, model):
     shapes = {"origin": (3,), "axis": (3,), "size": (3,), "rot": (3, 3), "mu_s": (3,), "mu_k": (3,),
               "vprev": (m,), "vnext": (m,), "radius": (m,), "anchor": (m, 3), "mode": (m,),
               "dissipated": (1,), "deepest": (1,), "active": (1,), "tri": (nt, 3, 3), "tri_normal": (nt, 3),
-              "grid_origin": (3,), "grid_dims": (3,)}
+              "grid_origin": (3,), "grid_dims": (3,), "damp": (m, 3), "phase": (1,)}
+    ne = p.elems.shape[0]
+    shapes.update({"elems": (ne, 2), "edata": (ne, 7), "emode": (ne,), "edamp": (ne, 2, 3)})
     for name, shape in shapes.items():
         if getattr(p, name).shape != shape:
             return f"obstacle.{name} has shape {getattr(p, name).shape}, needs {shape}"
@@ -153,6 +155,7 @@ def _obstacle_error(p, model):
     if np.any(dims < 0) or p.cell_start.shape != (int(np.prod(dims)) + 1,):
         return "obstacle: the triangle grid's cell_start does not have one offset per cell and one more"
     return (_index_error("obstacle.verts", p.verts, nv) or _index_error("obstacle.vprev", p.vprev, nv)
+            or _index_error("obstacle.elems", p.elems.ravel(), m)
             or _index_error("obstacle.vnext", p.vnext, nv)
             or _offsets_error("obstacle.cell_start", p.cell_start, p.cell_tri.shape[0])
             or _index_error("obstacle.cell_tri", p.cell_tri, nt))
