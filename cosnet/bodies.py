@@ -180,7 +180,8 @@ class Body(Effect):
             self.mu_k, np.array(verts, np.int64), np.array(vrad, float), np.ascontiguousarray(samples),
             srad, np.array([r[0] for r in rows], np.int64), np.array([r[1] for r in rows], np.int64),
             col(2, (nt, 3)), col(3, (nt, 3)), col(4, (nt, 3)), col(5, (nt, 3, 3)), col(6, (nt,)), np.zeros((count, 3)),
-            np.zeros(count, np.int64), np.array([on.time]), np.zeros(1), np.zeros(1), np.zeros(1, np.int64))
+            np.zeros(count, np.int64), np.array([on.time]), np.zeros(1), np.zeros(1), np.zeros(1, np.int64),
+            np.zeros((count, 6)))
 
     @staticmethod
     def _reach(samples, srad, own) -> float:
@@ -191,8 +192,8 @@ class Body(Effect):
 
     # ------------------------------------------------------------------ reports
     def dissipated(self, sim) -> float:
-        """Energy dissipated by friction so far (J): sim.energy() plus this is conserved
-        while gamma = 0 (the spring energy to the step's first order, see the kernel)."""
+        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
+        is conserved (the friction spring's energy to the step's first order, see the kernel)."""
         return float(self.params(sim).dissipated[0])
 
     def deepest(self, sim) -> float:

@@ -132,6 +132,8 @@ def _contact_error(p, model):
     if pairs and any(_index_error("contact.pair_used", p.pair_used[side, :p.pair_state[1 + side]], pairs)
                      for side in (0, 1)):
         return "contact.pair_used names a slot outside the pair table"
+    if p.damp.shape != ((model.vertex_mass.shape[0] if p.gamma > 0 else 0), 3):
+        return "contact.damp needs one row of 3 per vertex when gamma > 0"
     first = np.repeat(model.line_vertex_offsets[:-1] - model.line_element_offsets[:-1],
                       np.diff(model.line_element_offsets)) + np.arange(ne)
     if np.any(p.elem_index[:, 0] != first):
@@ -167,7 +169,7 @@ def _body_error(p, model):
     m = nl + ns * nt
     shapes = {"vrad": (nl,), "samples": (ns, 3), "srad": (ns,), "tshape": (nt,), "torigin": (nt, 3),
               "taxis": (nt, 3), "tsize": (nt, 3), "trot": (nt, 3, 3), "tbound": (nt,), "delta": (m, 3),
-              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,)}
+              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,), "damp": (m, 6)}
     for name, shape in shapes.items():
         if getattr(p, name).shape != shape:
             return f"body.{name} has shape {getattr(p, name).shape}, needs {shape}"

@@ -25,7 +25,10 @@ current tangent plane. In a splitting step the velocities at a kick are those of
 just ended, so for a translating pair this is exactly the position-based anchor of a static
 obstacle; for a rolling sphere it counts only the slip of the material points in contact.
 The work of the friction force on each slip (and the spring energy left when a contact
-opens) is added to `dissipated`.
+opens) is added to `dissipated`, and so is the dashpots' work: each evaluation keeps every
+contact's dashpot share of its force (normal, clamp included, and a sticking spring's) and
+point; the account kernel, just before and just after each kick, adds minus its power on
+the relative velocity of the two sides there, times half the kick.
 """
 
 import math
@@ -34,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compose import load_kernel
+from .compose import account_kernel, load_kernel
 from .obstacles import FREE, SLIDE, STICK, obstacle_distance
 from .rotations import CACHED, cross, quat_rotate, quat_rotate_inv
 
@@ -81,6 +84,7 @@ class BodyParams(NamedTuple):
     dissipated: np.ndarray   # (1,) energy dissipated by friction (J)
     deepest: np.ndarray      # (1,) largest eps / r met so far (r: the vertex or sample radius, or 1 m at 0)
     active: np.ndarray       # (1,) int64 contacts at the last call
+    damp: np.ndarray         # (nl + ns nt, 6) each contact's dashpot force on its touching side and its point
 
 
 @njit(**CACHED, inline="always")
@@ -137,6 +141,7 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
     the touching side at the contact point and the time dt since the last evaluation; return
     (fx, fy, fz, lost): the force on the touching side and the energy friction dissipated."""
     d, mode, k_t = p.delta, p.mode, p.k_t
+    p.damp[j, 0] = p.damp[j, 1] = p.damp[j, 2] = 0.0
     if not eps > 0.0:
         lost = 0.0
         if mode[j] != FREE:  # the cone shrank to nothing as the contact opened
@@ -156,6 +161,8 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
         ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
     fn = max(p.k * eps - p.gamma * un, 0.0)
     fx, fy, fz, lost = fn * nx, fn * ny, fn * nz, 0.0
+    dn = fn - p.k * eps   # the dashpot's share (the clamp's included), for the account
+    p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = dn * nx, dn * ny, dn * nz
     if k_t > 0.0:
         c_t = p.gamma / k_t
         ex, ey, ez = ax + c_t * tx, ay + c_t * ty, az + c_t * tz
@@ -171,6 +178,10 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
             ex, ey, ez = bx, by, bz
         elif mode[j] == SLIDE:
             mode[j] = STICK
+        if mode[j] == STICK:   # the dashpot beside the sticking spring
+            p.damp[j, 0] -= k_t * (ex - ax)
+            p.damp[j, 1] -= k_t * (ey - ay)
+            p.damp[j, 2] -= k_t * (ez - az)
         fx -= k_t * ex
         fy -= k_t * ey
         fz -= k_t * ez
@@ -203,6 +214,7 @@ def add_body_contacts(p, model, state, loads):
             eps = r - d
         bx, by, bz = point_velocity(nd, state, cx, cy, cz)
         fx, fy, fz, dl = touch(p, j, eps, r, nx, ny, nz, v[i, 0] - bx, v[i, 1] - by, v[i, 2] - bz, dt)
+        p.damp[j, 3], p.damp[j, 4], p.damp[j, 5] = cx, cy, cz
         lost += dl
         if eps > 0.0:
             active += 1
@@ -224,8 +236,9 @@ def add_body_contacts(p, model, state, loads):
             px, py, pz = cx - arm * nx, cy - arm * ny, cz - arm * nz
             ax, ay, az = point_velocity(nd, state, px, py, pz)
             bx, by, bz = point_velocity(other, state, px, py, pz)
-            fx, fy, fz, dl = touch(p, base + s * nt + o, eps, r if r > 0.0 else 1.0, nx, ny, nz,
-                                   ax - bx, ay - by, az - bz, dt)
+            c = base + s * nt + o
+            fx, fy, fz, dl = touch(p, c, eps, r if r > 0.0 else 1.0, nx, ny, nz, ax - bx, ay - by, az - bz, dt)
+            p.damp[c, 3], p.damp[c, 4], p.damp[c, 5] = px, py, pz
             lost += dl
             if eps > 0.0:
                 active += 1
@@ -233,6 +246,33 @@ def add_body_contacts(p, model, state, loads):
                 push_node(other, state, loads, px, py, pz, -fx, -fy, -fz)
     p.dissipated[0] += lost
     p.active[0] = active
+
+
+@account_kernel(BodyParams)
+@njit(**CACHED)
+def account_body_dashpots(p, model, state, hh):
+    """Update p.dissipated by -hh times the power of the last force evaluation's dashpot
+    forces (p.damp: on the touching side at the contact point, the opposite on the other) at
+    the current velocities: on both sides of a kick of 2 hh, the kinetic energy the kick's
+    dashpot share takes."""
+    if not p.gamma > 0.0:
+        return
+    v, damp, nd = state.v, p.damp, p.node
+    nl, nt = p.verts.shape[0], p.tnode.shape[0]
+    power = 0.0
+    for j in range(damp.shape[0]):
+        if damp[j, 0] == 0.0 and damp[j, 1] == 0.0 and damp[j, 2] == 0.0:
+            continue
+        px, py, pz = damp[j, 3], damp[j, 4], damp[j, 5]
+        if j < nl:
+            i = p.verts[j]
+            ax, ay, az = v[i, 0], v[i, 1], v[i, 2]
+            bx, by, bz = point_velocity(nd, state, px, py, pz)
+        else:
+            ax, ay, az = point_velocity(nd, state, px, py, pz)
+            bx, by, bz = point_velocity(p.tnode[(j - nl) % nt], state, px, py, pz)
+        power += damp[j, 0] * (ax - bx) + damp[j, 1] * (ay - by) + damp[j, 2] * (az - bz)
+    p.dissipated[0] -= hh * power
 
 
 @njit(**CACHED)
