@@ -297,7 +297,7 @@ class Obstacle(Effect):
     def sliding(self, sim) -> int:
         """Of those, the ones sliding (the others stick)."""
         p = self.params(sim)
-        return int(np.count_nonzero(p.mode == SLIDE))
+        return int(np.count_nonzero(p.mode == SLIDE) + np.count_nonzero(p.emode == SLIDE))
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:

@@ -111,6 +111,18 @@ def _cell_triangles(p, cell, ax, ay, az, bx, by, bz, best, bt, bq, btri):
     return best, bt, bq, btri
 
 
+@njit(**CACHED, inline="always")
+def _walk_axis(a, w, o, h, n, t0):
+    """Start of a grid walk along one axis from a + t0 w: (cell, step, t of the next cell
+    face, t between faces)."""
+    c = min(max(int(math.floor((a + t0 * w - o) / h)), 0), n - 1)
+    if w > TINY:
+        return c, 1, (o + (c + 1) * h - a) / w, h / w
+    if w < -TINY:
+        return c, -1, (o + c * h - a) / w, -h / w
+    return c, 0, math.inf, math.inf
+
+
 @njit(**CACHED)
 def mesh_segment(p, ax, ay, az, bx, by, bz):
     """Return (t, qx, qy, qz, d2, tri): the segment's point nearest the mesh among the
@@ -135,37 +147,35 @@ def mesh_segment(p, ax, ay, az, bx, by, bz):
         t0, t1 = max(t0, ta), min(t1, tb)
     if not t0 <= t1:
         return 0.0, 0.0, 0.0, 0.0, FAR, -1
-    cell_ = [0, 0, 0]
-    step = [0, 0, 0]
-    t_next = [math.inf, math.inf, math.inf]
-    t_delta = [math.inf, math.inf, math.inf]
-    for k in range(3):
-        y = (start[k] + t0 * w[k] - o[k]) / h
-        c = min(max(int(math.floor(y)), 0), dims[k] - 1)
-        cell_[k] = c
-        if w[k] > TINY:
-            step[k] = 1
-            t_next[k] = (o[k] + (c + 1) * h - start[k]) / w[k]
-            t_delta[k] = h / w[k]
-        elif w[k] < -TINY:
-            step[k] = -1
-            t_next[k] = (o[k] + c * h - start[k]) / w[k]
-            t_delta[k] = -h / w[k]
+    # the walk's state per axis, in scalars (nothing is allocated in a step)
+    ix, sx, nx_, dx_ = _walk_axis(ax, bx - ax, o[0], h, dims[0], t0)
+    iy, sy, ny_, dy_ = _walk_axis(ay, by - ay, o[1], h, dims[1], t0)
+    iz, sz, nz_, dz_ = _walk_axis(az, bz - az, o[2], h, dims[2], t0)
     best, bt, bq, btri = FAR, 0.0, (0.0, 0.0, 0.0), -1
     for _ in range(dims[0] + dims[1] + dims[2] + 3):
-        cell = cell_[0] + dims[0] * (cell_[1] + dims[1] * cell_[2])
+        cell = ix + dims[0] * (iy + dims[1] * iz)
         best, bt, bq, btri = _cell_triangles(p, cell, ax, ay, az, bx, by, bz, best, bt, bq, btri)
-        k = 0
-        if t_next[1] < t_next[k]:
-            k = 1
-        if t_next[2] < t_next[k]:
-            k = 2
-        if not t_next[k] <= t1:
-            break
-        cell_[k] += step[k]
-        if cell_[k] < 0 or cell_[k] >= dims[k]:
-            break
-        t_next[k] += t_delta[k]
+        if nx_ <= ny_ and nx_ <= nz_:
+            if not nx_ <= t1:
+                break
+            ix += sx
+            nx_ += dx_
+            if ix < 0 or ix >= dims[0]:
+                break
+        elif ny_ <= nz_:
+            if not ny_ <= t1:
+                break
+            iy += sy
+            ny_ += dy_
+            if iy < 0 or iy >= dims[1]:
+                break
+        else:
+            if not nz_ <= t1:
+                break
+            iz += sz
+            nz_ += dz_
+            if iz < 0 or iz >= dims[2]:
+                break
     return bt, bq[0], bq[1], bq[2], best, btri
 
 
