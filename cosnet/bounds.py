@@ -165,11 +165,12 @@ def _obstacle_error(p, model):
 
 def _body_error(p, model):
     nv, nn = model.vertex_mass.shape[0], model.node_mass.shape[0]
-    nl, ns, nt = p.verts.shape[0], p.samples.shape[0], p.tnode.shape[0]
-    m = nl + ns * nt
+    nl, ns, nt, ne = p.verts.shape[0], p.samples.shape[0], p.tnode.shape[0], p.elems.shape[0]
+    m = nl + ns * nt + ne
     shapes = {"vrad": (nl,), "samples": (ns, 3), "srad": (ns,), "tshape": (nt,), "torigin": (nt, 3),
               "taxis": (nt, 3), "tsize": (nt, 3), "trot": (nt, 3, 3), "tbound": (nt,), "delta": (m, 3),
-              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,), "damp": (m, 6)}
+              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,), "damp": (m, 6),
+              "elems": (ne, 2), "eparam": (ne, 8)}
     for name, shape in shapes.items():
         if getattr(p, name).shape != shape:
             return f"body.{name} has shape {getattr(p, name).shape}, needs {shape}"
@@ -178,7 +179,7 @@ def _body_error(p, model):
     bad = p.tnode[(p.tnode < -1) | (p.tnode >= nn)]
     if bad.size:
         return f"body.tnode holds {bad[0]}, outside [-1, {nn}) (-1: a static obstacle)"
-    return _index_error("body.verts", p.verts, nv)
+    return _index_error("body.verts", p.verts, nv) or _index_error("body.elems", p.elems.ravel(), nl)
 def _muscle_error(p, nl):
     m = p.lines.shape[0]
     if p.offsets.shape != (m + 1,) or p.s.shape != p.amplitude.shape:

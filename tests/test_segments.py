@@ -59,15 +59,17 @@ def supports(shape, tmp_path, k=1e4, gamma=0.0, **kw):
     return out
 
 
-def contact_force(sim, obstacles, h=1e-9):
+def contact_force(sim, obstacles, nodes, h=1e-9):
     """The obstacles' total vertical force on the line: minus the slope of their potential
-    as the whole line is lifted (each vertex and node position by the same dz)."""
+    as the whole line is lifted (each vertex and its end nodes by the same dz)."""
+    ends = [nd.index for nd in nodes]
+
     def potential(dz):
         sim.state.x[:, 2] += dz
-        sim.state.node_x[:, 2] += dz
+        sim.state.node_x[ends, 2] += dz
         e = sum(ob.potential_energy(sim) for ob in obstacles)
         sim.state.x[:, 2] -= dz
-        sim.state.node_x[:, 2] -= dz
+        sim.state.node_x[ends, 2] -= dz
         return e
     return -(potential(h) - potential(-h)) / (2 * h)
 
@@ -75,7 +77,7 @@ def contact_force(sim, obstacles, h=1e-9):
 @pytest.mark.parametrize("shape", ["capsule", "sphere", "box", "mesh"])
 def test_a_line_rests_on_features_smaller_than_its_elements(shape, tmp_path):
     obstacles = supports(shape, tmp_path)
-    sim, rope, _ = line([cosnet.Gravity((0.0, 0.0, -G)), cosnet.Damping(60.0), *obstacles], height=R + 1e-3)
+    sim, rope, nodes = line([cosnet.Gravity((0.0, 0.0, -G)), cosnet.Damping(60.0), *obstacles], height=R + 1e-3)
     sim.run(until=0.4)
     x = sim.line_positions(rope)
     weight = STIFF.density * math.pi * R * R * LENGTH * G
@@ -86,7 +88,70 @@ def test_a_line_rests_on_features_smaller_than_its_elements(shape, tmp_path):
     deepest = max(ob.deepest(sim) for ob in obstacles)
     assert 0.0 < deepest < 0.1   # the overlap: a tenth of the radius at most (weight / 2k ~ 0.02 R)
     assert np.max(np.abs(sim.line_velocities(rope))) < 1e-4   # at rest
-    assert contact_force(sim, obstacles) == pytest.approx(weight, rel=0.01)
+    assert contact_force(sim, obstacles, nodes) == pytest.approx(weight, rel=0.01)
+
+
+def body_supports(net, shape):
+    """Two fixed nodes under x = -0.1 and 0.1 carrying small shapes with tops at z = 0."""
+    out = []
+    for x in SUPPORTS:
+        nd = net.add_node((x, 0.0, -0.003), fixed=True)
+        if shape == "sphere":
+            out.append(cosnet.Body(nd, "sphere", radius=0.003, k=1e4))
+        elif shape == "capsule":
+            out.append(cosnet.Body(nd, "capsule", start=(0, -0.05, 0), end=(0, 0.05, 0), radius=0.003, k=1e4))
+        else:   # turned 45 degrees about y: an edge along y on top
+            c = math.cos(math.pi / 4)
+            out.append(cosnet.Body(nd, "box", center=(0, 0, 0.003 - 0.002 * math.sqrt(2)),
+                                   half_size=(0.002, 0.05, 0.002), axes=[[c, 0, c], [0, 1, 0], [-c, 0, c]], k=1e4))
+    return out
+
+
+@pytest.mark.parametrize("shape", ["sphere", "capsule", "box"])
+def test_a_line_rests_on_body_shapes_smaller_than_its_elements(shape):
+    net = cosnet.Net()
+    a, b = net.add_node((-LENGTH / 2, 0.0, R + 1e-3)), net.add_node((LENGTH / 2, 0.0, R + 1e-3))
+    rope = net.add_line(a, b, material=STIFF, section=cosnet.Circle(R), elements=3, name="rope")
+    bodies = body_supports(net, shape)
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity((0.0, 0.0, -G)), cosnet.Damping(60.0), *bodies])
+    sim.run(until=0.4)
+    x = sim.line_positions(rope)
+    assert np.all(x[:, 2] > R * 0.9)
+    over = R - np.interp(SUPPORTS, x[:, 0], x[:, 2])   # the overlap over each support's top
+    assert np.all(over > 0.0) and np.all(over < 0.1 * R)
+    assert np.max(np.abs(sim.line_velocities(rope))) < 1e-4
+    weight = STIFF.density * math.pi * R * R * LENGTH * G
+    assert contact_force(sim, bodies, (a, b)) == pytest.approx(weight, rel=0.01)
+
+
+def test_a_line_thrown_across_a_free_ball_exchanges_momentum_exactly():
+    """A ball (a rigid body) hit by an element's interior takes exactly the momentum the line
+    loses, and energy plus the dashpot's dissipation is conserved at second order."""
+    def run(dt):
+        net = cosnet.Net()
+        a, b = net.add_node((-LENGTH / 2, 0.0, 0.02)), net.add_node((LENGTH / 2, 0.0, 0.02))
+        rope = net.add_line(a, b, material=STIFF, section=cosnet.Circle(R), elements=3, name="rope")
+        ball = net.add_node((0.02, 0.0, 0.0), mass=0.01, inertia=(1e-7,) * 3)
+        body = cosnet.Body(ball, "sphere", radius=0.004, k=1e5, gamma=0.5)
+        sim = cosnet.Simulation(net, effects=[body], dt=dt)
+        sim.line_velocities(rope)[:] = (0.0, 0.0, -2.0)
+        for nd in (a, b):
+            sim.node_velocity(nd)[:] = (0.0, 0.0, -2.0)
+
+        m = sim.model
+        free, fin = m.vertex_inv_mass > 0, np.isfinite(m.node_mass)
+
+        def momentum():   # the free vertices and the nodes (line ends' shares included)
+            return m.vertex_mass[free] @ sim.state.v[free] + m.node_mass[fin] @ sim.state.node_v[fin]
+        p0, e0, worst = momentum(), sim.energy(), 0.0
+        for i in range(40):
+            sim.run(until=0.0003 * (i + 1))
+            worst = max(worst, abs(sim.energy() + body.dissipated(sim) - e0))
+        assert sim.node_velocity(ball)[2] < -0.5 and body.dissipated(sim) > 0   # it was hit
+        np.testing.assert_allclose(momentum(), p0, atol=1e-12 * np.abs(p0).max())
+        return worst / e0
+    err, err_half = run(2e-6), run(1e-6)
+    assert err < 1e-3 and 3.5 < err / err_half < 4.5
 
 
 def throw_on_rod(dt, gamma=0.0, speed=2.0):
@@ -165,3 +230,27 @@ def test_a_checkpoint_carries_the_element_springs(tmp_path):
     assert whole.effects[1].params(whole).emode.max() > 0   # the element contacts had springs
     assert sum(e.dissipated(resumed) for e in resumed.effects[1:]) == sum(e.dissipated(whole)
                                                                          for e in whole.effects[1:]) > 0
+
+
+def test_the_line_line_dashpots_work_is_counted_to_second_order():
+    """Two crossing lines, one thrown onto the other, with a damped contact and no friction:
+    energy + dissipated is conserved with Verlet's error, the dashpot's share included."""
+    def run(dt):
+        net = cosnet.Net()
+        a, b = net.add_node((-LENGTH / 2, 0.0, 0.0)), net.add_node((LENGTH / 2, 0.0, 0.0))
+        c, d = net.add_node((0.03, -LENGTH / 2, 2 * R + 0.005)), net.add_node((0.03, LENGTH / 2, 2 * R + 0.005))
+        net.add_line(a, b, material=STIFF, section=cosnet.Circle(R), elements=3, name="low")
+        top = net.add_line(c, d, material=STIFF, section=cosnet.Circle(R), elements=3, name="top")
+        contact = cosnet.Contact(k=1e5, gamma=2.0)
+        sim = cosnet.Simulation(net, effects=[contact], dt=dt)
+        sim.line_velocities(top)[:] = (0.0, 0.0, -2.0)
+        for nd in (c, d):
+            sim.node_velocity(nd)[:] = (0.0, 0.0, -2.0)
+        e0, worst = sim.energy(), 0.0
+        for i in range(40):
+            sim.run(until=0.0002 * (i + 1))
+            worst = max(worst, abs(sim.energy() + contact.dissipated(sim) - e0))
+        assert contact.dissipated(sim) > 0.02 * e0   # the dashpot took its share
+        return worst / e0
+    err, err_half = run(2e-6), run(1e-6)
+    assert err < 1e-3 and 3.5 < err / err_half < 4.5
