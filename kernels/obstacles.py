@@ -24,9 +24,10 @@ cosnet.kernels.segments, so kinetic + elastic + penalty + spring energy + dissip
 conserved (to the integrator's error).
 
 Forces act at the vertex centres (no rolling resistance). The elements between vertices
-meet the obstacle too (cosnet.kernels.segments, whose kernel calls this one). Mesh triangles are binned once into a uniform grid
-whose cells hold every triangle within the largest radius of them, so a vertex scans one
-cell; a vertex outside the grid touches nothing.
+meet the obstacle too (cosnet.kernels.segments, whose kernel calls this one). Mesh
+triangles are binned once into a uniform grid whose cells hold every triangle within the
+largest radius of them, so a vertex scans one cell; a vertex outside the grid touches
+nothing.
 """
 
 import math
