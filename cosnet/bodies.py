@@ -38,8 +38,8 @@ class Body(Effect):
       "capsule": start, end, radius
       "box":     half_size, center, axes (columns in the node's frame; default its axes)
 
-    It meets the vertices of ``lines`` (names or Line objects; default every line not ending
-    at the node), the static ``obstacles`` named (their ``name``: planes, spheres, capsules,
+    It meets the vertices and elements of ``lines`` (names or Line objects; default every
+    line not ending at the node), the static ``obstacles`` named (their ``name``: planes, spheres, capsules,
     boxes) and the shapes of the ``bodies`` named (the names of their nodes), with the static
     obstacles' normal law (k, gamma) and isotropic Coulomb friction (mu_s, mu_k, k_t; the one
     not given equals the other, neither: none). Each force acts with its reaction on the node
@@ -155,9 +155,10 @@ class Body(Effect):
     def bind(self, on: Binding) -> BodyParams:
         on.check_node(self.node, "Body")
         m = on.model
-        verts, vrad = [], []
+        verts, vrad, elems = [], [], []
         for line in self._lines(on):
             v0, v1 = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
+            elems += [(len(verts) + j, len(verts) + j + 1) for j in range(v1 - v0 - 1)]
             for i in range(v0, v1):
                 verts.append(i)
                 vrad.append(line.section_at((i - v0) / (v1 - v0 - 1)).radius)
@@ -174,13 +175,14 @@ class Body(Effect):
         nt = len(rows)
         col = lambda i, shape: np.array([r[i] for r in rows], dtype=float).reshape(shape)  # noqa: E731
         own = _shape(*self._posed(on))
-        count = len(verts) + len(samples) * nt
+        count = len(verts) + len(samples) * nt + len(elems)
         return BodyParams(
             self.node.index, own, self._reach(samples, srad, own), self.k, self.gamma, self.k_t, self.mu_s,
             self.mu_k, np.array(verts, np.int64), np.array(vrad, float), np.ascontiguousarray(samples),
             srad, np.array([r[0] for r in rows], np.int64), np.array([r[1] for r in rows], np.int64),
             col(2, (nt, 3)), col(3, (nt, 3)), col(4, (nt, 3)), col(5, (nt, 3, 3)), col(6, (nt,)), np.zeros((count, 3)),
-            np.zeros(count, np.int64), np.array([on.time]), np.zeros(1), np.zeros(1), np.zeros(1, np.int64))
+            np.zeros(count, np.int64), np.array([on.time]), np.zeros(1), np.zeros(1), np.zeros(1, np.int64),
+            np.zeros((count, 6)), np.array(elems, np.int64).reshape(-1, 2), np.zeros((len(elems), 8)))
 
     @staticmethod
     def _reach(samples, srad, own) -> float:
@@ -191,8 +193,8 @@ class Body(Effect):
 
     # ------------------------------------------------------------------ reports
     def dissipated(self, sim) -> float:
-        """Energy dissipated by friction so far (J): sim.energy() plus this is conserved
-        while gamma = 0 (the spring energy to the step's first order, see the kernel)."""
+        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
+        is conserved (the friction spring's energy to the step's first order, see the kernel)."""
         return float(self.params(sim).dissipated[0])
 
     def deepest(self, sim) -> float:
@@ -214,7 +216,7 @@ class Body(Effect):
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
         return {"delta": p.delta, "mode": p.mode, "last": p.last, "dissipated": p.dissipated,
-                "deepest": p.deepest}
+                "deepest": p.deepest, "eparam": p.eparam}
 
     @staticmethod
     def _inv_mass(on: Binding, nd: int, arm: float) -> float:

@@ -136,6 +136,8 @@ def _contact_error(p, model):
     if pairs and any(_index_error("contact.pair_used", p.pair_used[side, :p.pair_state[1 + side]], pairs)
                      for side in (0, 1)):
         return "contact.pair_used names a slot outside the pair table"
+    if p.damp.shape != ((model.vertex_mass.shape[0] if p.gamma > 0 else 0), 3):
+        return "contact.damp needs one row of 3 per vertex when gamma > 0"
     first = np.repeat(model.line_vertex_offsets[:-1] - model.line_element_offsets[:-1],
                       np.diff(model.line_element_offsets)) + np.arange(ne)
     if np.any(p.elem_index[:, 0] != first):
@@ -149,7 +151,9 @@ def _obstacle_error(p, model):
     shapes = {"origin": (3,), "axis": (3,), "size": (3,), "rot": (3, 3), "mu_s": (3,), "mu_k": (3,),
               "vprev": (m,), "vnext": (m,), "radius": (m,), "anchor": (m, 3), "mode": (m,),
               "dissipated": (1,), "deepest": (1,), "active": (1,), "tri": (nt, 3, 3), "tri_normal": (nt, 3),
-              "grid_origin": (3,), "grid_dims": (3,)}
+              "grid_origin": (3,), "grid_dims": (3,), "damp": (m, 3), "phase": (1,)}
+    ne = p.elems.shape[0]
+    shapes.update({"elems": (ne, 2), "edata": (ne, 7), "emode": (ne,), "edamp": (ne, 2, 3)})
     for name, shape in shapes.items():
         if getattr(p, name).shape != shape:
             return f"obstacle.{name} has shape {getattr(p, name).shape}, needs {shape}"
@@ -157,6 +161,7 @@ def _obstacle_error(p, model):
     if np.any(dims < 0) or p.cell_start.shape != (int(np.prod(dims)) + 1,):
         return "obstacle: the triangle grid's cell_start does not have one offset per cell and one more"
     return (_index_error("obstacle.verts", p.verts, nv) or _index_error("obstacle.vprev", p.vprev, nv)
+            or _index_error("obstacle.elems", p.elems.ravel(), m)
             or _index_error("obstacle.vnext", p.vnext, nv)
             or _offsets_error("obstacle.cell_start", p.cell_start, p.cell_tri.shape[0])
             or _index_error("obstacle.cell_tri", p.cell_tri, nt))
@@ -164,11 +169,12 @@ def _obstacle_error(p, model):
 
 def _body_error(p, model):
     nv, nn = model.vertex_mass.shape[0], model.node_mass.shape[0]
-    nl, ns, nt = p.verts.shape[0], p.samples.shape[0], p.tnode.shape[0]
-    m = nl + ns * nt
+    nl, ns, nt, ne = p.verts.shape[0], p.samples.shape[0], p.tnode.shape[0], p.elems.shape[0]
+    m = nl + ns * nt + ne
     shapes = {"vrad": (nl,), "samples": (ns, 3), "srad": (ns,), "tshape": (nt,), "torigin": (nt, 3),
               "taxis": (nt, 3), "tsize": (nt, 3), "trot": (nt, 3, 3), "tbound": (nt,), "delta": (m, 3),
-              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,)}
+              "mode": (m,), "last": (1,), "dissipated": (1,), "deepest": (1,), "active": (1,), "damp": (m, 6),
+              "elems": (ne, 2), "eparam": (ne, 8)}
     for name, shape in shapes.items():
         if getattr(p, name).shape != shape:
             return f"body.{name} has shape {getattr(p, name).shape}, needs {shape}"
@@ -177,7 +183,7 @@ def _body_error(p, model):
     bad = p.tnode[(p.tnode < -1) | (p.tnode >= nn)]
     if bad.size:
         return f"body.tnode holds {bad[0]}, outside [-1, {nn}) (-1: a static obstacle)"
-    return _index_error("body.verts", p.verts, nv)
+    return _index_error("body.verts", p.verts, nv) or _index_error("body.elems", p.elems.ravel(), nl)
 def _muscle_error(p, nl):
     m = p.lines.shape[0]
     if p.offsets.shape != (m + 1,) or p.s.shape != p.amplitude.shape:

@@ -149,7 +149,8 @@ class Contact(Effect):
             np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3), np.int64),
             np.zeros(count, np.int64), np.zeros((count, 3), np.int64), np.zeros((count, 3)), np.zeros(count),
             self.k_t, np.full(3, self.mu_s), np.full(3, self.mu_k), np.full((2, pairs, 3), -1, np.int64),
-            np.zeros((2, pairs, 8)), np.zeros((2, pairs), np.int64), np.zeros(3, np.int64), np.zeros(1))
+            np.zeros((2, pairs, 8)), np.zeros((2, pairs), np.int64), np.zeros(3, np.int64), np.zeros(1),
+            np.zeros((m.vertex_mass.shape[0] if self.gamma > 0 else 0, 3)))
         return p
 
     def _node_gaps(self, m, x, nn) -> np.ndarray:
@@ -183,8 +184,8 @@ class Contact(Effect):
         return int(self.params(sim).active[0])
 
     def dissipated(self, sim) -> float:
-        """Energy dissipated by friction so far (J): sim.energy() plus this is conserved
-        while gamma = 0."""
+        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
+        is conserved."""
         return float(self.params(sim).dissipated[0])
 
     def sliding(self, sim) -> int:

@@ -15,8 +15,9 @@ from .net import Line
 from .registry import Binding, Effect, Key
 from .scene_values import (DAMPING, LENGTH, STIFFNESS, choice, coefficients, direction, frame, nonnegative,
                            positive, string, vec3)
-from .kernels import obstacles as _obstacle_kernels  # noqa: F401  (registers the obstacle kernel)
+from .kernels import segments as _obstacle_kernels  # noqa: F401  (registers the obstacle kernels)
 from .kernels.obstacles import SHAPES, SLIDE, ObstacleParams, obstacle_energy
+from .kernels.segments import element_energy
 
 GRID_CELLS = 4_000_000  # the mesh grid's cell size grows until it has at most this many cells
 
@@ -249,10 +250,12 @@ class Obstacle(Effect):
 
     def bind(self, on: Binding) -> ObstacleParams:
         m = on.model
-        verts, prev, nxt, radius = [], [], [], []
+        verts, prev, nxt, radius, elems = [], [], [], [], []
         for line in self._lines(on):
             v0, v1 = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
             n = v1 - v0 - 1
+            if self.shape != "plane":   # a capsule's deepest point in a half-space is an end
+                elems += [(len(verts) + j, len(verts) + j + 1) for j in range(n)]
             for i in range(v0, v1):
                 verts.append(i)
                 prev.append(max(i - 1, v0))
@@ -273,12 +276,14 @@ class Obstacle(Effect):
             np.ascontiguousarray(tri), normal, *grid, self.k, self.gamma, self.k_t,
             self.mu_s.copy(), self.mu_k.copy(), np.array(verts, np.int64), np.array(prev, np.int64),
             np.array(nxt, np.int64), np.array(radius, float), np.zeros((count, 3)), np.zeros(count, np.int64),
-            np.zeros(1), np.zeros(1), np.zeros(1, np.int64))
+            np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.array(elems, np.int64).reshape(-1, 2),
+            np.zeros((len(elems), 7)), np.zeros(len(elems), np.int64), np.zeros((len(elems), 2, 3)),
+            np.zeros((count, 3)), np.zeros(1, np.int64))
 
     # ------------------------------------------------------------------ reports
     def dissipated(self, sim) -> float:
-        """Energy dissipated by friction so far (J): sim.energy() plus this is conserved
-        while gamma = 0."""
+        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
+        is conserved."""
         return float(self.params(sim).dissipated[0])
 
     def deepest(self, sim) -> float:
@@ -286,21 +291,22 @@ class Obstacle(Effect):
         return float(self.params(sim).deepest[0])
 
     def active_contacts(self, sim) -> int:
-        """Vertices touching the obstacle at the last force evaluation."""
+        """Vertices and elements touching the obstacle at the last force evaluation."""
         return int(self.params(sim).active[0])
 
     def sliding(self, sim) -> int:
         """Of those, the ones sliding (the others stick)."""
         p = self.params(sim)
-        return int(np.count_nonzero(p.mode == SLIDE))
+        return int(np.count_nonzero(p.mode == SLIDE) + np.count_nonzero(p.emode == SLIDE))
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
-        return float(obstacle_energy(p, on.state))
+        return float(obstacle_energy(p, on.state) + element_energy(p, on.state))
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
-        return {"anchor": p.anchor, "mode": p.mode, "dissipated": p.dissipated, "deepest": p.deepest}
+        return {"anchor": p.anchor, "mode": p.mode, "dissipated": p.dissipated, "deepest": p.deepest,
+                "edata": p.edata, "emode": p.emode}
 
     def omega2(self, p, on: Binding) -> float:
         """max(k, k_t) / m_min: the smallest free mass on the stiffer of the normal and

@@ -8,6 +8,10 @@ static obstacle; linear and angular momentum are exchanged exactly.
 
   line vertex (centre c, radius r) against the body's shape: P = c (the vertex takes no
       torque, so the body's torque arm ends at c too);
+  line element reaching deeper into the shape than its ends (cosnet.kernels.segments: the
+      excess overlap eps_int beyond the end vertices'): the force F at its deepest point
+      c(t*), shared (1 - t*, t*) by its vertices, less the normal force fn n_s on the end
+      whose overlap is subtracted; the body takes -F at c(t*) and fn n_s at that end;
   a sample sphere of the body (centre s, radius r) against a target's shape (a static
       obstacle, or another body's shape posed by its node): P the middle of the overlap,
       s - (r - eps/2) n. The samples: a sphere's centre, a capsule's two end centres, a
@@ -25,7 +29,10 @@ current tangent plane. In a splitting step the velocities at a kick are those of
 just ended, so for a translating pair this is exactly the position-based anchor of a static
 obstacle; for a rolling sphere it counts only the slip of the material points in contact.
 The work of the friction force on each slip (and the spring energy left when a contact
-opens) is added to `dissipated`.
+opens) is added to `dissipated`, and so is the dashpots' work: each evaluation keeps every
+contact's dashpot share of its force (normal, clamp included, and a sticking spring's) and
+point; the account kernel, just before and just after each kick, adds minus its power on
+the relative velocity of the two sides there, times half the kick.
 """
 
 import math
@@ -34,9 +41,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compose import load_kernel
+from .compose import account_kernel, load_kernel
 from .obstacles import FREE, SLIDE, STICK, obstacle_distance
 from .rotations import CACHED, cross, quat_rotate, quat_rotate_inv
+from .segments import deepest_point
 
 
 class BodyShape(NamedTuple):
@@ -75,12 +83,16 @@ class BodyParams(NamedTuple):
     tsize: np.ndarray        # (nt, 3)
     trot: np.ndarray         # (nt, 3, 3)
     tbound: np.ndarray       # (nt,) radius enclosing a target body's shape about its centre of mass
-    delta: np.ndarray        # (nl + ns nt, 3) tangential spring displacements (lab)
-    mode: np.ndarray         # (nl + ns nt,) int64 FREE, STICK or SLIDE
+    delta: np.ndarray        # (nc, 3) tangential spring displacements (lab): nc = nl + ns nt + ne
+    mode: np.ndarray         # (nc,) int64 FREE, STICK or SLIDE
     last: np.ndarray         # (1,) time of the last force evaluation
     dissipated: np.ndarray   # (1,) energy dissipated by friction (J)
     deepest: np.ndarray      # (1,) largest eps / r met so far (r: the vertex or sample radius, or 1 m at 0)
     active: np.ndarray       # (1,) int64 contacts at the last call
+    damp: np.ndarray         # (nc, 6) each contact's dashpot force on its touching side and its point
+    elems: np.ndarray        # (ne, 2) int64 the lines' elements: their two vertices' rows in verts
+    eparam: np.ndarray       # (ne, 8) element contacts at the last call: t*, subtracted end (-1, 0, 1),
+                             # deepest point's normal (3), the subtracted end's normal (3)
 
 
 @njit(**CACHED, inline="always")
@@ -137,6 +149,7 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
     the touching side at the contact point and the time dt since the last evaluation; return
     (fx, fy, fz, lost): the force on the touching side and the energy friction dissipated."""
     d, mode, k_t = p.delta, p.mode, p.k_t
+    p.damp[j, 0] = p.damp[j, 1] = p.damp[j, 2] = 0.0
     if not eps > 0.0:
         lost = 0.0
         if mode[j] != FREE:  # the cone shrank to nothing as the contact opened
@@ -156,6 +169,8 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
         ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
     fn = max(p.k * eps - p.gamma * un, 0.0)
     fx, fy, fz, lost = fn * nx, fn * ny, fn * nz, 0.0
+    dn = fn - p.k * eps   # the dashpot's share (the clamp's included), for the account
+    p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = dn * nx, dn * ny, dn * nz
     if k_t > 0.0:
         c_t = p.gamma / k_t
         ex, ey, ez = ax + c_t * tx, ay + c_t * ty, az + c_t * tz
@@ -171,11 +186,105 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
             ex, ey, ez = bx, by, bz
         elif mode[j] == SLIDE:
             mode[j] = STICK
+        if mode[j] == STICK:   # the dashpot beside the sticking spring
+            p.damp[j, 0] -= k_t * (ex - ax)
+            p.damp[j, 1] -= k_t * (ey - ay)
+            p.damp[j, 2] -= k_t * (ez - az)
         fx -= k_t * ex
         fy -= k_t * ey
         fz -= k_t * ez
     d[j, 0], d[j, 1], d[j, 2] = ax, ay, az
     return fx, fy, fz, lost
+
+
+@njit(**CACHED)
+def body_element_overlap(p, state, e):
+    """Return (eps_int, t, nx, ny, nz, side, sx, sy, sz): element e's excess overlap with the
+    body's shape beyond its end vertices' (<= 0: none; cosnet.kernels.segments), the deepest
+    point's parameter and lab normal, the end whose overlap is subtracted (-1: none) and that
+    end's normal."""
+    nothing = (-1.0, 0.0, 0.0, 0.0, 1.0, -1, 0.0, 0.0, 1.0)
+    ja, jb = p.elems[e, 0], p.elems[e, 1]
+    m = p.verts.shape[0]
+    if not (0 <= ja < m and 0 <= jb < m):
+        return nothing
+    nd, x = p.node, state.x
+    ia, ib = p.verts[ja], p.verts[jb]
+    ra, rb = p.vrad[ja], p.vrad[jb]
+    q, xc = state.node_q[nd], state.node_x[nd]
+    ax, ay, az = quat_rotate_inv(q[0], q[1], q[2], q[3], x[ia, 0] - xc[0], x[ia, 1] - xc[1], x[ia, 2] - xc[2])
+    bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], x[ib, 0] - xc[0], x[ib, 1] - xc[1], x[ib, 2] - xc[2])
+    reach = max(ra, rb)
+    wx, wy, wz = bx - ax, by - ay, bz - az
+    ww = wx * wx + wy * wy + wz * wz
+    s = min(max(-(ax * wx + ay * wy + az * wz) / ww, 0.0), 1.0) if ww > 0.0 else 0.0
+    if (ax + s * wx) ** 2 + (ay + s * wy) ** 2 + (az + s * wz) ** 2 > (p.bound + reach) ** 2:
+        return nothing
+    t, d, nx, ny, nz = deepest_point(p.own, ax, ay, az, bx, by, bz, reach)
+    deep = (1.0 - t) * ra + t * rb - d
+    if not (deep > 0.0 and 0.0 < t < 1.0):
+        return nothing
+    nx, ny, nz = quat_rotate(q[0], q[1], q[2], q[3], nx, ny, nz)
+    da, nax, nay, naz = posed_distance(p.own, nd, state, x[ia, 0], x[ia, 1], x[ia, 2])
+    db, nbx, nby, nbz = posed_distance(p.own, nd, state, x[ib, 0], x[ib, 1], x[ib, 2])
+    ea, eb = ra - da, rb - db
+    if ea >= eb and ea > 0.0:
+        return deep - ea, t, nx, ny, nz, 0, nax, nay, naz
+    if eb > 0.0:
+        return deep - eb, t, nx, ny, nz, 1, nbx, nby, nbz
+    return deep, t, nx, ny, nz, -1, 0.0, 0.0, 1.0
+
+
+@njit(**CACHED)
+def add_element_contacts(p, state, loads, base, dt):
+    """Update loads.f, loads.node_f, loads.node_tau and contacts base.. of p given the
+    positions and velocities: the excess contact of every element reaching deeper into the
+    body's shape than its ends, the gradient of k eps_int^2 / 2 (the line's point c(t*) along
+    n*, less the subtracted end's normal on that end; the opposite on the body at both
+    points), damped on the rate of eps_int, with the shape's friction at c(t*). Return
+    (energy friction dissipated, contacts)."""
+    nd, x, v, f = p.node, state.x, state.v, loads.f
+    lost, active = 0.0, 0
+    for e in range(p.elems.shape[0]):
+        eps, t, nx, ny, nz, side, sx, sy, sz = body_element_overlap(p, state, e)
+        j = base + e
+        ia, ib = p.verts[p.elems[e, 0]], p.verts[p.elems[e, 1]]
+        cx, cy, cz = (1.0 - t) * x[ia, 0] + t * x[ib, 0], (1.0 - t) * x[ia, 1] + t * x[ib, 1], \
+            (1.0 - t) * x[ia, 2] + t * x[ib, 2]
+        wx, wy, wz = point_velocity(nd, state, cx, cy, cz)
+        ux = (1.0 - t) * v[ia, 0] + t * v[ib, 0] - wx
+        uy = (1.0 - t) * v[ia, 1] + t * v[ib, 1] - wy
+        uz = (1.0 - t) * v[ia, 2] + t * v[ib, 2] - wz
+        i_s = ia if side == 0 else ib
+        if side >= 0:   # the rate of eps_int: the subtracted end's approach taken off
+            px, py, pz = x[i_s, 0], x[i_s, 1], x[i_s, 2]
+            wx, wy, wz = point_velocity(nd, state, px, py, pz)
+            us = sx * (v[i_s, 0] - wx) + sy * (v[i_s, 1] - wy) + sz * (v[i_s, 2] - wz)
+            ux, uy, uz = ux - us * nx, uy - us * ny, uz - us * nz
+        # deepest stays the vertices' and samples' overlap (an infinite scale leaves it)
+        fx, fy, fz, dl = touch(p, j, eps, math.inf, nx, ny, nz, ux, uy, uz, dt)
+        lost += dl
+        p.damp[j, 3], p.damp[j, 4], p.damp[j, 5] = cx, cy, cz
+        p.eparam[e, 0], p.eparam[e, 1] = t, side
+        p.eparam[e, 2], p.eparam[e, 3], p.eparam[e, 4] = nx, ny, nz
+        p.eparam[e, 5], p.eparam[e, 6], p.eparam[e, 7] = sx, sy, sz
+        if not eps > 0.0:
+            continue
+        active += 1
+        f[ia, 0] += (1.0 - t) * fx
+        f[ia, 1] += (1.0 - t) * fy
+        f[ia, 2] += (1.0 - t) * fz
+        f[ib, 0] += t * fx
+        f[ib, 1] += t * fy
+        f[ib, 2] += t * fz
+        push_node(nd, state, loads, cx, cy, cz, -fx, -fy, -fz)
+        if side >= 0:
+            fn = fx * nx + fy * ny + fz * nz
+            f[i_s, 0] -= fn * sx
+            f[i_s, 1] -= fn * sy
+            f[i_s, 2] -= fn * sz
+            push_node(nd, state, loads, x[i_s, 0], x[i_s, 1], x[i_s, 2], fn * sx, fn * sy, fn * sz)
+    return lost, active
 
 
 @load_kernel(BodyParams)
@@ -203,6 +312,7 @@ def add_body_contacts(p, model, state, loads):
             eps = r - d
         bx, by, bz = point_velocity(nd, state, cx, cy, cz)
         fx, fy, fz, dl = touch(p, j, eps, r, nx, ny, nz, v[i, 0] - bx, v[i, 1] - by, v[i, 2] - bz, dt)
+        p.damp[j, 3], p.damp[j, 4], p.damp[j, 5] = cx, cy, cz
         lost += dl
         if eps > 0.0:
             active += 1
@@ -224,15 +334,57 @@ def add_body_contacts(p, model, state, loads):
             px, py, pz = cx - arm * nx, cy - arm * ny, cz - arm * nz
             ax, ay, az = point_velocity(nd, state, px, py, pz)
             bx, by, bz = point_velocity(other, state, px, py, pz)
-            fx, fy, fz, dl = touch(p, base + s * nt + o, eps, r if r > 0.0 else 1.0, nx, ny, nz,
-                                   ax - bx, ay - by, az - bz, dt)
+            c = base + s * nt + o
+            fx, fy, fz, dl = touch(p, c, eps, r if r > 0.0 else 1.0, nx, ny, nz, ax - bx, ay - by, az - bz, dt)
+            p.damp[c, 3], p.damp[c, 4], p.damp[c, 5] = px, py, pz
             lost += dl
             if eps > 0.0:
                 active += 1
                 push_node(nd, state, loads, px, py, pz, fx, fy, fz)
                 push_node(other, state, loads, px, py, pz, -fx, -fy, -fz)
-    p.dissipated[0] += lost
-    p.active[0] = active
+    dl, de = add_element_contacts(p, state, loads, base + p.samples.shape[0] * nt, dt)
+    p.dissipated[0] += lost + dl
+    p.active[0] = active + de
+
+
+@account_kernel(BodyParams)
+@njit(**CACHED)
+def account_body_dashpots(p, model, state, hh):
+    """Update p.dissipated by -hh times the power of the last force evaluation's dashpot
+    forces (p.damp: on the touching side at the contact point, the opposite on the other) at
+    the current velocities: on both sides of a kick of 2 hh, the kinetic energy the kick's
+    dashpot share takes."""
+    if not p.gamma > 0.0:
+        return
+    v, x, damp, nd = state.v, state.x, p.damp, p.node
+    nl, nt = p.verts.shape[0], p.tnode.shape[0]
+    base = nl + p.samples.shape[0] * nt
+    power = 0.0
+    for j in range(damp.shape[0]):
+        if damp[j, 0] == 0.0 and damp[j, 1] == 0.0 and damp[j, 2] == 0.0:
+            continue
+        px, py, pz = damp[j, 3], damp[j, 4], damp[j, 5]
+        if j >= base:   # an element's: its point c(t*), and the subtracted end's normal share
+            e = j - base
+            ia, ib = p.verts[p.elems[e, 0]], p.verts[p.elems[e, 1]]
+            t, side, pe = p.eparam[e, 0], int(p.eparam[e, 1]), p.eparam[e]
+            ax, ay, az = (1.0 - t) * v[ia, 0] + t * v[ib, 0], (1.0 - t) * v[ia, 1] + t * v[ib, 1], \
+                (1.0 - t) * v[ia, 2] + t * v[ib, 2]
+            bx, by, bz = point_velocity(nd, state, px, py, pz)
+            if side >= 0:
+                i_s = ia if side == 0 else ib
+                dn = damp[j, 0] * pe[2] + damp[j, 1] * pe[3] + damp[j, 2] * pe[4]
+                wx, wy, wz = point_velocity(nd, state, x[i_s, 0], x[i_s, 1], x[i_s, 2])
+                power -= dn * (pe[5] * (v[i_s, 0] - wx) + pe[6] * (v[i_s, 1] - wy) + pe[7] * (v[i_s, 2] - wz))
+        elif j < nl:
+            i = p.verts[j]
+            ax, ay, az = v[i, 0], v[i, 1], v[i, 2]
+            bx, by, bz = point_velocity(nd, state, px, py, pz)
+        else:
+            ax, ay, az = point_velocity(nd, state, px, py, pz)
+            bx, by, bz = point_velocity(p.tnode[(j - nl) % nt], state, px, py, pz)
+        power += damp[j, 0] * (ax - bx) + damp[j, 1] * (ay - by) + damp[j, 2] * (az - bz)
+    p.dissipated[0] -= hh * power
 
 
 @njit(**CACHED)
@@ -257,6 +409,10 @@ def body_energy(p, state):
             eps = p.srad[s] - d
             if eps > 0.0:
                 e += 0.5 * p.k * eps * eps
+    for c in range(p.elems.shape[0]):
+        eps = body_element_overlap(p, state, c)[0]
+        if eps > 0.0:
+            e += 0.5 * p.k * eps * eps
     for j in range(p.mode.shape[0]):
         if p.mode[j] != FREE:
             e += 0.5 * p.k_t * (p.delta[j, 0] ** 2 + p.delta[j, 1] ** 2 + p.delta[j, 2] ** 2)

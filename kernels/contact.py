@@ -27,6 +27,12 @@ two sides, the pairs of the last call and those of this one, so a pair keeps its
 while it touches and loses it (its spring energy counted as dissipated) the call it opens.
 A call with more touching pairs than the capacity raises (nothing is dropped silently).
 
+Dashpots (gamma > 0): each call keeps the dashpot share of the forces on every vertex (the
+normal -gamma v_n, with the clamp's, and a sticking spring's -gamma u_t); the account
+kernel, run just before and just after each kick, adds minus their work on the mean of the
+velocities either side to `dissipated`, what the kick takes from the kinetic energy through
+them.
+
 Broad phase: segments are binned by their midpoints into a uniform grid of cell size
 h >= max(segment length + 2 r) (recomputed at every call), counting-sorted into T ~ 2 m
 buckets (CSR-style offsets): the cells themselves, in raster order, when the bounding box holds
@@ -51,7 +57,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compose import load_kernel
+from .compose import account_kernel, load_kernel
 from .friction import plane_tangent, stick_slip
 from .rotations import CACHED
 
@@ -98,7 +104,8 @@ class ContactParams(NamedTuple):
                               # higher element, offset x_lower(s) - x_higher(t) (3)
     pair_used: np.ndarray     # (2, C) int64 occupied slots of each side, in insertion order
     pair_state: np.ndarray    # (3,) int64 side of the last call, pairs on side 0, on side 1
-    dissipated: np.ndarray    # (1,) energy dissipated by friction (J)
+    dissipated: np.ndarray    # (1,) energy dissipated by friction and the dashpots (J)
+    damp: np.ndarray          # (nv, 3) dashpot forces of the last call on the vertices (gamma > 0)
 
 
 @njit(**CACHED, inline="always")
@@ -407,6 +414,10 @@ def pair_friction(p, x, v, f, ei, ej, a, b, s, t, nx, ny, nz, fn, old, new):
         ax, ay, az = bx, by, bz
     else:
         slip = 0.0
+        if p.gamma > 0.0:   # sticking: the dashpot's share of -k_t b, for the account
+            g = -p.k_t
+            _spread(p.damp, a, 1.0 - s, s, g * (bx - ax), g * (by - ay), g * (bz - az))
+            _spread(p.damp, b, t - 1.0, -t, g * (bx - ax), g * (by - ay), g * (bz - az))
     g = -p.k_t
     _spread(f, a, 1.0 - s, s, g * bx, g * by, g * bz)
     _spread(f, b, t - 1.0, -t, g * bx, g * by, g * bz)
@@ -463,6 +474,9 @@ def sweep(p, model, state, f, apply):
     k, gamma, self_contact, self_gap = p.k, p.gamma, p.self_contact, p.self_gap
     energy, tests, active, lost = 0.0, 0, 0, 0.0
     friction = apply and p.k_t > 0.0
+    damped = apply and gamma > 0.0
+    if damped:
+        p.damp[:] = 0.0
     old = new = 0
     if friction:
         old, new = begin_pairs(p)
@@ -497,6 +511,10 @@ def sweep(p, model, state, f, apply):
                 e, s, t, unx, uny, unz, fn = pair_load(x, v, f, va, vb, r_sum, k, gamma, dx, dy, dz, apply)
                 energy += e
                 active += e > 0.0
+                if damped and e > 0.0:   # the dashpot's share of the normal force (clamp included)
+                    dn = fn - k * math.sqrt(2.0 * e / k)
+                    _spread(p.damp, va, 1.0 - s, s, dn * unx, dn * uny, dn * unz)
+                    _spread(p.damp, vb, t - 1.0, -t, dn * unx, dn * uny, dn * unz)
                 if friction and e > 0.0:
                     lost += pair_friction(p, x, v, f, ei, ej, va, vb, s, t, unx, uny, unz, fn, old, new)
     if friction:
@@ -515,6 +533,21 @@ def add_contact(p, model, state, loads):
     the pair table and p.dissipated (see the module docstring); p.narrow_tests and p.active
     count the narrow-phase tests and the contacts."""
     sweep(p, model, state, loads.f, True)
+
+
+@account_kernel(ContactParams)
+@njit(**CACHED)
+def account_contact_dashpots(p, model, state, hh):
+    """Update p.dissipated by -hh times the power of the last call's dashpot forces (p.damp)
+    at the current velocities: on both sides of a kick of 2 hh, the kinetic energy the kick's
+    dashpot share takes."""
+    if not p.gamma > 0.0:
+        return
+    v, damp = state.v, p.damp
+    power = 0.0
+    for i in range(min(v.shape[0], damp.shape[0])):
+        power += damp[i, 0] * v[i, 0] + damp[i, 1] * v[i, 1] + damp[i, 2] * v[i, 2]
+    p.dissipated[0] -= hh * power
 
 
 @njit(**CACHED)

@@ -19,14 +19,15 @@ trial displacement is then scaled back onto the kinetic ellipse (mu_k) and the a
 to c - delta, so a sliding contact carries exactly mu_k fn (no dashpot). A sliding contact whose trial force
 falls inside the kinetic ellipse sticks again. A direction with mu = 0 carries no friction.
 The work of the friction force on each drag of the anchor (and the spring energy left when
-a contact opens) is added to `dissipated`, so kinetic + elastic + penalty + spring energy + dissipated
-is conserved (to the integrator's error) while gamma = 0; the dashpots' work is not counted.
+a contact opens) is added to `dissipated`, and the dashpots' work by the account kernel of
+cosnet.kernels.segments, so kinetic + elastic + penalty + spring energy + dissipated is
+conserved (to the integrator's error).
 
-Forces act at the vertex centres (no rolling resistance). The segments between vertices are
-not tested: vertices must be closer than the obstacle's features (a sphere's or capsule's
-radius, a mesh's triangles) are large. Mesh triangles are binned once into a uniform grid
-whose cells hold every triangle within the largest radius of them, so a vertex scans one
-cell; a vertex outside the grid touches nothing.
+Forces act at the vertex centres (no rolling resistance). The elements between vertices
+meet the obstacle too (cosnet.kernels.segments, whose kernel calls this one). Mesh
+triangles are binned once into a uniform grid whose cells hold every triangle within the
+largest radius of them, so a vertex scans one cell; a vertex outside the grid touches
+nothing.
 """
 
 import math
@@ -35,7 +36,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compose import load_kernel
 from .friction import plane_tangent, stick_slip
 from .rotations import CACHED
 
@@ -72,6 +72,12 @@ class ObstacleParams(NamedTuple):
     dissipated: np.ndarray   # (1,) energy dissipated by friction (J)
     deepest: np.ndarray      # (1,) largest eps / r met so far
     active: np.ndarray       # (1,) int64 contacts at the last call
+    elems: np.ndarray        # (ne, 2) int64 the elements: their two vertices' rows in verts
+    edata: np.ndarray        # (ne, 7) element contacts' springs (3), t* at the last call, its point then (3)
+    emode: np.ndarray        # (ne,) int64 FREE, STICK or SLIDE
+    edamp: np.ndarray        # (ne, 2, 3) dashpot forces of the element contacts on their two vertices
+    damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts (rebuilt by the account)
+    phase: np.ndarray        # (1,) int64 0 before a kick's first account call, 1 between its two
 
 
 @njit(**CACHED, inline="always")
@@ -205,7 +211,6 @@ def _tangent(x, i, j, nx, ny, nz):
     return plane_tangent(x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2], nx, ny, nz)
 
 
-@load_kernel(ObstacleParams)
 @njit(**CACHED)
 def add_obstacle(p, model, state, loads):
     """Update loads.f (nv, 3), p.anchor, p.mode, p.dissipated, p.deepest, p.active given the
