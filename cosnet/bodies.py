@@ -155,7 +155,9 @@ class Body(Effect):
     def bind(self, on: Binding) -> BodyParams:
         on.check_node(self.node, "Body")
         m = on.model
-        verts, vrad, elems = [], [], []
+        verts: list[int] = []
+        vrad: list[float] = []
+        elems: list[tuple[int, int]] = []
         for line in self._lines(on):
             v0, v1 = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
             elems += [(len(verts) + j, len(verts) + j + 1) for j in range(v1 - v0 - 1)]

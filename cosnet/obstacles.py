@@ -250,7 +250,11 @@ class Obstacle(Effect):
 
     def bind(self, on: Binding) -> ObstacleParams:
         m = on.model
-        verts, prev, nxt, radius, elems = [], [], [], [], []
+        verts: list[int] = []
+        prev: list[int] = []
+        nxt: list[int] = []
+        radius: list[float] = []
+        elems: list[tuple[int, int]] = []
         for line in self._lines(on):
             v0, v1 = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
             n = v1 - v0 - 1
