@@ -11,12 +11,15 @@ import math
 
 from numba import njit
 
-from .backend import ENTRY
 from .elastic import end_frame
-from .rotations import quat_rotate_inv, relative_rotation
+from .rotations import CACHED, quat_rotate_inv, relative_rotation
+
+# not the kernels' fastmath: under it LLVM may take the test for a non-finite strain for
+# always true, and a NaN must be found here
+EXACT = dict(CACHED, error_model="numpy", _nrt=False)
 
 
-@njit(**ENTRY)
+@njit(**EXACT)
 def sum_energies(model, state):
     """Return (translational kinetic, rotational kinetic, strain energy, largest |v - d3|_1
     over the elements, that element) given the state, lines and nodes; a non-finite strain
