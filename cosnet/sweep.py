@@ -251,7 +251,7 @@ class _Store:
 # ---------------------------------------------------------------------- driving the cluster
 def _client(client, scheduler, workers):
     """(client, cluster to close or None)."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
     if client is not None:
         return client, None
     if scheduler is not None:
@@ -262,9 +262,29 @@ def _client(client, scheduler, workers):
     n = workers or os.cpu_count() or 1
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"--workers must be a positive integer, got {workers!r}")
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+    cluster = local_cluster(n)
     return Client(cluster), cluster
+
+
+# Dask's periodic chores, slowed down for clusters of a few processes that share the cores
+# with the simulation: the event-loop tick every 20 ms, the system monitor every 0.5 s and the
+# workers' statistical profiler (a stack sample every 10 ms) cost an idle 2-worker cluster 0.17
+# CPU seconds per second, 0.03 with these
+QUIET = {"distributed.admin.tick.interval": "1s",
+         "distributed.admin.system-monitor.interval": "2s",
+         "distributed.worker.profile.enabled": False}
+
+
+def local_cluster(n: int):
+    """The LocalCluster of a sweep: n single-threaded worker processes on 127.0.0.1, with
+    distributed's chores slowed down (QUIET) and cosnet imported by each worker as it starts
+    (in parallel, not when its first task arrives)."""
+    import dask
+    from distributed import LocalCluster
+    with dask.config.set(QUIET):
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                            dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
+                            preload=["cosnet.sweep"])
 
 
 def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
