@@ -269,7 +269,7 @@ def _client(client, scheduler, workers):
 # Dask's periodic chores, slowed down for clusters of a few processes that share the cores
 # with the simulation: the event-loop tick every 20 ms, the system monitor every 0.5 s and the
 # workers' statistical profiler (a stack sample every 10 ms) cost an idle 2-worker cluster 0.17
-# CPU seconds per second, 0.03 with these
+# CPU seconds per second, 0.05 with these
 QUIET = {"distributed.admin.tick.interval": "1s",
          "distributed.admin.system-monitor.interval": "2s",
          "distributed.worker.profile.enabled": False}
