@@ -420,7 +420,8 @@ class _Buffer:
     shares the cores with the workers."""
 
     def __init__(self, store: _Store):
-        self.store, self.held, self.since = store, [], math.inf
+        self.store, self.since = store, math.inf
+        self.held: list = []
 
     def add(self, results: list):
         if not self.held:
