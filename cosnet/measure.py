@@ -1,10 +1,12 @@
-"""Diagnostics of a flattened net in numpy: energy, momenta, per-vertex fields, worst strain
-and the stable-step bound.
+"""Diagnostics of a flattened net: energy, momenta, per-vertex fields, worst strain and the
+stable-step bound.
 
-They run between steps (at output frames, health checks and set-up), never inside one, and
-are vectorised over all elements and Voronoi points at once; written in numpy they cost no
-compilation at start-up. The strain energy here is the one whose exact gradient the kernels
-integrate (kernels/elastic.py): the conservation tests hold the two together.
+They run between steps (at output frames, health checks and set-up), never inside one. Most
+are numpy, vectorised over all elements and Voronoi points at once (no compilation at
+start-up); the energies and the worst strain, which the instability watch reads before every
+output frame, are one compiled pass (kernels/energy.py). The strain energy is the one whose
+exact gradient the kernels integrate (kernels/elastic.py): the conservation tests hold the
+two together.
 
 Lines are taken as a contiguous block [l0, l1) (one line, or all of them): its elements
 e0 .. e1-1 and vertices (= Voronoi points) v0 .. v1-1, with v0 = e0 + l0 (n + 1 vertices per
@@ -17,6 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .kernels.energy import sum_energies
 from .kernels.layout import Model, State
 from .rotmath import cols, conj, qexp, qlog, qmul, qrot
 
@@ -98,22 +101,6 @@ def line_strains(model: Model, state: State, b: Block) -> Strains:
     return Strains(b.elements, b.vertices, element_stretch(model, state, b), theta, left, curvature)
 
 
-def weighted_square(w: np.ndarray, a: np.ndarray) -> float:
-    """sum(w a^2), without BLAS: a threaded BLAS dot wakes threads that contend with the
-    step's thread pool (30 ms for 10^4 elements against 0.1 ms), and the instability watch
-    computes energies before every write."""
-    return float(np.sum(w * (a * a)))
-
-
-def strain_energy(model: Model, st: Strains) -> float:
-    """Strain energy (3.25) of the lines of st."""
-    e, v = st.elements, st.vertices
-    le, lv = model.element_rest_length[e], model.voronoi_rest_length[v]
-    K, B = cols(model.element_stiffness[e]), cols(model.voronoi_stiffness[v])
-    return 0.5 * float(sum(weighted_square(le * K[k], st.stretch[k]) + weighted_square(lv * B[k], st.curvature[k])
-                           for k in range(3)))
-
-
 def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
     """Per-vertex fields of lines l0 .. l1-1, each (nv_b, ...): director frames (quaternions;
     the mid-rotation between neighbouring frames, the line-end frame at the ends), force n and
@@ -147,30 +134,18 @@ def vertex_fields(model: Model, state: State, l0: int, l1: int) -> dict:
 def worst_strain(model: Model, state: State) -> tuple[float, int]:
     """(max |v - v0|_1 over elements, its element): stretch and shear (3.22); a NaN counts as
     the worst."""
-    if model.element_rest_length.shape[0] == 0:
-        return 0.0, 0
-    sx, sy, sz = element_stretch(model, state, block_of(model))
-    s = np.abs(sx) + np.abs(sy) + np.abs(sz)
-    bad = np.flatnonzero(~np.isfinite(s))
-    e = int(bad[0]) if bad.size else int(np.argmax(s))
-    return float(s[e]), e
+    _, _, _, worst, e = sum_energies(model, state)
+    return float(worst), int(e)
 
 
 # ----------------------------------------------------------------- energy and momenta
 def energies(model: Model, state: State) -> tuple[float, float, float]:
     """(translational kinetic, rotational kinetic, strain) energy of lines and nodes: the
-    kinetic terms of (3.7)/(4.6) and the potential (3.25)."""
-    moving = np.where(model.vertex_inv_mass > 0.0, model.vertex_mass, 0.0)
-    kt = 0.5 * sum(weighted_square(moving, state.v[:, k]) for k in range(3))
-    kr = 0.5 * sum(weighted_square(model.element_inertia[:, k], state.w[:, k]) for k in range(3))
-    nodes = model.node_inv_mass > 0.0
-    kt += 0.5 * np.sum(model.node_mass[nodes, None] * state.node_v[nodes] ** 2)
-    free = model.node_locked == 0.0
-    kr += 0.5 * np.sum(np.where(free, model.node_inertia, 0.0) * np.where(free, state.node_w, 0.0) ** 2)
-    u = 0.0
-    if model.element_rest_length.shape[0]:
-        u = strain_energy(model, line_strains(model, state, block_of(model)))
-    return float(kt), float(kr), u
+    kinetic terms of (3.7)/(4.6) and the potential (3.25), in one compiled pass (the watch
+    reads them before every output frame: in numpy they cost more than the steps of a small
+    net)."""
+    kt, kr, u, _, _ = sum_energies(model, state)
+    return float(kt), float(kr), float(u)
 
 
 def momenta(model: Model, state: State) -> np.ndarray:

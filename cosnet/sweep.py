@@ -3,8 +3,9 @@
 ``sweep(scene, vary=[...])`` plans the variants (cosnet.variants: every one validated by the
 scene loader before anything runs), runs each with ``run_probes`` -- the frames and probes of
 ``cosnet run`` -- on a Dask cluster (a LocalCluster of one single-threaded worker process per
-core unless a scheduler address or a Client is given) and writes each finished variant into
-``OUT/<name>.zarr`` as it arrives, an xarray Dataset:
+core unless a scheduler address or a Client is given) and writes the finished variants into
+``OUT/<name>.zarr`` (at most FLUSH_EVERY seconds after they arrive, and on an interrupt), an
+xarray Dataset:
 
     dims        variant, time (the output frames), component (x, y, z)
     coords      variant; one per varied key, named by its dotted path; time (the nominal frame
@@ -40,6 +41,8 @@ PENDING = "pending"
 # per-variant numbers: (variable, key of a finished variant's record, value until it has one)
 SCALARS = (("steps", "steps", 0), ("dt", "dt", np.nan), ("wall_time", "wall", np.nan),
            ("compiled", "compiled", -1))
+CHUNK_BYTES = 1 << 20
+FLUSH_EVERY = 2.0  # s: the longest a finished variant waits on the client before it is written
 SPEC_KEYS = ("scene", "vary", "zip", "ensemble", "until", "plot", "name")
 
 
@@ -189,16 +192,25 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
                     attrs=dict(scene=str(spec.path), title=spec.title or variants[0].scene.title,
                                varied=list(variants[0].values), zip=int(spec.zipped),
                                ensemble=int(spec.ensemble or 0), plot=spec.plot or ""))
-    enc = {k: {"chunks": (1,) + ds[k].shape[1:]} for k in ds.data_vars}
+    rows = chunk_rows(len(variants), frames + 1)
+    enc = {k: {"chunks": (rows,) + ds[k].shape[1:]} for k in ds.data_vars}
     ds.to_zarr(store, mode="w", encoding=enc, zarr_format=2, consolidated=True)
     return ds
 
 
+def chunk_rows(n: int, nt: int) -> int:
+    """Variants per chunk of the store: as many as fit CHUNK_BYTES of a probe's series. A
+    chunk per variant made creating, writing and reading a store cost a file per variant
+    and variable (seconds of the client's time for a few hundred variants, on the cores the
+    workers need)."""
+    return max(1, min(n, CHUNK_BYTES // (24 * max(nt, 1))))
+
+
 class _Store:
-    """The open store, written region by region as variants finish. Rows are assembled in
-    numpy and each variable is written once per run of consecutive variants, straight into
-    its zarr array: a write through xarray (an isel and a setitem per value) cost ten times
-    more, on the process that also drives the cluster."""
+    """The open store, written as variants finish. Rows are assembled in numpy and each
+    variable is written once per call, straight into its zarr array (by orthogonal indexing:
+    the rows need not be consecutive): a write through xarray (an isel and a setitem per
+    value) cost ten times more, on the process that also drives the cluster."""
 
     def __init__(self, store: Path, probes: list[str]):
         import zarr
@@ -207,21 +219,13 @@ class _Store:
         self.nt = int(group["frame_time"].shape[1])
 
     def write(self, results: list):
-        """Write finished variants [(index, record)]: one write per variable and per run of
-        consecutive indices (a task's variants are consecutive)."""
-        runs: list[list] = []
-        for index, rec in sorted(results, key=lambda r: r[0]):
-            if runs and runs[-1][-1][0] == index - 1:
-                runs[-1].append((index, rec))
-            else:
-                runs.append([(index, rec)])
-        for run in runs:
-            self._write_run(run)
-
-    def _write_run(self, run: list):
-        g, nt, m = self.group, self.nt, len(run)
-        i0 = run[0][0]
-        rows = slice(i0, i0 + m)
+        """Write finished variants [(index, record)]: one write per variable."""
+        g, nt = self.group, self.nt
+        run = sorted(dict(results).items())
+        m = len(run)
+        if not m:
+            return
+        rows = np.array([index for index, _ in run])
         times = np.full((m, nt), np.nan)
         probes = {name: np.full((m, nt, 3), np.nan) for name in self.probes}
         # built here, not read back: each zarr read costs as much as a write
@@ -235,19 +239,19 @@ class _Store:
             for var, key, _ in SCALARS:
                 scalars[var][j] = rec[key]
         for name, block in probes.items():
-            g[name][rows] = block
-        g["frame_time"][rows] = times
+            g[name].oindex[rows, :, :] = block
+        g["frame_time"].oindex[rows, :] = times
         for var, column in scalars.items():
-            g[var][rows] = column
-        g["worker"][rows] = np.array([rec.get("worker", "") for _, rec in run], dtype=object)
+            g[var].oindex[rows] = column
+        g["worker"].oindex[rows] = np.array([rec.get("worker", "") for _, rec in run], dtype=object)
         # last: a variant whose status is written has all its values in the store
-        g["status"][rows] = np.array([rec["status"] for _, rec in run], dtype=object)
+        g["status"].oindex[rows] = np.array([rec["status"] for _, rec in run], dtype=object)
 
 
 # ---------------------------------------------------------------------- driving the cluster
 def _client(client, scheduler, workers):
     """(client, cluster to close or None)."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
     if client is not None:
         return client, None
     if scheduler is not None:
@@ -258,9 +262,29 @@ def _client(client, scheduler, workers):
     n = workers or os.cpu_count() or 1
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"--workers must be a positive integer, got {workers!r}")
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+    cluster = local_cluster(n)
     return Client(cluster), cluster
+
+
+# Dask's periodic chores, slowed down for clusters of a few processes that share the cores
+# with the simulation: the event-loop tick every 20 ms, the system monitor every 0.5 s and the
+# workers' statistical profiler (a stack sample every 10 ms) cost an idle 2-worker cluster 0.17
+# CPU seconds per second, 0.05 with these
+QUIET = {"distributed.admin.tick.interval": "1s",
+         "distributed.admin.system-monitor.interval": "2s",
+         "distributed.worker.profile.enabled": False}
+
+
+def local_cluster(n: int):
+    """The LocalCluster of a sweep: n single-threaded worker processes on 127.0.0.1, with
+    distributed's chores slowed down (QUIET) and cosnet imported by each worker as it starts
+    (in parallel, not when its first task arrives)."""
+    import dask
+    from distributed import LocalCluster
+    with dask.config.set(QUIET):
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                            dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
+                            preload=["cosnet.sweep"])
 
 
 def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
@@ -364,22 +388,53 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
             futures = submit()
         track = _Tracker(len(todo), len(groups[0]), dash, progress)
         track.update(client)
-        ac = as_completed(futures)
-        for fut in _poll(ac, lambda: track.update(client)):
-            try:
-                results = fut.result()
-            except Exception as e:  # the cluster gave up on this task (e.g. KilledWorker)
-                msg = " ".join(str(e).split())
-                results = [(v.index, dict(status=f"lost: {type(e).__name__}: {msg}"))
-                           for v in futures[fut]]
-            out.write(results)
-            for _, rec in results:
-                track.finished(rec["status"] == "ok")
-            track.update(client, force=True)
+        buffer = _Buffer(out)
+
+        def tick():
+            buffer.flush(due=True)
+            track.update(client)
+        try:
+            for fut in _poll(as_completed(futures), tick):
+                try:
+                    results = fut.result()
+                except Exception as e:  # the cluster gave up on this task (e.g. KilledWorker)
+                    msg = " ".join(str(e).split())
+                    results = [(v.index, dict(status=f"lost: {type(e).__name__}: {msg}"))
+                               for v in futures[fut]]
+                buffer.add(results)
+                for _, rec in results:
+                    track.finished(rec["status"] == "ok")
+                track.update(client, force=True)
+        finally:  # at the end, and on an interrupt or an error: what arrived is kept
+            buffer.flush()
     finally:
         if cluster is not None:
             client.close()
             cluster.close()
+
+
+class _Buffer:
+    """Finished variants held on the client and written into the store together, at most
+    FLUSH_EVERY seconds after the first of them arrived (and at the end or on an interrupt):
+    one write per variable for many tasks, instead of one per task on the process that
+    shares the cores with the workers."""
+
+    def __init__(self, store: _Store):
+        self.store, self.since = store, math.inf
+        self.held: list = []
+
+    def add(self, results: list):
+        if not self.held:
+            self.since = time.monotonic()
+        self.held.extend(results)
+        self.flush(due=True)
+
+    def flush(self, due: bool = False):
+        """Write what is held (only once FLUSH_EVERY seconds have passed, when ``due``)."""
+        if not self.held or (due and time.monotonic() - self.since < FLUSH_EVERY):
+            return
+        held, self.held = self.held, []
+        self.store.write(held)
 
 
 def _kernels_cached(variant) -> bool:

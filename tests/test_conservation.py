@@ -68,6 +68,36 @@ def test_loads_are_the_exact_gradient_of_the_strain_energy():
     assert np.abs(p[:, 0] - p[:, 1]).max() < 1e-7 * np.abs(p).max()
 
 
+def test_compiled_energies_equal_the_sums_of_the_strains_and_velocities():
+    """kernels/energy.py's one pass = (3.25) summed from measure.line_strains, and the kinetic
+    energy of the moving masses and free axes; its worst strain is the largest |v - d3|_1, a
+    NaN counting as the worst."""
+    from cosnet.measure import block_of, element_stretch, energies, line_strains, worst_strain
+    rng = np.random.default_rng(1)
+    sim = cosnet.Simulation(free_net(n=3))
+    m, s = sim.model, sim.state
+    perturb(sim, rng)
+    s.x[:] += 0.02 * rng.standard_normal(s.x.shape)
+    for i in range(s.q.shape[0]):
+        turn = Rotation.from_rotvec(0.5 * rng.standard_normal(3)).as_matrix()
+        s.q[i] = quat_from_matrix(matrix_from_quat(s.q[i]) @ turn)
+    place_line_ends(m, s)
+    st = line_strains(m, s, block_of(m))
+    u = 0.5 * sum(np.sum(m.element_rest_length * m.element_stiffness[:, k] * st.stretch[k] ** 2)
+                  + np.sum(m.voronoi_rest_length * m.voronoi_stiffness[:, k] * st.curvature[k] ** 2)
+                  for k in range(3))
+    moving = m.vertex_inv_mass > 0
+    kt = 0.5 * (np.sum(m.vertex_mass[moving, None] * s.v[moving] ** 2)
+                + np.sum(m.node_mass[:, None] * s.node_v ** 2))
+    free = m.node_locked == 0
+    kr = 0.5 * (np.sum(m.element_inertia * s.w ** 2) + np.sum(m.node_inertia[free] * s.node_w[free] ** 2))
+    assert np.allclose(energies(m, s), (kt, kr, u), rtol=1e-12, atol=0)
+    strain = np.sum(np.abs(np.column_stack(element_stretch(m, s, block_of(m)))), axis=1)
+    assert worst_strain(m, s) == (pytest.approx(strain.max(), rel=1e-12), int(np.argmax(strain)))
+    s.x[9, 1] = np.nan   # vertex 9 joins elements 6 and 7 (line 2: vertices 8-11, elements 6-8)
+    assert np.isnan(worst_strain(m, s)[0]) and worst_strain(m, s)[1] == 6
+
+
 @pytest.mark.slow
 def test_free_net_conserves_energy_and_momenta():
     """Undamped free net with an extended rigid body: bounded energy error, exact momenta."""

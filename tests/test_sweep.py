@@ -215,6 +215,32 @@ def test_resume_runs_only_unfinished_variants(tmp_path, client):
         sweep(path, vary=["materials.steel.E=1e11,2e11"], out=tmp_path, client=client, name="r", resume=True)
 
 
+def test_an_interrupted_sweep_keeps_what_arrived_and_resumes(tmp_path, client):
+    """Finished variants wait on the client to be written together; an interrupt writes
+    them before it leaves, and --resume runs only the rest."""
+    path = write_scene(tmp_path / "s.toml")
+    values = [1e11, 1.5e11, 2e11, 2.5e11, 3e11, 3.5e11]
+    vary = ["materials.steel.E=" + ",".join(map(repr, values))]
+
+    def stop(p):
+        if p["done"]:
+            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        sweep(path, vary=vary, out=tmp_path, client=client, name="i", batch=1, progress=stop)
+    ds = xr.open_zarr(tmp_path / "i.zarr").load()
+    status = [str(s) for s in ds.status.values]
+    assert status.count("ok") == 1 and status.count("pending") == 5   # the first task: one variant
+    done = status.index("ok")
+    doc = ds_doc(path, {})
+    set_path(doc, "materials.steel.E", values[done], str(path))
+    assert np.array_equal(ds["tip"].values[done], run_probes(build_scene(doc, path)).probes["tip"])
+    seen = []
+    again = sweep(path, vary=vary, out=tmp_path, client=client, name="i", resume=True,
+                  progress=seen.append).load()
+    assert {p["total"] for p in seen} == {5} and [str(s) for s in again.status.values] == ["ok"] * 6
+    assert again.wall_time.values[done] == ds.wall_time.values[done]
+
+
 def test_ensemble_spreads_the_seeded_perturbation(tmp_path, client):
     path = write_scene(tmp_path / "s.toml", V="0.01")
     ds = sweep(path, ensemble=3, out=tmp_path, client=client)
