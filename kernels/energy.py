@@ -3,8 +3,9 @@ before every output frame, and Simulation.energy.
 
 The strain energy is (3.25) as kernels/elastic.py states it, with the same relative rotations
 (relative_rotation) and line-end frames (end_frame), so the loads stay its exact gradient;
-the kinetic energy is that of (3.7)/(4.6). The largest strain |v - d3|_1 comes from the same
-pass over the elements (the watch's strain test).
+the kinetic energy is that of (3.7)/(4.6). The largest strain |v - v0|_1 (v0 the rest strain,
+d3 unless an active line changes it) comes from the same pass over the elements (the watch's
+strain test).
 """
 
 import math
@@ -21,7 +22,7 @@ EXACT = dict(CACHED, error_model="numpy", _nrt=False)
 
 @njit(**EXACT)
 def sum_energies(model, state):
-    """Return (translational kinetic, rotational kinetic, strain energy, largest |v - d3|_1
+    """Return (translational kinetic, rotational kinetic, strain energy, largest |v - v0|_1
     over the elements, that element) given the state, lines and nodes; a non-finite strain
     counts as the largest (the first element holding one), and a net without elements has
     largest strain 0 at element 0."""
@@ -44,6 +45,8 @@ def sum_energies(model, state):
     u = 0.0
     worst, worst_e, bad = 0.0, 0, False
     K, il, le = model.element_stiffness, model.element_inv_rest_length, model.element_rest_length
+    rs = model.element_rest_strain
+    strained = rs.shape[0] > 0
     B, u0 = model.voronoi_stiffness, model.voronoi_rest_curvature
     lv, ilv = model.voronoi_rest_length, model.voronoi_inv_rest_length
     voff, eoff = model.line_vertex_offsets, model.line_element_offsets
@@ -53,7 +56,10 @@ def sum_energies(model, state):
             e, a = e0 + j, v0 + j
             sx, sy, sz = quat_rotate_inv(q[e, 0], q[e, 1], q[e, 2], q[e, 3], x[a + 1, 0] - x[a, 0],
                                          x[a + 1, 1] - x[a, 1], x[a + 1, 2] - x[a, 2])
-            sx, sy, sz = sx * il[e], sy * il[e], sz * il[e] - 1.0
+            if strained:   # an active line's rest strain v0 (kernels/active.py)
+                sx, sy, sz = sx * il[e] - rs[e, 0], sy * il[e] - rs[e, 1], sz * il[e] - rs[e, 2]
+            else:          # v0 = d3
+                sx, sy, sz = sx * il[e], sy * il[e], sz * il[e] - 1.0
             u += le[e] * (K[e, 0] * sx * sx + K[e, 1] * sy * sy + K[e, 2] * sz * sz)
             s = abs(sx) + abs(sy) + abs(sz)
             if not bad and not math.isfinite(s):
