@@ -10,7 +10,7 @@ import numpy as np
 
 from .contact import chosen_lines, smallest_mass
 from .net import Node
-from .obstacles import Obstacle
+from .obstacles import Obstacle, meets_elements
 from .registry import Binding, Effect, Key
 from .rotmath import matrix_from_quat
 from .scene_values import DAMPING, LENGTH, STIFFNESS, choice, frame, nonnegative, positive, string_list, vec3
@@ -160,7 +160,8 @@ class Body(Effect):
         elems: list[tuple[int, int]] = []
         for line in self._lines(on):
             v0, v1 = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
-            elems += [(len(verts) + j, len(verts) + j + 1) for j in range(v1 - v0 - 1)]
+            if meets_elements(self.shape, self.geometry.size[0], m, line.index):
+                elems += [(len(verts) + j, len(verts) + j + 1) for j in range(v1 - v0 - 1)]
             for i in range(v0, v1):
                 verts.append(i)
                 vrad.append(line.section_at((i - v0) / (v1 - v0 - 1)).radius)

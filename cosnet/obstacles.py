@@ -127,6 +127,20 @@ def _triangle_grid(tri, reach):
     return lo, float(h), dims, np.cumsum(start), owners[order]
 
 
+def meets_elements(shape: str, radius: float, m, line: int) -> bool:
+    """Whether the elements of line ``line`` meet a shape beside its vertices
+    (kernels/segments.py): always a box's or a mesh's (their edges can pass between two
+    vertices), never a plane (a capsule's deepest point in a half-space is an end), a sphere
+    or capsule only when an element is longer than its radius. A shorter element's chord
+    dips at most L^2 / (8 R) < L / 8 below its ends, which the vertex contacts hold; and
+    element contacts along a drum let a wrapped rope slip at 0.95 of the capstan limit, which
+    its vertices alone hold (docs/obstacles.md)."""
+    if shape in ("box", "mesh"):
+        return True
+    e0, e1 = int(m.line_element_offsets[line]), int(m.line_element_offsets[line + 1])
+    return shape != "plane" and e1 > e0 and float(np.max(m.element_rest_length[e0:e1])) > radius
+
+
 class Obstacle(Effect):
     """A static obstacle the vertices of the chosen lines (spheres of their section radius)
     cannot enter: penalty normal force max(0, k eps - gamma v_n) for an overlap eps, and
@@ -258,7 +272,7 @@ class Obstacle(Effect):
         for line in self._lines(on):
             v0, v1 = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
             n = v1 - v0 - 1
-            if self.shape != "plane":   # a capsule's deepest point in a half-space is an end
+            if meets_elements(self.shape, self.size[0], m, line.index):
                 elems += [(len(verts) + j, len(verts) + j + 1) for j in range(n)]
             for i in range(v0, v1):
                 verts.append(i)

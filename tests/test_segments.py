@@ -254,3 +254,18 @@ def test_the_line_line_dashpots_work_is_counted_to_second_order():
         return worst / e0
     err, err_half = run(2e-6), run(1e-6)
     assert err < 1e-3 and 3.5 < err / err_half < 4.5
+
+
+def test_elements_meet_only_curved_shapes_smaller_than_them():
+    """A sphere or capsule larger than a line's elements meets its vertices alone (an element's
+    chord dips at most L^2 / 8R below its ends; a rope wrapped on such a drum holds on its
+    vertices at 0.95 of the capstan limit, cosseratbench's capstan); one smaller than them, a
+    box and a mesh meet its elements too; a plane never needs them."""
+    drum = cosnet.Obstacle("capsule", start=(0.0, -0.1, -0.2), end=(0.0, 0.1, -0.2), radius=0.15, k=1e4)
+    rod = cosnet.Obstacle("capsule", start=(0.0, -0.1, -0.2), end=(0.0, 0.1, -0.2), radius=0.05, k=1e4)
+    ball = cosnet.Obstacle("sphere", center=(0.0, 0.0, -1.0), radius=0.5, k=1e4)
+    box = cosnet.Obstacle("box", center=(0.0, 0.0, -1.0), half_size=(1.0, 1.0, 0.5), k=1e4)
+    ground = cosnet.Obstacle("plane", point=(0.0, 0.0, -1.0), normal=(0.0, 0.0, 1.0), k=1e4)
+    sim, _, _ = line([drum, rod, ball, box, ground])
+    counts = [len(ob.params(sim).elems) for ob in (drum, rod, ball, box, ground)]
+    assert counts == [0, 3, 0, 3, 0]
