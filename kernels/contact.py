@@ -58,7 +58,7 @@ import numpy as np
 from numba import njit
 
 from .compose import account_kernel, load_kernel
-from .friction import plane_tangent, stick_slip
+from .friction import plane_tangent, stick_slip, turn_into_plane
 from .rotations import CACHED
 
 HASH_X, HASH_Y, HASH_Z = 73856093, 19349663, 83492791
@@ -390,12 +390,7 @@ def pair_friction(p, x, v, f, ei, ej, a, b, s, t, nx, ny, nz, fn, old, new):
         # the spring turned into the new tangent plane, its length kept (a projection would
         # shed energy at every turn of the normal), plus the points' tangential displacement
         ax, ay, az = sg * data[old, found, 0], sg * data[old, found, 1], sg * data[old, found, 2]
-        length = math.sqrt(ax * ax + ay * ay + az * az)
-        an = ax * nx + ay * ny + az * nz
-        ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
-        turned = math.sqrt(ax * ax + ay * ay + az * az)
-        if turned > 0.0:
-            ax, ay, az = ax * (length / turned), ay * (length / turned), az * (length / turned)
+        ax, ay, az = turn_into_plane(ax, ay, az, nx, ny, nz)
         ux = _offset(x, a, b, s0, t0, 0) - sg * data[old, found, 5]
         uy = _offset(x, a, b, s0, t0, 1) - sg * data[old, found, 6]
         uz = _offset(x, a, b, s0, t0, 2) - sg * data[old, found, 7]

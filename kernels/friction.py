@@ -58,6 +58,20 @@ def plane_tangent(ux, uy, uz, nx, ny, nz):
     return 0.0, 0.0, 0.0
 
 
+@njit(**CACHED, inline="always")
+def turn_into_plane(ax, ay, az, nx, ny, nz):
+    """Return the spring displacement a turned into the plane normal to unit n, its length
+    kept: a contact's normal turns as the bodies move, and a projection alone would shed the
+    spring's energy at every turn."""
+    length = math.sqrt(ax * ax + ay * ay + az * az)
+    an = ax * nx + ay * ny + az * nz
+    ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
+    turned = math.sqrt(ax * ax + ay * ay + az * az)
+    if turned > 0.0:
+        ax, ay, az = ax * (length / turned), ay * (length / turned), az * (length / turned)
+    return ax, ay, az
+
+
 @njit(**CACHED)
 def stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, sliding, mu_s, mu_k, k_t, fn):
     """Return (bx, by, bz, slides, lost): the spring displacement the friction force -k_t b

@@ -44,7 +44,7 @@ from numba import njit
 
 from .compose import account_kernel, load_kernel
 from .contact import segment_closest
-from .friction import plane_tangent, stick_slip
+from .friction import plane_tangent, stick_slip, turn_into_plane
 from .obstacles import (BOX, CAPSULE, FAR, FREE, MESH, PLANE, SLIDE, SPHERE, STICK, ObstacleParams, add_obstacle,
                         obstacle_distance, triangle_closest)
 from .rotations import CACHED
@@ -317,12 +317,7 @@ def add_element_contacts(p, x, v, f):
             # the spring turned into the new tangent plane, its length kept, plus the
             # tangential displacement of the material point that touched at the last call
             ax, ay, az = data[e, 0], data[e, 1], data[e, 2]
-            length = math.sqrt(ax * ax + ay * ay + az * az)
-            an = ax * nx + ay * ny + az * nz
-            ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
-            turned = math.sqrt(ax * ax + ay * ay + az * az)
-            if turned > 0.0:
-                ax, ay, az = ax * (length / turned), ay * (length / turned), az * (length / turned)
+            ax, ay, az = turn_into_plane(ax, ay, az, nx, ny, nz)
             s0 = _clamp01(data[e, 3])
             ux = (1.0 - s0) * x[ia, 0] + s0 * x[ib, 0] - data[e, 4]
             uy = (1.0 - s0) * x[ia, 1] + s0 * x[ib, 1] - data[e, 5]
