@@ -29,7 +29,11 @@ from cosnet.io import read_output
 from test_cli import REPO, TINY, cosnet
 from test_scene import dumps
 
-UNTIL = 0.3      # 31 frames of the tiny rod
+# 101 frames of the tiny rod: runs long enough that a signal sent a few frames in lands
+# before the end even when this process is starved for a while (at 0.3 s, 31 frames took
+# under half a second, and a loaded machine let a run finish before its Ctrl-C)
+UNTIL = 1.0
+FRAMES = 101
 
 
 def command(*args):
@@ -90,7 +94,7 @@ def full(scene, tmp_path_factory):
     out = tmp_path_factory.mktemp("full") / "out"
     r = cosnet("run", scene, "--out", out, "--until", UNTIL)
     assert r.returncode == 0, r.stderr
-    assert len(read_output(out).times) == 31
+    assert len(read_output(out).times) == FRAMES
     return out
 
 
@@ -105,7 +109,7 @@ def test_killed_at_random_points_and_resumed_ends_bit_identical(scene, full, tmp
                                 stderr=subprocess.DEVNULL)
         code = stop_after(proc, out, k, signal.SIGKILL, extra=float(rng.uniform(0.0, 0.02)))
         assert code == -signal.SIGKILL, "the run ended before it could be killed"
-        assert k <= len(read_output(out).times) < 31    # every listed frame opens
+        assert k <= len(read_output(out).times) < FRAMES    # every listed frame opens
     r = cosnet("run", scene, "--out", out, "--until", UNTIL, "--resume")
     assert r.returncode == 0, r.stderr
     assert_same_run(full, out)
