@@ -21,7 +21,9 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from .scene_values import _one_line
@@ -335,6 +337,10 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        # SIGINT stops a run resumably (exit 130) even in a process started with SIGINT
+        # ignored, as a shell starts background jobs: Python then installs no handler
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return {"run": cmd_run, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
                 "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)

@@ -117,8 +117,10 @@ def test_killed_at_random_points_and_resumed_ends_bit_identical(scene, full, tmp
 
 def test_ctrl_c_exits_130_and_leaves_a_resumable_run(scene, full, tmp_path):
     out = tmp_path / "cut"
+    # started with SIGINT ignored, as a shell starts a background job: still interrupted
     proc = subprocess.Popen(command("run", scene, "--out", out, "--until", UNTIL), cwd=REPO,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     deadline = time.time() + 120
     while frames_written(out) < 4 and proc.poll() is None and time.time() < deadline:
         time.sleep(0.005)
