@@ -2,6 +2,7 @@
 curvature, stretch or shear changing in time, and the work it does."""
 
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -10,6 +11,23 @@ import cosnet
 from cosnet.scene import build_scene
 
 RUBBER = cosnet.Material(E=1e6, G=4e5, density=1000.0, name="rubber")
+# a scene's 4-element rod that the scene-error tests add one effect table to
+ROD_SCENE = """
+[materials.m]
+E = 1e6
+G = 4e5
+density = 1000.0
+[nodes.a]
+position = [0, 0, 0]
+[nodes.b]
+position = [1, 0, 0]
+[lines.rod]
+start = "a"
+end = "b"
+material = "m"
+section = { kind = "circle", radius = 0.02 }
+elements = 4
+"""
 
 
 def test_steady_muscle_torque_bends_a_free_line_to_curvature_m_over_ei():
@@ -34,30 +52,13 @@ def test_steady_muscle_torque_bends_a_free_line_to_curvature_m_over_ei():
 
 
 def test_muscle_torque_scene_errors_name_the_key():
-    scene = """
-[materials.m]
-E = 1e6
-G = 4e5
-density = 1000.0
-[nodes.a]
-position = [0, 0, 0]
-[nodes.b]
-position = [1, 0, 0]
-[lines.rod]
-start = "a"
-end = "b"
-material = "m"
-section = { kind = "circle", radius = 0.02 }
-elements = 4
-[run]
-until = 0.01
+    scene = ROD_SCENE + """
 [[effects]]
 kind = "muscle_torque"
 line = "rod"
 moment = [1.0, 2.0]
 points = [0.0, 0.5, 1.0]
 """
-    import tomllib
     with pytest.raises(ValueError, match=r"\(muscle_torque\) (moment|points): .*one finite value per point") as e:
         build_scene(tomllib.loads(scene))
     assert "\n" not in str(e.value)
@@ -208,31 +209,13 @@ def test_a_bad_schedule_is_refused_in_one_line():
     _, line = free_rod(2)
     with pytest.raises(ValueError, match=r"^ActiveCurvature on .*: schedule: times must increase strictly"):
         cosnet.ActiveCurvature(line, curvature=(1.0, 0.0, 0.0), schedule=dict(times=[0.0, 1.0, 1.0], values=[0, 1, 2]))
-    scene = """
-[materials.m]
-E = 1e6
-G = 4e5
-density = 1000.0
-[sections.s]
-kind = "circle"
-radius = 0.01
-[nodes.a]
-position = [0.0, 0.0, 0.0]
-[nodes.b]
-position = [1.0, 0.0, 0.0]
-[lines.rod]
-start = "a"
-end = "b"
-material = "m"
-section = "s"
-elements = 4
+    scene = ROD_SCENE + """
 [[effects]]
 kind = "active_curvature"
 line = "rod"
 curvature = [1.0, 0.0, 0.0]
 schedule = { times = [0.0, 1.0], value = [0.0, 1.0] }
 """
-    import tomllib
     with pytest.raises(ValueError, match=r"schedule") as e:
         build_scene(tomllib.loads(scene))
     assert "\n" not in str(e.value)
@@ -305,21 +288,7 @@ def test_a_rest_stretch_that_could_reach_zero_length_is_refused_in_one_line():
         cosnet.ActiveCurvature(line)
 
 
-STRETCH_SCENE = """
-[materials.m]
-E = 1e6
-G = 4e5
-density = 1000.0
-[nodes.a]
-position = [0, 0, 0]
-[nodes.b]
-position = [1, 0, 0]
-[lines.rod]
-start = "a"
-end = "b"
-material = "m"
-section = { kind = "circle", radius = 0.02 }
-elements = 4
+STRETCH_SCENE = ROD_SCENE + """
 [[effects]]
 kind = "active_curvature"
 line = "rod"
@@ -334,7 +303,6 @@ line = "rod"
      r"\(active_curvature\).*stretch must give one finite value per point"),
 ])
 def test_bad_stretch_keys_in_a_scene_are_refused_in_one_line(extra, message):
-    import tomllib
     with pytest.raises(ValueError, match=message) as e:
         build_scene(tomllib.loads(STRETCH_SCENE + extra))
     assert "\n" not in str(e.value)
