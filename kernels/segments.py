@@ -147,35 +147,27 @@ def mesh_segment(p, ax, ay, az, bx, by, bz):
         t0, t1 = max(t0, ta), min(t1, tb)
     if not t0 <= t1:
         return 0.0, 0.0, 0.0, 0.0, FAR, -1
-    # the walk's state per axis, in scalars (nothing is allocated in a step)
-    ix, sx, nx_, dx_ = _walk_axis(ax, bx - ax, o[0], h, dims[0], t0)
-    iy, sy, ny_, dy_ = _walk_axis(ay, by - ay, o[1], h, dims[1], t0)
-    iz, sz, nz_, dz_ = _walk_axis(az, bz - az, o[2], h, dims[2], t0)
+    # the walk's state per axis (cell, step, t of the next cell face, t between faces) in
+    # the obstacle's own work rows, so nothing is allocated in a step
+    walk = p.walk
+    for k in range(3):
+        c, step, t_next, t_cell = _walk_axis(start[k], w[k], o[k], h, dims[k], t0)
+        walk[k, 0], walk[k, 1], walk[k, 2], walk[k, 3] = c, step, t_next, t_cell
     best, bt, bq, btri = FAR, 0.0, (0.0, 0.0, 0.0), -1
     for _ in range(dims[0] + dims[1] + dims[2] + 3):
-        cell = ix + dims[0] * (iy + dims[1] * iz)
+        cell = int(walk[0, 0]) + dims[0] * (int(walk[1, 0]) + dims[1] * int(walk[2, 0]))
         best, bt, bq, btri = _cell_triangles(p, cell, ax, ay, az, bx, by, bz, best, bt, bq, btri)
-        if nx_ <= ny_ and nx_ <= nz_:
-            if not nx_ <= t1:
-                break
-            ix += sx
-            nx_ += dx_
-            if ix < 0 or ix >= dims[0]:
-                break
-        elif ny_ <= nz_:
-            if not ny_ <= t1:
-                break
-            iy += sy
-            ny_ += dy_
-            if iy < 0 or iy >= dims[1]:
-                break
-        else:
-            if not nz_ <= t1:
-                break
-            iz += sz
-            nz_ += dz_
-            if iz < 0 or iz >= dims[2]:
-                break
+        k = 0   # the axis whose next cell face comes first (x before y before z on a tie)
+        if walk[1, 2] < walk[k, 2]:
+            k = 1
+        if walk[2, 2] < walk[k, 2]:
+            k = 2
+        if not walk[k, 2] <= t1:
+            break
+        walk[k, 0] += walk[k, 1]
+        walk[k, 2] += walk[k, 3]
+        if walk[k, 0] < 0 or walk[k, 0] >= dims[k]:
+            break
     return bt, bq[0], bq[1], bq[2], best, btri
 
 
