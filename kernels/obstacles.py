@@ -78,7 +78,6 @@ class ObstacleParams(NamedTuple):
     edamp: np.ndarray        # (ne, 2, 3) dashpot forces of the element contacts on their two vertices
     damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts (rebuilt by the account)
     phase: np.ndarray        # (1,) int64 0 before a kick's first account call, 1 between its two
-    walk: np.ndarray         # (3, 4) a mesh walk's state per axis: cell, step, t of the next face, t per cell
 
 
 @njit(**CACHED, inline="always")
