@@ -6,8 +6,9 @@ keeps r from the edge and wraps an arc of radius r about it, pressing on the edg
 along the arc, so the capstan relation holds with theta the angle the rope turns through
 at the edge, whatever the edge's radius (none here). Over a rod of radius R the arc's
 radius is R + r; over a triangulated drum each crease is such an edge. The rope here is
-resolved on those arcs (elements of 2 mm beside arcs of 3 and 3.5 mm, 4 mm beside 23 mm) and supple (a bending
-stiffness a thousandth of the solid section's, like a laid rope), as the relation assumes;
+resolved on those arcs (elements of 2 mm beside arcs of 3 and 3.5 mm, 4 mm beside 23 mm)
+and supple (a bending stiffness a thousandth of the solid section's, like a laid rope), as
+the relation assumes;
 a rope whose elements are long beside the arc turns at a few vertices only, and holds more
 (docs/obstacles.md). The ends carry masses m and ratio * m; the same three effects as the
 drum's capstan in test_friction.py (gravity, the obstacle, mass-proportional damping)."""
