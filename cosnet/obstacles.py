@@ -132,9 +132,9 @@ def meets_elements(shape: str, radius: float, m, line: int) -> bool:
     (kernels/segments.py): always a box's or a mesh's (their edges can pass between two
     vertices), never a plane (a capsule's deepest point in a half-space is an end), a sphere
     or capsule only when an element is longer than its radius. A shorter element's chord
-    dips at most L^2 / (8 R) < L / 8 below its ends, which the vertex contacts hold; and
-    element contacts along a drum let a wrapped rope slip at 0.95 of the capstan limit, which
-    its vertices alone hold (docs/obstacles.md)."""
+    dips at most L^2 / (8 R) < L / 8 below its ends, which the vertex contacts hold at a
+    fraction of the cost; and a rope laid with its vertices on a drum is at rest for them,
+    while its chords would start that dip deep in the element contacts (docs/obstacles.md)."""
     if shape in ("box", "mesh"):
         return True
     e0, e1 = int(m.line_element_offsets[line]), int(m.line_element_offsets[line + 1])

@@ -123,6 +123,12 @@ def _walk_axis(a, w, o, h, n, t0):
     return c, 0, math.inf, math.inf
 
 
+@njit(**CACHED, inline="always")
+def _bump(v, k, by):
+    """The triple v with `by` added to its entry k."""
+    return v[0] + (by if k == 0 else 0), v[1] + (by if k == 1 else 0), v[2] + (by if k == 2 else 0)
+
+
 @njit(**CACHED)
 def mesh_segment(p, ax, ay, az, bx, by, bz):
     """Return (t, qx, qy, qz, d2, tri): the segment's point nearest the mesh among the
@@ -147,35 +153,26 @@ def mesh_segment(p, ax, ay, az, bx, by, bz):
         t0, t1 = max(t0, ta), min(t1, tb)
     if not t0 <= t1:
         return 0.0, 0.0, 0.0, 0.0, FAR, -1
-    # the walk's state per axis, in scalars (nothing is allocated in a step)
-    ix, sx, nx_, dx_ = _walk_axis(ax, bx - ax, o[0], h, dims[0], t0)
-    iy, sy, ny_, dy_ = _walk_axis(ay, by - ay, o[1], h, dims[1], t0)
-    iz, sz, nz_, dz_ = _walk_axis(az, bz - az, o[2], h, dims[2], t0)
+    # the walk's state per axis in tuples (cell, step, t of the next cell face, t between
+    # faces), rebuilt as it steps: nothing is allocated in a step
+    wx = _walk_axis(ax, bx - ax, o[0], h, dims[0], t0)
+    wy = _walk_axis(ay, by - ay, o[1], h, dims[1], t0)
+    wz = _walk_axis(az, bz - az, o[2], h, dims[2], t0)
+    cell, step, face, per = (wx[0], wy[0], wz[0]), (wx[1], wy[1], wz[1]), (wx[2], wy[2], wz[2]), (wx[3], wy[3], wz[3])
     best, bt, bq, btri = FAR, 0.0, (0.0, 0.0, 0.0), -1
     for _ in range(dims[0] + dims[1] + dims[2] + 3):
-        cell = ix + dims[0] * (iy + dims[1] * iz)
-        best, bt, bq, btri = _cell_triangles(p, cell, ax, ay, az, bx, by, bz, best, bt, bq, btri)
-        if nx_ <= ny_ and nx_ <= nz_:
-            if not nx_ <= t1:
-                break
-            ix += sx
-            nx_ += dx_
-            if ix < 0 or ix >= dims[0]:
-                break
-        elif ny_ <= nz_:
-            if not ny_ <= t1:
-                break
-            iy += sy
-            ny_ += dy_
-            if iy < 0 or iy >= dims[1]:
-                break
-        else:
-            if not nz_ <= t1:
-                break
-            iz += sz
-            nz_ += dz_
-            if iz < 0 or iz >= dims[2]:
-                break
+        c = cell[0] + dims[0] * (cell[1] + dims[1] * cell[2])
+        best, bt, bq, btri = _cell_triangles(p, c, ax, ay, az, bx, by, bz, best, bt, bq, btri)
+        k = 0   # the axis whose next cell face comes first (x before y before z on a tie)
+        if face[1] < face[k]:
+            k = 1
+        if face[2] < face[k]:
+            k = 2
+        if not face[k] <= t1:
+            break
+        cell, face = _bump(cell, k, step[k]), _bump(face, k, per[k])
+        if cell[k] < 0 or cell[k] >= dims[k]:
+            break
     return bt, bq[0], bq[1], bq[2], best, btri
 
 
