@@ -224,7 +224,7 @@ def drift_columns(x, v, h):
 def drift_block(model, state, h, order, vs, ve, es, ee):
     """Update vertices vs .. ve-1 and elements es .. ee-1 by the free flight of time h. At
     order 2 the round sections turn in one vectorised pass (without a per-lane choice when
-all are round); the others follow one by one."""
+    all are round); the others follow one by one."""
     drift_columns(columns(state.x, vs, ve), columns(state.v, vs, ve), h)
     other = ee - es
     if order == 2:
