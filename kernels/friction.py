@@ -84,16 +84,20 @@ def stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, sliding, mu_s, mu_k, k_t, fn)
     lat = math.sqrt(lx * lx + ly * ly + lz * lz)
     which = 0 if along >= 0.0 else 1  # moved forward: the forward coefficient resists
     mu = mu_k if sliding else mu_s
-    if not ellipse(along, lat, mu[which], mu[2], k_t, fn) > 1.0:
+    trial = ellipse(along, lat, mu[which], mu[2], k_t, fn)
+    if not trial > 1.0:
         return ex, ey, ez, False, 0.0
     # a direction without friction lets its share go; each remaining component of the
     # trial's direction is resisted with its own kinetic coefficient (module docstring)
-    if mu_k[which] * fn <= 0.0:
+    free_long, free_lat = mu_k[which] * fn <= 0.0, mu_k[2] * fn <= 0.0
+    if free_long:
         along = 0.0
-    if mu_k[2] * fn <= 0.0:
+    if free_lat:
         lx = ly = lz = lat = 0.0
     size = math.sqrt(along * along + lat * lat)
-    if not ellipse(along, lat, mu_k[which], mu_k[2], k_t, fn) > 1.0:
+    if free_long or free_lat or not sliding:   # else the trial was measured against mu_k as it is
+        trial = ellipse(along, lat, mu_k[which], mu_k[2], k_t, fn)
+    if not trial > 1.0:
         # what a frictionless direction left is inside: it sticks as it is
         ca, cl = 1.0, 1.0
     elif size > 0.0:
