@@ -151,7 +151,7 @@ def _obstacle_error(p, model):
     shapes = {"origin": (3,), "axis": (3,), "size": (3,), "rot": (3, 3), "mu_s": (3,), "mu_k": (3,),
               "vprev": (m,), "vnext": (m,), "radius": (m,), "anchor": (m, 3), "mode": (m,),
               "dissipated": (1,), "deepest": (1,), "active": (1,), "tri": (nt, 3, 3), "tri_normal": (nt, 3),
-              "grid_origin": (3,), "grid_dims": (3,), "damp": (m, 3), "phase": (1,)}
+              "grid_origin": (3,), "grid_dims": (3,), "damp": (m, 3)}
     ne = p.elems.shape[0]
     shapes.update({"elems": (ne, 2), "edata": (ne, 7), "emode": (ne,), "edamp": (ne, 2, 3)})
     for name, shape in shapes.items():

@@ -296,7 +296,7 @@ class Obstacle(Effect):
             np.array(nxt, np.int64), np.array(radius, float), np.zeros((count, 3)), np.zeros(count, np.int64),
             np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.array(elems, np.int64).reshape(-1, 2),
             np.zeros((len(elems), 7)), np.zeros(len(elems), np.int64), np.zeros((len(elems), 2, 3)),
-            np.zeros((count, 3)), np.zeros(1, np.int64))
+            np.zeros((count, 3)))
 
     # ------------------------------------------------------------------ reports
     def dissipated(self, sim) -> float:

@@ -76,8 +76,7 @@ class ObstacleParams(NamedTuple):
     edata: np.ndarray        # (ne, 7) element contacts' springs (3), t* at the last call, its point then (3)
     emode: np.ndarray        # (ne,) int64 FREE, STICK or SLIDE
     edamp: np.ndarray        # (ne, 2, 3) dashpot forces of the element contacts on their two vertices
-    damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts (rebuilt by the account)
-    phase: np.ndarray        # (1,) int64 0 before a kick's first account call, 1 between its two
+    damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts
 
 
 @njit(**CACHED, inline="always")
@@ -213,14 +212,18 @@ def _tangent(x, i, j, nx, ny, nz):
 
 @njit(**CACHED)
 def add_obstacle(p, model, state, loads):
-    """Update loads.f (nv, 3), p.anchor, p.mode, p.dissipated, p.deepest, p.active given the
-    vertex positions and velocities: the normal and friction forces of every vertex touching
-    the obstacle (see the module docstring)."""
-    x, v, f = state.x, state.v, loads.f
+    """Update loads.f (nv, 3), p.anchor, p.mode, p.damp, p.dissipated, p.deepest, p.active
+    given the vertex positions and velocities: the normal and friction forces of every vertex
+    touching the obstacle (see the module docstring), and their dashpots' share (m, 3): the
+    normal one (the clamp's included) and, while a contact sticks, -gamma v_t."""
+    x, v, f, damp = state.x, state.v, loads.f, p.damp
     anchor, mode, k, k_t = p.anchor, p.mode, p.k, p.k_t
-    active, lost = 0, 0.0
+    # held in a register: stored at every contact, p.deepest would chain each vertex to the
+    # one before through memory
+    active, lost, deepest = 0, 0.0, p.deepest[0]
     for j in range(p.verts.shape[0]):
         i = p.verts[j]
+        damp[j, 0] = damp[j, 1] = damp[j, 2] = 0.0
         cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
         d, nx, ny, nz = obstacle_distance(p, cx, cy, cz)
         eps = p.radius[j] - d
@@ -234,16 +237,17 @@ def add_obstacle(p, model, state, loads):
                 mode[j] = FREE
             continue
         active += 1
-        p.deepest[0] = max(p.deepest[0], eps / p.radius[j])
+        deepest = max(deepest, eps / p.radius[j])
         if mode[j] == FREE:
             mode[j] = STICK
             anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx, cy, cz
             ax = ay = az = 0.0
-        fn = k * eps - p.gamma * (v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz)
-        fn = max(fn, 0.0)
+        vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
+        fn = max(k * eps - p.gamma * vn, 0.0)
+        dn = fn - k * eps
+        damp[j, 0], damp[j, 1], damp[j, 2] = dn * nx, dn * ny, dn * nz
         if k_t > 0.0:
             # trial force -k_t e: the spring and the dashpot beside it, while it sticks
-            vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
             c_t = p.gamma / k_t
             ex, ey, ez = (ax + c_t * (v[i, 0] - vn * nx), ay + c_t * (v[i, 1] - vn * ny),
                           az + c_t * (v[i, 2] - vn * nz))
@@ -254,10 +258,15 @@ def add_obstacle(p, model, state, loads):
                 lost += slip
                 anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx - ax, cy - ay, cz - az
             mode[j] = SLIDE if slides else STICK
+            if not slides:
+                damp[j, 0] -= p.gamma * (v[i, 0] - vn * nx)
+                damp[j, 1] -= p.gamma * (v[i, 1] - vn * ny)
+                damp[j, 2] -= p.gamma * (v[i, 2] - vn * nz)
         f[i, 0] += fn * nx - k_t * ax
         f[i, 1] += fn * ny - k_t * ay
         f[i, 2] += fn * nz - k_t * az
     p.dissipated[0] += lost
+    p.deepest[0] = deepest
     p.active[0] = active
 
 

@@ -357,41 +357,15 @@ def add_line_obstacle(p, model, state, loads):
         p.dissipated[0] += add_element_contacts(p, state.x, state.v, loads.f)
 
 
-@njit(**CACHED)
-def _vertex_dashpots(p, x, v):
-    """Update p.damp given the positions and the velocities the last force evaluation saw:
-    the dashpot share of each vertex contact's force, the normal (clamp included) and, while
-    it sticks, the tangential -gamma v_t."""
-    damp = p.damp
-    for j in range(p.verts.shape[0]):
-        i = p.verts[j]
-        damp[j, 0] = damp[j, 1] = damp[j, 2] = 0.0
-        d, nx, ny, nz = obstacle_distance(p, x[i, 0], x[i, 1], x[i, 2])
-        eps = p.radius[j] - d
-        if not eps > 0.0:
-            continue
-        vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
-        dn = max(p.k * eps - p.gamma * vn, 0.0) - p.k * eps
-        damp[j, 0], damp[j, 1], damp[j, 2] = dn * nx, dn * ny, dn * nz
-        if p.k_t > 0.0 and p.mode[j] == STICK:
-            damp[j, 0] -= p.gamma * (v[i, 0] - vn * nx)
-            damp[j, 1] -= p.gamma * (v[i, 1] - vn * ny)
-            damp[j, 2] -= p.gamma * (v[i, 2] - vn * nz)
-
-
 @account_kernel(ObstacleParams)
 @njit(**CACHED)
 def account_obstacle_dashpots(p, model, state, hh):
     """Update p.dissipated by -hh times the power of the dashpot forces of the last force
-    evaluation at the current velocities (on both sides of a kick of 2 hh: the kinetic energy
-    the kick's dashpot share takes); the call before the kick also rebuilds the vertex
-    contacts' dashpot forces (p.damp) and flips p.phase."""
+    evaluation (p.damp, p.edamp) at the current velocities (on both sides of a kick of 2 hh:
+    the kinetic energy the kick's dashpot share takes)."""
     if not p.gamma > 0.0:
         return
-    x, v = state.x, state.v
-    if p.phase[0] == 0:
-        _vertex_dashpots(p, x, v)
-    p.phase[0] = 1 - p.phase[0]
+    v = state.v
     power = 0.0
     for j in range(p.verts.shape[0]):
         i = p.verts[j]
