@@ -11,6 +11,15 @@ rounds, each code timed in turn). cosnet runs with 1 and 2 threads in one proces
 processes of one thread each, N/2 snakes apiece, started together (what a user does with
 independent rods on a 2-core machine; rate = N x steps / the slower process's time).
 
+Longer steps: the snake's stable step is set by its sections' rotation against the shear
+stiffness, a motion the crawl does not depend on. With the rotary inertia x ROTARY (the
+damping's rotational rate divided by it, so that the damping torque, mass-proportional, stays
+PyElastica's) cosnet's stable step is 3.2 times longer and the crawl the same to the accuracy
+accuracy() measures: the mean velocity of a snake's centre of mass (4 s to 10 s) against a
+resolved run at dt / 4. Those runs ("x16 rotary") are timed beside the others, and every
+rate is also given as simulated rod-seconds per wall second (rod-steps/s times the step):
+the GPU's 7e5 rod-steps/s at 1e-4 s are 70 rod-s/s.
+
 --profile: where a cosnet step spends its time at the largest N (each stage repeated inside
 one compiled loop, as bench/profile_step.py).
 
@@ -39,10 +48,14 @@ import elastica as ea  # noqa: E402
 ELEMENTS = 20
 DT = 1e-4
 STEPS = 1000
+ROTARY = 16.0
+GPU_ROD_S_PER_S = 7e5 * DT
 
 
-def cn_snakes(count, threads):
-    """count snakes of the case (ELEMENTS elements each) in one simulation."""
+def cn_snakes(count, threads, rotary=1.0, dt=None):
+    """count snakes of the case (ELEMENTS elements each) in one simulation, their rotary
+    inertia scaled by rotary (and the damping's rotational rate divided by it), at dt (DT for
+    the resolved snakes, the stable step for scaled ones, unless given)."""
     scene = load_scene(CASE)
     case_line = scene.net.line("snake")
     effects = {type(e).__name__: e for e in scene.effects}
@@ -54,7 +67,7 @@ def cn_snakes(count, threads):
         head = net.add_node((0.1 * k, 0.0, length))
         tail = net.add_node((0.1 * k, 0.0, 0.0))
         lines.append(net.add_line(head, tail, material=case_line.material, section=case_line.section,
-                                  elements=ELEMENTS, d1=(0.0, 1.0, 0.0)))
+                                  elements=ELEMENTS, d1=(0.0, 1.0, 0.0), rotary_inertia_scale=rotary))
     period = 2 * math.pi / muscle.wave[0]
     crowd = cosnet.MuscleTorque(lines=lines, moment=muscle.values[:, 0].tolist(), points=muscle.points.tolist(),
                                 direction=muscle.direction, period=period, wavelength=2 * math.pi / muscle.wave[1],
@@ -62,8 +75,12 @@ def cn_snakes(count, threads):
     m_v = case_line.material.density * case_line.section.A * length / ELEMENTS
     floor = cosnet.Obstacle("plane", point=ground.origin, normal=ground.axis, k=ground.k,
                             gamma=2 * math.sqrt(ground.k * m_v), mu_s=ground.mu_s, mu_k=ground.mu_k)
-    others = [e for e in scene.effects if not isinstance(e, (cosnet.MuscleTorque, cosnet.Obstacle))]
-    return cosnet.Simulation(net, others + [crowd, floor], dt=DT, threads=threads)
+    damping = effects["Damping"]
+    others = [e for e in scene.effects if not isinstance(e, (cosnet.MuscleTorque, cosnet.Obstacle, cosnet.Damping))]
+    others.append(cosnet.Damping(damping.translational, damping.rotational / rotary))
+    if dt is None and rotary == 1.0:
+        dt = DT
+    return cosnet.Simulation(net, others + [crowd, floor], dt=dt, threads=threads)
 
 
 def pe_snakes(count):
@@ -74,10 +91,10 @@ def pe_snakes(count):
     return sim, rods
 
 
-def _half(count, rounds, start, out):
+def _half(count, rotary, rounds, start, out):
     """One of two processes: time count snakes on one thread, each round started with the
     other process's."""
-    sim = cn_snakes(count, 1)
+    sim = cn_snakes(count, 1, rotary)
     sim.run(steps=STEPS)
     times = []
     for _ in range(rounds):
@@ -88,12 +105,12 @@ def _half(count, rounds, start, out):
     out.put(times)
 
 
-def two_processes(count, rounds):
+def two_processes(count, rounds, rotary=1.0):
     """rod-steps/s of count snakes split over two single-threaded processes run at once
     (best round; a round lasts as long as its slower process)."""
     ctx = multiprocessing.get_context("spawn")
     start, out = ctx.Barrier(2), ctx.Queue()
-    procs = [ctx.Process(target=_half, args=(n, rounds, start, out)) for n in (count // 2, count - count // 2)]
+    procs = [ctx.Process(target=_half, args=(n, rotary, rounds, start, out)) for n in (count // 2, count - count // 2)]
     for p in procs:
         p.start()
     times = [out.get() for _ in procs]
@@ -103,9 +120,12 @@ def two_processes(count, rounds):
 
 
 def rate(count, pe_too, rounds):
-    """rod-steps/s of cosnet (1 and 2 threads) and PyElastica for count snakes."""
+    """rod-steps/s of cosnet (1 and 2 threads; 1 thread with the rotary inertia x ROTARY) and
+    PyElastica for count snakes; and each as rod-seconds simulated per wall second."""
     sims = {f"cosnet {t} thread{'s' if t > 1 else ''}": cn_snakes(count, t) for t in (1, 2)}
+    sims[f"cosnet 1 thread x{ROTARY:g} rotary"] = cn_snakes(count, 1, ROTARY)
     runs = {name: (lambda s=s: s.run(steps=STEPS)) for name, s in sims.items()}
+    step = {name: s.dt for name, s in sims.items()}
     if pe_too:
         pe, rods = pe_snakes(count)
         stepper, clock = ea.PositionVerlet(), [np.float64(0.0)]
@@ -115,7 +135,7 @@ def rate(count, pe_too, rounds):
             for _ in range(STEPS):
                 t = stepper.step(pe, t, np.float64(DT))
             clock[0] = t
-        runs["PyElastica"] = pe_run
+        runs["PyElastica"], step["PyElastica"] = pe_run, DT
     best = {name: math.inf for name in runs}
     for fn in runs.values():
         fn()                     # compilation, caches, PyElastica's own warm-up
@@ -125,10 +145,34 @@ def rate(count, pe_too, rounds):
             fn()
             best[name] = min(best[name], time.perf_counter() - t0)
     finite = all(np.isfinite(s.state.x).all() for s in sims.values())
-    rates = {f"rod_steps_per_s[{name}]": count * STEPS / b for name, b in best.items()}
+    rates = {name: count * STEPS / b for name, b in best.items()}
     if count >= 2:
-        rates["rod_steps_per_s[cosnet 2 processes]"] = two_processes(count, rounds)
-    return {"snakes": count, "steps": STEPS, "dt": DT, "finite": bool(finite), **rates}
+        rates["cosnet 2 processes"] = two_processes(count, rounds)
+        rates[f"cosnet 2 processes x{ROTARY:g} rotary"] = two_processes(count, rounds, ROTARY)
+        step["cosnet 2 processes"] = DT
+        step[f"cosnet 2 processes x{ROTARY:g} rotary"] = step[f"cosnet 1 thread x{ROTARY:g} rotary"]
+    return {"snakes": count, "steps": STEPS, "dt": step, "finite": bool(finite),
+            **{f"rod_steps_per_s[{name}]": r for name, r in rates.items()},
+            **{f"rod_s_per_s[{name}]": r * step[name] for name, r in rates.items()}}
+
+
+def accuracy(rotary=ROTARY, until=10.0, settle=4.0):
+    """The mean velocity of one snake's centre of mass from settle to until: resolved at DT,
+    with the rotary inertia x rotary at its stable step, and the reference (resolved, DT / 4);
+    each run's difference from the reference as a fraction of the reference's forward speed."""
+    runs = {"resolved, dt = 1e-4": cn_snakes(1, 1), f"x{rotary:g} rotary, stable step": cn_snakes(1, 1, rotary),
+            "reference: resolved, dt = 2.5e-5": cn_snakes(1, 1, dt=DT / 4)}
+    out = {}
+    for name, sim in runs.items():
+        w = sim.model.vertex_mass / sim.model.vertex_mass.sum()
+        sim.run(until=settle)
+        start = w @ sim.state.x
+        sim.run(until=until)
+        out[name] = {"dt": sim.dt, "velocity": ((w @ sim.state.x - start) / (sim.time - settle)).tolist()}
+    ref = np.array(out["reference: resolved, dt = 2.5e-5"]["velocity"])
+    for row in out.values():
+        row["error_of_forward_speed"] = float(np.linalg.norm(np.array(row["velocity"]) - ref) / ref[2])
+    return out
 
 
 def profile(count):
@@ -169,15 +213,22 @@ def main():
     quick = "--quick" in sys.argv
     counts = [int(a) for a in sys.argv[1:] if a.isdigit()] or ([1, 10, 100] if quick else [1, 10, 100, 1000, 3000])
     load0 = os.getloadavg()[0]
+    acc = accuracy()
+    table("One snake's crawl, mean velocity of the centre of mass from 4 s to 10 s",
+          ["run", "dt (s)", "forward (m/s)", "sideways (m/s)", "error / forward speed"],
+          [[name, r["dt"], r["velocity"][2], r["velocity"][0], r["error_of_forward_speed"]] for name, r in acc.items()])
     rows = []
     for n in counts:
         rows.append(rate(n, pe_too=n <= 100, rounds=2 if n >= 1000 else 3))
         print(rows[-1], flush=True)
-    names = list(dict.fromkeys(k for r in rows for k in r if k.startswith("rod_steps")))
-    table(f"{ELEMENTS}-element snakes on frictional ground, {STEPS} steps of {DT} s: rod-steps per second "
-          "(best of rounds)", ["snakes"] + [k[len("rod_steps_per_s["):-1] for k in names],
-          [[r["snakes"]] + [r.get(k, float("nan")) for k in names] for r in rows])
-    payload = {"elements": ELEMENTS, "rows": rows, "quick": quick, "load_average_1min": [load0, os.getloadavg()[0]]}
+    for unit, title in (("rod_steps_per_s", "rod-steps per second"),
+                        ("rod_s_per_s", f"rod-seconds simulated per second (the GPU: {GPU_ROD_S_PER_S:g})")):
+        names = list(dict.fromkeys(k for r in rows for k in r if k.startswith(unit + "[")))
+        table(f"{ELEMENTS}-element snakes on frictional ground, {STEPS} steps: {title} (best of rounds)",
+              ["snakes"] + [k[len(unit) + 1:-1] for k in names],
+              [[r["snakes"]] + [r.get(k, float("nan")) for k in names] for r in rows])
+    payload = {"elements": ELEMENTS, "accuracy": acc, "rows": rows, "quick": quick,
+               "load_average_1min": [load0, os.getloadavg()[0]]}
     if "--profile" in sys.argv:
         prof = profile(counts[-1])
         table(f"ns per step by stage, {counts[-1]} snakes, 1 thread", ["stage", "ns/step", "ns/rod-step"],

@@ -15,11 +15,15 @@ PERIOD = next(e for e in DATA["effects"] if e["kind"] == "muscle_torque")["perio
 MU = next(e for e in DATA["effects"] if e["kind"] == "obstacle")["mu_k"]   # forward, backward, lateral
 
 
-def crawl(mu, periods=3, elements=20):
+def crawl(mu, periods=3, elements=20, rotary=1.0):
     """Mean velocity (3,) of the centre of mass after the first period (the ramp), and the
-    simulation, of the case's snake on ground with the coefficients mu (mu_s = mu_k)."""
+    simulation, of the case's snake on ground with the coefficients mu (mu_s = mu_k), its
+    rotary inertia scaled by ``rotary`` (the damping's rotational rate divided by it, so the
+    damping torque, mass-proportional, stays the case's)."""
     data = copy.deepcopy(DATA)
     data["lines"]["snake"]["elements"] = elements
+    data["lines"]["snake"]["rotary_inertia_scale"] = rotary
+    next(e for e in data["effects"] if e["kind"] == "damping")["rotational"] /= rotary
     ground = next(e for e in data["effects"] if e["kind"] == "obstacle")
     ground["mu_s"] = ground["mu_k"] = mu
     sim = build_scene(data).simulation()
@@ -49,6 +53,18 @@ def test_anisotropic_ground_sets_the_crawling_direction():
     assert v[2] > 0.0 and v[2] > abs(v[0])
     w, _ = crawl([MU[1], MU[0], MU[2]])
     assert w[2] < v[2]
+
+
+def test_scaled_rotary_inertia_crawls_alike_on_a_three_times_longer_step():
+    """The snake's stable step is set by its sections' rotation against the shear stiffness
+    (omega ~ 2 sqrt(kG/rho)/r), a motion the crawl does not depend on: its rotary inertia x16
+    lets the step grow 3.2 times (to the stretch waves' limit) and the mean velocity of the
+    centre of mass stays within 0.5 % of the crawling speed of the resolved snake (measured:
+    0.16 %)."""
+    v, sim = crawl(MU)
+    w, fast = crawl(MU, rotary=16.0)
+    assert fast.dt > 3.0 * sim.dt
+    assert np.linalg.norm(w - v) < 5e-3 * v[2]
 
 
 def test_undulator_crawls_head_first_and_its_actuation_does_work():
