@@ -166,26 +166,30 @@ def spin_element(q, w, J, inv_j, h, order):
     w[0], w[1], w[2] = r[4] * inv_j[0], r[5] * inv_j[1], r[6] * inv_j[2]
 
 
+@njit(**INLINE)
+def spin_round_at(q, w, J, ij, e, h):
+    """Return (q, w) of element e of the columns q (4-tuple), w (3-tuple) turned by
+    spin_round, given J, 1/J (3-tuples)."""
+    qw, qx, qy, qz, p0, p1, p2 = spin_round(q[0][e], q[1][e], q[2][e], q[3][e], J[0][e] * w[0][e],
+                                            J[1][e] * w[1][e], J[2][e] * w[2][e], ij[0][e],
+                                            ij[2][e] - ij[0][e], h)
+    return qw, qx, qy, qz, p0 * ij[0][e], p1 * ij[1][e], p2 * ij[2][e]
+
+
 @njit(**PASS)
 def spin_round_elements(q, w, J, ij, h):
     """Update the element columns q (4-tuple), w (3-tuple) of the round-section elements by
-    spin_round (other lanes keep their values) given J, 1/J (3-tuples); return how many
-    elements are not round."""
-    other = 0
+    spin_round (other lanes keep their values) given J, 1/J (3-tuples)."""
     for e in range(q[0].shape[0]):
         rnd = ij[1][e] == ij[0][e]
-        other += 0 if rnd else 1
-        qw, qx, qy, qz, p0, p1, p2 = spin_round(q[0][e], q[1][e], q[2][e], q[3][e], J[0][e] * w[0][e],
-                                                J[1][e] * w[1][e], J[2][e] * w[2][e], ij[0][e],
-                                                ij[2][e] - ij[0][e], h)
-        q[0][e] = qw if rnd else q[0][e]
-        q[1][e] = qx if rnd else q[1][e]
-        q[2][e] = qy if rnd else q[2][e]
-        q[3][e] = qz if rnd else q[3][e]
-        w[0][e] = p0 * ij[0][e] if rnd else w[0][e]
-        w[1][e] = p1 * ij[1][e] if rnd else w[1][e]
-        w[2][e] = p2 * ij[2][e] if rnd else w[2][e]
-    return other
+        r = spin_round_at(q, w, J, ij, e, h)
+        q[0][e] = r[0] if rnd else q[0][e]
+        q[1][e] = r[1] if rnd else q[1][e]
+        q[2][e] = r[2] if rnd else q[2][e]
+        q[3][e] = r[3] if rnd else q[3][e]
+        w[0][e] = r[4] if rnd else w[0][e]
+        w[1][e] = r[5] if rnd else w[1][e]
+        w[2][e] = r[6] if rnd else w[2][e]
 
 
 @njit(**PASS)
@@ -204,11 +208,9 @@ def spin_round_columns(q, w, J, ij, h):
     per-lane choice between the new and the old values keeps LLVM from vectorising the
     pass, which then costs several times as much (four times on 20-element snakes)."""
     for e in range(q[0].shape[0]):
-        qw, qx, qy, qz, p0, p1, p2 = spin_round(q[0][e], q[1][e], q[2][e], q[3][e], J[0][e] * w[0][e],
-                                                J[1][e] * w[1][e], J[2][e] * w[2][e], ij[0][e],
-                                                ij[2][e] - ij[0][e], h)
-        q[0][e], q[1][e], q[2][e], q[3][e] = qw, qx, qy, qz
-        w[0][e], w[1][e], w[2][e] = p0 * ij[0][e], p1 * ij[1][e], p2 * ij[2][e]
+        r = spin_round_at(q, w, J, ij, e, h)
+        q[0][e], q[1][e], q[2][e], q[3][e] = r[0], r[1], r[2], r[3]
+        w[0][e], w[1][e], w[2][e] = r[4], r[5], r[6]
 
 
 @njit(**PASS)

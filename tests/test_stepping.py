@@ -127,8 +127,9 @@ def _drift_columns_of(q, w, J, ij, h, all_round):
         wc, jc, ijc = (w[:, 0], w[:, 1], w[:, 2]), (J[:, 0], J[:, 1], J[:, 2]), (ij[:, 0], ij[:, 1], ij[:, 2])
         if all_round:
             spin_round_columns(qc, wc, jc, ijc, h)
-            return count_not_round(ijc)
-        return spin_round_elements(qc, wc, jc, ijc, h)
+        else:
+            spin_round_elements(qc, wc, jc, ijc, h)
+        return count_not_round(ijc)
     return spin(q, w, J, ij, h, all_round)
 
 
