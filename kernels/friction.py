@@ -28,7 +28,7 @@ import math
 
 from numba import njit
 
-from .rotations import CACHED
+from .rotations import CACHED, CACHED_INNER
 
 
 @njit(**CACHED, inline="always")
@@ -47,7 +47,7 @@ def ellipse(a, b, mu_long, mu_lat, k_t, fn):
     return math.sqrt(q)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def plane_tangent(ux, uy, uz, nx, ny, nz):
     """Unit vector along u projected on the plane normal to n (zeros when u is along n)."""
     tn = ux * nx + uy * ny + uz * nz
@@ -72,7 +72,7 @@ def turn_into_plane(ax, ay, az, nx, ny, nz):
     return ax, ay, az
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, sliding, mu_s, mu_k, k_t, fn):
     """Return (bx, by, bz, slides, lost): the spring displacement the friction force -k_t b
     acts with, whether the contact slides, and the plastic work of the slip, given the

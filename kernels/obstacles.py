@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .friction import plane_tangent, stick_slip
-from .rotations import CACHED
+from .rotations import CACHED, CACHED_INNER
 
 PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
 SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}
@@ -133,7 +133,7 @@ def _away(dx, dy, dz, d, radius, fx, fy, fz):
     return -radius, fx, fy, fz
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def _mesh_distance(p, cx, cy, cz):
     h, o, dims = p.grid_h, p.grid_origin, p.grid_dims
     ix = math.floor((cx - o[0]) / h) if abs(cx) < FAR else -1.0
@@ -203,7 +203,7 @@ def obstacle_distance(p, cx, cy, cz):
     return _mesh_distance(p, cx, cy, cz)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def _tangent(x, i, j, nx, ny, nz):
     """Unit tangent of the line through vertices i -> j, projected on the plane normal to n
     (zeros when the line is along n)."""

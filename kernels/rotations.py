@@ -144,6 +144,9 @@ def _cache_options() -> dict:
 CACHED = _cache_options()
 # the same, inlined by numba where called (the joints' helpers)
 CACHED_INLINE = dict(CACHED, inline="always")
+# the same, for helpers called only from other kernels: without the Python entry wrapper,
+# whose compilation (unboxing a record of dozens of arrays) costs more than a small body's
+CACHED_INNER = dict(CACHED, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}

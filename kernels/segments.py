@@ -47,7 +47,7 @@ from .contact import segment_closest
 from .friction import plane_tangent, stick_slip, turn_into_plane
 from .obstacles import (BOX, CAPSULE, FAR, FREE, MESH, PLANE, SLIDE, SPHERE, STICK, ObstacleParams, add_obstacle,
                         obstacle_distance, triangle_closest)
-from .rotations import CACHED
+from .rotations import CACHED, CACHED_INNER
 
 BISECTIONS = 48  # of a box's distance slope along the segment: t* to 4e-15
 TINY = 1e-300
@@ -97,7 +97,7 @@ def segment_triangle(ax, ay, az, bx, by, bz, a, b, c):
     return bt, qx, qy, qz, best
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def _cell_triangles(p, cell, ax, ay, az, bx, by, bz, best, bt, bq, btri):
     """Scan one grid cell's triangles against the segment; return the improved nearest."""
     for j in range(p.cell_start[cell], p.cell_start[cell + 1]):
@@ -129,7 +129,7 @@ def _bump(v, k, by):
     return v[0] + (by if k == 0 else 0), v[1] + (by if k == 1 else 0), v[2] + (by if k == 2 else 0)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def mesh_segment(p, ax, ay, az, bx, by, bz):
     """Return (t, qx, qy, qz, d2, tri): the segment's point nearest the mesh among the
     triangles listed in the grid cells the segment crosses (a 3-D digital differential
@@ -176,7 +176,7 @@ def mesh_segment(p, ax, ay, az, bx, by, bz):
     return bt, bq[0], bq[1], bq[2], best, btri
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def _box_deepest(p, ax, ay, az, bx, by, bz, reach):
     """Return t* (or -1: the segment cannot reach the box): the minimum of the box's signed
     distance along the segment, convex, so bisection of its slope n . (b - a) finds it."""
@@ -204,7 +204,7 @@ def _box_deepest(p, ax, ay, az, bx, by, bz, reach):
     return 0.5 * (lo + hi)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def deepest_point(p, ax, ay, az, bx, by, bz, reach):
     """Return (t, d, nx, ny, nz): the parameter of the segment's point nearest the
     obstacle's surface, its signed distance and the outward normal there (d = FAR: nothing
@@ -237,7 +237,7 @@ def deepest_point(p, ax, ay, az, bx, by, bz, reach):
     return t, d, nx, ny, nz
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def element_overlap(p, x, e):
     """Return (eps_int, t, nx, ny, nz, gax, gay, gaz, gbx, gby, gbz, depth): element e's
     excess overlap (<= 0: no contact), its deepest point's parameter and outward normal,
@@ -272,7 +272,7 @@ def element_overlap(p, x, e):
     return eps, t, nx, ny, nz, gax, gay, gaz, gbx, gby, gbz, deep / r
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def add_element_contacts(p, x, v, f):
     """Update f (nv, 3), p.edata, p.emode, p.edamp, p.dissipated, p.deepest, p.active given
     the vertex positions x and velocities v: the excess contact of every element whose
