@@ -33,9 +33,8 @@ Dashpots: every force evaluation keeps the dashpot share of the forces (what is 
 the penalty nor the friction spring: the normal -gamma rate and the sticking -gamma v_t) on
 each vertex; the account kernel, called just before and just after every kick, adds to
 `dissipated` minus its work on the mean of the velocities either side, which is exactly what
-the kick takes from the kinetic energy through it. The vertex contacts' dashpot forces are
-rebuilt by the account on the call before the kick (the positions and velocities are still
-those the loads saw), so the vertex kernel stays as it is.
+the kick takes from the kinetic energy through it. The vertex contacts keep theirs in p.damp,
+the elements' in p.edamp.
 """
 
 import math
