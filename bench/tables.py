@@ -177,7 +177,38 @@ def contact_friction() -> str:
                    "ground µs/contact", "step (ms)"], rows)
 
 
-TABLES = {"throughput": throughput, "contact_friction": contact_friction, "pyelastica": pyelastica,
+SNAKE_RUNS = {"cosnet 1 thread": "cosnet, 1 thread", "cosnet 2 threads": "cosnet, 2 threads",
+              "cosnet 2 processes": "cosnet, 2 processes", "PyElastica": "PyElastica 1.0.0"}
+SNAKE_LONG = {"cosnet 1 thread": "cosnet, 1 thread", "cosnet 1 thread x16 rotary": "cosnet x16 rotary, 1 thread",
+              "cosnet 2 processes x16 rotary": "cosnet x16 rotary, 2 processes", "PyElastica": "PyElastica 1.0.0"}
+
+
+def _snake_rows(unit: str, runs: dict, cell) -> list[list[str]]:
+    return [[str(r["snakes"])] + [cell(r[f"{unit}[{k}]"]) if f"{unit}[{k}]" in r else "not run" for k in runs]
+            for r in _json("many_snakes.json")["rows"]]
+
+
+def snakes_rate() -> str:
+    """rod-steps/s of the many-snakes runs, at PyElastica's step."""
+    return _table(["snakes", *SNAKE_RUNS.values()], _snake_rows("rod_steps_per_s", SNAKE_RUNS, lambda x: f"{x:,.0f}"))
+
+
+def snakes_simulated() -> str:
+    """rod-seconds simulated per wall second, the longer step beside PyElastica's."""
+    return _table(["snakes", *SNAKE_LONG.values()], _snake_rows("rod_s_per_s", SNAKE_LONG, lambda x: _g(x, 2)))
+
+
+def snakes_accuracy() -> str:
+    acc = _json("many_snakes.json")["accuracy"]
+    rows = [[name, _g(r["dt"], 3), _g(r["velocity"][2], 4), _g(r["velocity"][0], 4),
+             f"{100 * r['error_of_forward_speed']:.3f} %" if r["error_of_forward_speed"] else "–"]
+            for name, r in acc.items()]
+    return _table(["run", "dt (s)", "forward (m/s)", "sideways (m/s)", "difference from the reference / forward speed"],
+                  rows)
+
+
+TABLES = {"snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated, "snakes_accuracy": snakes_accuracy,
+          "throughput": throughput, "contact_friction": contact_friction, "pyelastica": pyelastica,
           "accuracy_space": accuracy_space, "accuracy_time": accuracy_time, "cosseratbench": cosseratbench}
 
 
