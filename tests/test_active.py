@@ -9,25 +9,11 @@ import pytest
 
 import cosnet
 from cosnet.scene import build_scene
+from nets import ROD_SCENE
 
 RUBBER = cosnet.Material(E=1e6, G=4e5, density=1000.0, name="rubber")
 # a scene's 4-element rod that the scene-error tests add one effect table to
-ROD_SCENE = """
-[materials.m]
-E = 1e6
-G = 4e5
-density = 1000.0
-[nodes.a]
-position = [0, 0, 0]
-[nodes.b]
-position = [1, 0, 0]
-[lines.rod]
-start = "a"
-end = "b"
-material = "m"
-section = { kind = "circle", radius = 0.02 }
-elements = 4
-"""
+ROD = ROD_SCENE.format(title="rod", E="1e6", G="4e5", elements=4, rest="")
 
 
 def test_steady_muscle_torque_bends_a_free_line_to_curvature_m_over_ei():
@@ -52,7 +38,7 @@ def test_steady_muscle_torque_bends_a_free_line_to_curvature_m_over_ei():
 
 
 def test_muscle_torque_scene_errors_name_the_key():
-    scene = ROD_SCENE + """
+    scene = ROD + """
 [[effects]]
 kind = "muscle_torque"
 line = "rod"
@@ -209,7 +195,7 @@ def test_a_bad_schedule_is_refused_in_one_line():
     _, line = free_rod(2)
     with pytest.raises(ValueError, match=r"^ActiveCurvature on .*: schedule: times must increase strictly"):
         cosnet.ActiveCurvature(line, curvature=(1.0, 0.0, 0.0), schedule=dict(times=[0.0, 1.0, 1.0], values=[0, 1, 2]))
-    scene = ROD_SCENE + """
+    scene = ROD + """
 [[effects]]
 kind = "active_curvature"
 line = "rod"
@@ -288,7 +274,7 @@ def test_a_rest_stretch_that_could_reach_zero_length_is_refused_in_one_line():
         cosnet.ActiveCurvature(line)
 
 
-STRETCH_SCENE = ROD_SCENE + """
+STRETCH_SCENE = ROD + """
 [[effects]]
 kind = "active_curvature"
 line = "rod"

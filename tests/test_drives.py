@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 import cosnet
 from cosnet.rotmath import matrix_from_quat
 from cosnet.scene import build_scene
+from nets import ROD_SCENE
 
 RUBBER = cosnet.Material(E=1e6, G=4e5, density=1000.0, name="rubber")
 RADIUS = 0.02
@@ -216,46 +217,29 @@ def test_bad_drives_are_refused_in_one_line():
         sim.run(steps=1)
 
 
-SCENE = """
-[materials.m]
-E = 1e6
-G = 4e5
-density = 1000.0
-[nodes.a]
-position = [0, 0, 0]
-fixed = true
-[nodes.b]
-position = [1, 0, 0]
-[lines.rod]
-start = "a"
-end = "b"
-material = "m"
-section = {{ kind = "circle", radius = 0.02 }}
-elements = 4
-[run]
-until = 0.01
-[[effects]]
+# the shared clamped rod with one drive table: node "root" is fixed, "tip" free
+SCENE = ROD_SCENE.format(title="driven rod", E="1e6", G="4e5", elements=4, rest="""[[effects]]
 kind = "drive"
 node = "{node}"
 {keys}
-"""
+""")
 
 
 @pytest.mark.parametrize("node, keys, words", [
-    ("b", 'rotation = { times = [0.0, 0.0], values = [0.0, 1.0] }\naxis = [1, 0, 0]',
+    ("tip", 'rotation = { times = [0.0, 0.0], values = [0.0, 1.0] }\naxis = [1, 0, 0]',
      r"\[\[effects\]\] #1 \(drive\) rotation: .*times must increase strictly"),
-    ("b", 'position = { rate = [1, 0] }', r"\(drive\) position: .*rate must be 3 finite numbers"),
-    ("b", 'rotation = { rate = 1.0 }\naxis = [0, 0, 0]', r"\(drive\) axis: must be a non-zero vector"),
-    ("b", 'position = { speed = [1, 0, 0] }', r"\(drive\) position: unknown key 'speed'"),
-    ("a", 'position = { rate = [1, 0, 0] }', r"\(drive\) .*the node is fixed"),
-    ("b", 'orientation = { times = [0, 1], quaternions = [[1, 0, 0, 0], [0, 0.9, 0, 0]] }',
+    ("tip", 'position = { rate = [1, 0] }', r"\(drive\) position: .*rate must be 3 finite numbers"),
+    ("tip", 'rotation = { rate = 1.0 }\naxis = [0, 0, 0]', r"\(drive\) axis: must be a non-zero vector"),
+    ("tip", 'position = { speed = [1, 0, 0] }', r"\(drive\) position: unknown key 'speed'"),
+    ("root", 'position = { rate = [1, 0, 0] }', r"\(drive\) .*the node is fixed"),
+    ("tip", 'orientation = { times = [0, 1], quaternions = [[1, 0, 0, 0], [0, 0.9, 0, 0]] }',
      r"\(drive\) orientation: .*quaternions must be unit, quaternions\[1\] has norm 0.9"),
-    ("b", 'orientation = { times = [0, 1], quaternions = [[1, 0, 0], [1, 0, 0]] }',
+    ("tip", 'orientation = { times = [0, 1], quaternions = [[1, 0, 0], [1, 0, 0]] }',
      r"\(drive\) orientation: .*quaternions must be rows of 4 finite numbers"),
-    ("b", 'orientation = { times = [0, 1], values = [[0, 0, 0]] }', r"\(drive\) orientation: .*values must be 2 x 3"),
-    ("b", 'position = { times = [0, 1], quaternions = [[1, 0, 0, 0], [1, 0, 0, 0]] }',
+    ("tip", 'orientation = { times = [0, 1], values = [[0, 0, 0]] }', r"\(drive\) orientation: .*values must be 2 x 3"),
+    ("tip", 'position = { times = [0, 1], quaternions = [[1, 0, 0, 0], [1, 0, 0, 0]] }',
      r"\(drive\) position: .*quaternions tabulate an orientation path only"),
-    ("b", 'orientation = { rate = [0, 0, 1] }\nrotation = { rate = 1 }\naxis = [1, 0, 0]',
+    ("tip", 'orientation = { rate = [0, 0, 1] }\nrotation = { rate = 1 }\naxis = [1, 0, 0]',
      r"\(drive\) .*a rotation \(about axis\) or an orientation path, not both"),
 ])
 def test_scene_drive_errors_name_the_table_and_key(node, keys, words):
