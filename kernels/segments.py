@@ -278,7 +278,7 @@ def add_element_contacts(p, x, v, f):
     interior reaches deeper into the obstacle than its ends (module docstring). Return the
     energy friction dissipated."""
     data, mode, damp, k, k_t, gamma = p.edata, p.emode, p.edamp, p.k, p.k_t, p.gamma
-    lost, active = 0.0, 0
+    lost, active, deepest = 0.0, 0, p.deepest[0]   # in a register, as add_obstacle's
     for e in range(p.elems.shape[0]):
         damp[e, 0, 0] = damp[e, 0, 1] = damp[e, 0, 2] = 0.0
         damp[e, 1, 0] = damp[e, 1, 1] = damp[e, 1, 2] = 0.0
@@ -290,7 +290,7 @@ def add_element_contacts(p, x, v, f):
             continue
         ia, ib = p.verts[p.elems[e, 0]], p.verts[p.elems[e, 1]]
         active += 1
-        p.deepest[0] = max(p.deepest[0], depth)
+        deepest = max(deepest, depth)
         rate = (gax * v[ia, 0] + gay * v[ia, 1] + gaz * v[ia, 2]) + (gbx * v[ib, 0] + gby * v[ib, 1] + gbz * v[ib, 2])
         fn = max(k * eps - gamma * rate, 0.0)
         dn = fn - k * eps   # the dashpot's share (the clamp's included)
@@ -343,6 +343,7 @@ def add_element_contacts(p, x, v, f):
         data[e, 0], data[e, 1], data[e, 2], data[e, 3] = ax, ay, az, t
         data[e, 4], data[e, 5], data[e, 6] = cx, cy, cz
     p.active[0] += active
+    p.deepest[0] = deepest
     return lost
 
 
