@@ -1,12 +1,13 @@
 """The output directory of a run: locked while the run writes it, and never silently mixed
 with an earlier run's files.
 
-A run holds an exclusive ``flock`` on ``DIR/.cosnet.lock`` from before its first write to its
-end; the kernel drops the lock when the process ends however it ends (even by SIGKILL), so
-a lock is never left stale. A second run into the same directory is refused while the first
-holds it. A directory that already holds a run is refused unless the new run continues it
-(``--resume``) or replaces it (``--overwrite``: the old frames, series, probes and
-checkpoint are removed first).
+A run (or a sweep, for its whole length) holds an exclusive ``flock`` on ``DIR/.cosnet.lock``
+from before its first write to its end, with its process id, host and kind written in the
+file; the kernel drops the lock when the process ends however it ends (even by SIGKILL), so
+a lock is never left stale. A second run or sweep into the same directory is refused while
+the first holds it, in one line naming the holder. A directory that already holds a run is
+refused unless the new run continues it (``--resume``) or replaces it (``--overwrite``: the
+old frames, series, probes and checkpoint are removed first).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import socket
 from pathlib import Path
 
 LOCK = ".cosnet.lock"
@@ -32,9 +34,10 @@ def run_files(out: Path) -> list[Path]:
 
 
 @contextlib.contextmanager
-def locked(out: Path):
-    """Create ``out`` if needed and hold its lock for the duration of the block; a directory
-    another process holds is refused with a ValueError naming it."""
+def locked(out: Path, kind: str = "run"):
+    """Create ``out`` if needed and hold its lock for the duration of the block (``kind``,
+    "run" or "sweep", is written beside the pid and host for whoever is refused); a
+    directory another process holds is refused with a ValueError naming the holder."""
     if out.exists() and not out.is_dir():
         raise ValueError(f"{out}: exists and is not a directory")
     try:
@@ -46,15 +49,27 @@ def locked(out: Path):
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            holder = os.pread(fd, 32, 0).decode(errors="replace").strip()
-            who = f" (process {holder})" if holder.isdigit() else ""
-            raise ValueError(f"{out}: another run is writing into it{who}; wait for it to end or "
+            raise ValueError(f"{out}: {holder(fd)} is writing into it; wait for it to end or "
                              f"choose another --out") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"{os.getpid()} {socket.gethostname()} {kind}\n".encode(), 0)
+        except OSError:   # a full disk: the lock holds all the same, its holder goes unnamed
+            pass
         yield out
     finally:
         os.close(fd)   # releases the lock
+
+
+def holder(fd: int) -> str:
+    """Who holds the lock open as ``fd``: "another sweep (process 12 on host h)"; the file
+    is written just after the lock is taken, so it may still be empty."""
+    words = os.pread(fd, 256, 0).decode(errors="replace").split()
+    if not words or not words[0].isdigit():
+        return "another run"
+    kind = words[2] if len(words) > 2 else "run"
+    host = f" on {words[1]}" if len(words) > 1 else ""
+    return f"another {kind} (process {words[0]}{host})"
 
 
 def prepare(out: Path, resume: bool, overwrite: bool):

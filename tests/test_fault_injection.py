@@ -144,7 +144,7 @@ def test_two_runs_into_one_directory_one_is_refused(scene, full, tmp_path):
     codes = sorted(c for c, _ in results)
     assert codes == [0, 2], results
     refusal = one_error_line(next(e for c, e in results if c == 2))
-    assert re.search(r"another run is writing into it \(process \d+\)|holds a run already", refusal)
+    assert re.search(r"another run \(process \d+ on \S+\) is writing into it|holds a run already", refusal)
     assert_same_run(full, out)
 
 
@@ -155,8 +155,10 @@ def test_a_directory_locked_by_a_running_run_is_refused(scene, tmp_path):
         r = cosnet("run", scene, "--out", out, "--until", 0.02)
     assert r.returncode == 2
     import os
-    assert one_error_line(r.stderr) == (f"cosnet: error: {out}: another run is writing into it "
-                                        f"(process {os.getpid()}); wait for it to end or choose another --out")
+    import socket
+    assert one_error_line(r.stderr) == (f"cosnet: error: {out}: another run (process {os.getpid()} on "
+                                        f"{socket.gethostname()}) is writing into it; wait for it to end "
+                                        f"or choose another --out")
     assert not (out / "series.pvd").exists()
 
 
