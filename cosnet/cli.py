@@ -7,7 +7,9 @@
     cosnet render DIR [--png|--gif|--mp4] [--field NAME] [--clim LO HI] [--view V] [--warp F]
                                                              pictures of a run or of modes
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
-    cosnet sweep SCENE [--vary KEY=VALUES] [--vtk]          variants as Dask tasks, one Zarr store
+    cosnet sweep SCENE [--vary KEY=VALUES] [--vtk] [--resume|--overwrite]
+                                                             variants as Dask tasks, one Zarr store
+    cosnet sweep --check STORE                               every file of a store against its manifest
 
 ``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
 interval (cosnet.record, which ``Simulation.run(out=...)`` uses too), each only after the
@@ -201,9 +203,16 @@ def cmd_accuracy(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    """Exit code 0 when every variant ran to the end, 1 when some failed."""
-    from .sweep import sweep
+    """Exit code 0 when every variant ran to the end, 1 when some failed (with --check: 0
+    when the store is intact, 1 when it is damaged)."""
+    from .sweep import check, sweep
     from .sweep_report import plot, summary
+    if args.check is not None:
+        if args.scene is not None:
+            raise ValueError("--check STORE takes the store alone, not a scene")
+        code, line = check(args.check)
+        print(line)
+        return code
     if args.plot is not None:
         try:
             import matplotlib  # noqa: F401
@@ -226,7 +235,8 @@ def cmd_sweep(args) -> int:
     ds = sweep(args.scene or str(default_scene()), vary=args.vary, zip=args.zip,
                ensemble=args.ensemble, until=args.until, out=args.out, name=args.name,
                scheduler=args.scheduler, workers=args.workers, batch=args.batch,
-               resume=args.resume, progress=progress, vtk=args.vtk)
+               resume=args.resume, overwrite=args.overwrite, limits=not args.no_limits,
+               progress=progress, vtk=args.vtk)
     sys.stderr.write("\n")
     store = ds.encoding.get("source", "")
     print(summary(ds, args.plot or None))
@@ -327,7 +337,14 @@ def parser() -> argparse.ArgumentParser:
                    help="use this Dask scheduler (default: a local cluster, one worker per core)")
     s.add_argument("--workers", type=int, help="local cluster size (default: one per core)")
     s.add_argument("--batch", type=int, help="variants per task (default: about 4 tasks per worker)")
-    s.add_argument("--resume", action="store_true", help="keep the finished variants of the store")
+    again = s.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true",
+                       help="continue the store: run only its unfinished (or damaged) variants")
+    again.add_argument("--overwrite", action="store_true", help="replace the store already at OUT/NAME.zarr")
+    s.add_argument("--no-limits", action="store_true",
+                   help="lift the limit on the number of variants (see docs/faults.md)")
+    s.add_argument("--check", metavar="STORE",
+                   help="check every file of a store against its manifest (exit 1 if damaged)")
     s.add_argument("--vtk", action="store_true",
                    help="also write each variant's VTK series to OUT/NAME.vtk/variant_NNNN")
     s.add_argument("--plot", nargs="?", const="", metavar="PROBE[:x|y|z|norm]",

@@ -6,8 +6,10 @@ with its numbers instead of running for hours or exhausting memory.
               each) of at most half the machine's physical memory
     steps     at most MAX_STEPS time steps in one run
     frames    at most MAX_FRAMES output frames in one run
+    variants  at most MAX_VARIANTS variants in one sweep, counted before any is built
 
-Each is lifted by ``[run] limits = false`` in the scene or ``cosnet run --no-limits``.
+Each is lifted by ``[run] limits = false`` in the scene or ``cosnet run --no-limits``; the
+variants by ``cosnet sweep --no-limits`` (``sweep(..., limits=False)``).
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import os
 MAX_ELEMENTS = 5_000_000
 MAX_STEPS = 1_000_000_000
 MAX_FRAMES = 100_000
+# a --vary typo (linspace(0, 1, 10000) twice) must not plan and validate 10^8 scenes
+MAX_VARIANTS = 10_000
 # Peak resident memory per element of loading a scene and building its Simulation is about
 # 1,000 bytes (measured on straight rods of 10^5 and 10^6 elements: the flattened model, state,
 # loads and grids); doubled for the frame writer and the temporaries of a run.
@@ -55,3 +59,10 @@ def check_run(steps: float, frames: float, step: str, where: str):
     if frames > MAX_FRAMES:
         raise ValueError(f"{where}: {frames:,.4g} output frames exceed the limit of {MAX_FRAMES:,}; "
                          f"{OVERRIDE}")
+
+
+def check_variants(n: int, where: str):
+    """Refuse a sweep of more than MAX_VARIANTS variants."""
+    if n > MAX_VARIANTS:
+        raise ValueError(f"{where}: the variations give {n:,} variants, above the limit of "
+                         f"{MAX_VARIANTS:,}; pass --no-limits to go ahead")

@@ -23,24 +23,24 @@ status is still "pending" (or "lost:" to a cluster failure).
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import os
+import shutil
 import time
 from dataclasses import dataclass
-from typing import Any
 from pathlib import Path
 
 import numpy as np
 
+from . import outdir, sweep_store
+from .limits import check_variants
 from .runner import run_probes, schedule
 from .scene import build_scene, read_toml
+from .sweep_store import PENDING, SCALARS, Store
 from .variants import parse_values, parse_vary, plan, split_path
 
-PENDING = "pending"
-# per-variant numbers: (variable, key of a finished variant's record, value until it has one)
-SCALARS = (("steps", "steps", 0), ("dt", "dt", np.nan), ("wall_time", "wall", np.nan),
-           ("compiled", "compiled", -1))
 CHUNK_BYTES = 1 << 20
 FLUSH_EVERY = 2.0  # s: the longest a finished variant waits on the client before it is written
 SPEC_KEYS = ("scene", "vary", "zip", "ensemble", "until", "plot", "name")
@@ -175,7 +175,9 @@ def _coord(values):
     return np.array([v if isinstance(v, str) else repr(v) for v in values], dtype=object)
 
 
-def _new_store(store: Path, spec: SweepSpec, variants, until):
+def _new_store(store: Path, spec: SweepSpec, variants, until, replace=()):
+    """Build the store of ``variants`` beside ``store`` and rename it into place whole (an
+    existing store, and the folders ``replace``, are removed once the new one is in)."""
     import xarray as xr
     scheds = {schedule(v.scene, until)[1:] for v in variants}
     frames = max(f for _, f in scheds)
@@ -194,8 +196,46 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
                                ensemble=int(spec.ensemble or 0), plot=spec.plot or ""))
     rows = chunk_rows(len(variants), frames + 1)
     enc = {k: {"chunks": (rows,) + ds[k].shape[1:]} for k in ds.data_vars}
-    ds.to_zarr(store, mode="w", encoding=enc, zarr_format=2, consolidated=True)
+    new = sweep_store.hidden(store, "new")
+    try:
+        ds.to_zarr(new, mode="w", encoding=enc, zarr_format=2, consolidated=True)
+        man = sweep_store.manifest(dict(probes=probes, variants=[v.key for v in variants],
+                                        values=[_plain(v.values) for v in variants], until=until,
+                                        scene=str(spec.path), files=scene_digests(spec)), new)
+        sweep_store._write_json(new / sweep_store.MANIFEST, man)
+        sweep_store.install(new, store, replace)
+    except BaseException:
+        shutil.rmtree(new, ignore_errors=True)
+        raise
     return ds
+
+
+def _plain(values: dict) -> dict:
+    """A variant's varied values as JSON can hold them."""
+    return json.loads(json.dumps(values, default=repr))
+
+
+def scene_digests(spec: SweepSpec) -> dict:
+    """{path: sha256} of the scene file and of every file it names (meshes, tables): what
+    --resume finds unchanged, or refuses."""
+    paths = [spec.path]
+
+    def walk(node):
+        if isinstance(node, dict):
+            for v in node.values():
+                walk(v)
+        elif isinstance(node, list):
+            for v in node:
+                walk(v)
+        elif isinstance(node, str) and node and len(node) < 4096:
+            p = spec.path.parent / node
+            try:
+                if p.is_file():
+                    paths.append(p)
+            except OSError:
+                pass
+    walk(spec.doc)
+    return {str(p): sweep_store.digest(p)[1] for p in dict.fromkeys(paths)}
 
 
 def chunk_rows(n: int, nt: int) -> int:
@@ -206,49 +246,10 @@ def chunk_rows(n: int, nt: int) -> int:
     return max(1, min(n, CHUNK_BYTES // (24 * max(nt, 1))))
 
 
-class _Store:
-    """The open store, written as variants finish. Rows are assembled in numpy and each
-    variable is written once per call, straight into its zarr array (by orthogonal indexing:
-    the rows need not be consecutive): a write through xarray (an isel and a setitem per
-    value) cost ten times more, on the process that also drives the cluster."""
-
-    def __init__(self, store: Path, probes: list[str]):
-        import zarr
-        group: Any = zarr.open_group(str(store), mode="r+")   # its arrays, by name
-        self.group, self.probes = group, probes
-        self.nt = int(group["frame_time"].shape[1])
-
-    def write(self, results: list):
-        """Write finished variants [(index, record)]: one write per variable."""
-        g, nt = self.group, self.nt
-        run = sorted(dict(results).items())
-        m = len(run)
-        if not m:
-            return
-        rows = np.array([index for index, _ in run])
-        times = np.full((m, nt), np.nan)
-        probes = {name: np.full((m, nt, 3), np.nan) for name in self.probes}
-        # built here, not read back: each zarr read costs as much as a write
-        scalars = {var: np.full(m, blank) for var, _, blank in SCALARS}
-        for j, (_, rec) in enumerate(run):
-            if "times" not in rec:
-                continue
-            times[j, :len(rec["times"])] = rec["times"][:nt]
-            for name, arr in rec["probes"].items():
-                probes[name][j, :len(arr)] = arr[:nt]
-            for var, key, _ in SCALARS:
-                scalars[var][j] = rec[key]
-        for name, block in probes.items():
-            g[name].oindex[rows, :, :] = block
-        g["frame_time"].oindex[rows, :] = times
-        for var, column in scalars.items():
-            g[var].oindex[rows] = column
-        g["worker"].oindex[rows] = np.array([rec.get("worker", "") for _, rec in run], dtype=object)
-        # last: a variant whose status is written has all its values in the store
-        g["status"].oindex[rows] = np.array([rec["status"] for _, rec in run], dtype=object)
-
-
 # ---------------------------------------------------------------------- driving the cluster
+CONNECT_TIMEOUT = 10   # s: an unreachable --scheduler is an error after this long, not a hang
+
+
 def _client(client, scheduler, workers):
     """(client, cluster to close or None)."""
     from distributed import Client
@@ -256,9 +257,10 @@ def _client(client, scheduler, workers):
         return client, None
     if scheduler is not None:
         try:
-            return Client(scheduler, timeout="10s"), None
+            return Client(scheduler, timeout=f"{CONNECT_TIMEOUT}s"), None
         except (OSError, TimeoutError) as e:
-            raise ValueError(f"--scheduler {scheduler}: cannot reach it ({' '.join(str(e).split())})") from None
+            raise ValueError(f"--scheduler {scheduler}: cannot reach it within {CONNECT_TIMEOUT} s "
+                             f"({' '.join(str(e).split())})") from None
     n = workers or os.cpu_count() or 1
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"--workers must be a positive integer, got {workers!r}")
@@ -275,6 +277,11 @@ QUIET = {"distributed.admin.tick.interval": "1s",
          "distributed.worker.profile.enabled": False}
 
 
+# s: a worker that has lost its scheduler stops after this long (the local cluster's workers
+# also end at once with the process that started them: distributed ties each to its parent)
+DEATH_TIMEOUT = 30
+
+
 def local_cluster(n: int):
     """The LocalCluster of a sweep: n single-threaded worker processes on 127.0.0.1, with
     distributed's chores slowed down (QUIET) and cosnet imported by each worker as it starts
@@ -284,7 +291,7 @@ def local_cluster(n: int):
     with dask.config.set(QUIET):
         return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                             dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
-                            preload=["cosnet.sweep"])
+                            preload=["cosnet.sweep"], death_timeout=DEATH_TIMEOUT)
 
 
 def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
@@ -295,8 +302,8 @@ def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
 
 
 def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=None,
-          client=None, scheduler=None, workers=None, batch=None, resume=False, retries=1,
-          progress=None, vtk=False):
+          client=None, scheduler=None, workers=None, batch=None, resume=False, overwrite=False,
+          limits=True, retries=1, progress=None, vtk=False):
     """Run a sweep and return its Dataset (opened from ``OUT/<name>.zarr``).
 
     scene: a scene file or sweep file (or ready case name); vary: ["KEY=VALUES", ...];
@@ -304,9 +311,12 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     seeds of [initial.perturbation]; until: end time for every variant; client / scheduler
     ("tcp://HOST:PORT") / workers (LocalCluster size, default one per core); batch: variants
     per task (default: about four tasks per worker); resume: keep the finished variants of an
-    existing store; progress: called with a dict (done, failed, running, total, eta, dashboard)
-    as the sweep goes; vtk: also write each variant's VTK series into OUT/<name>.vtk/variant_NNNN
-    (written by the workers: on a cluster of several machines OUT must be a folder they share).
+    existing store (and run again those a check finds damaged); overwrite: replace an existing
+    store (else it is refused); limits: refuse more than limits.MAX_VARIANTS variants;
+    progress: called with a dict (done, failed, running, total, eta, dashboard) as the sweep
+    goes; vtk: also write each variant's VTK series into OUT/<name>.vtk/variant_NNNN (written
+    by the workers: on a cluster of several machines OUT must be a folder they share).
+    OUT stays locked (as a run locks its directory) for the whole sweep.
     """
     try:
         import distributed  # noqa: F401
@@ -317,33 +327,88 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
                          f"({e.name} is missing)") from None
 
     from .cli import scene_path
+    if resume and overwrite:
+        raise ValueError("--resume continues a store and --overwrite replaces it: give one")
     spec = read_spec(scene_path(str(scene)), vary, zip if zip else None, ensemble, until)
+    if limits:
+        check_variants(variant_count(spec), str(spec.path))
     variants = plan(spec.doc, spec.path, spec.axes, spec.zipped, spec.ensemble or 0, spec.until)
     store = Path(out) / f"{name or spec.name or spec.path.stem}.zarr"
     series = str(store.with_suffix(".vtk").resolve()) if vtk else None
     if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
         raise ValueError(f"--batch must be a positive integer, got {batch!r}")
-    status = [PENDING] * len(variants)
-    if resume and store.exists():
-        old = xr.open_zarr(store)
-        keys = [str(k) for k in old["key"].values]
-        if keys != [v.key for v in variants]:
-            raise ValueError(f"{store}: holds another sweep (its variants' scenes differ from "
-                             f"these); use another --out or --name, or drop --resume")
-        status = [str(s) for s in old["status"].values]
-        old.close()
-        resume = True
-    else:
-        resume = False
-    todo = [v for v, s in zip_(variants, status) if s == PENDING or s.startswith("lost:")]
-    if todo or not resume:
-        def open_store():
-            if not resume:
-                store.parent.mkdir(parents=True, exist_ok=True)
-                _new_store(store, spec, variants, spec.until)
-            return _Store(store, _probe_names(variants))
-        _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series)
+    with outdir.locked(Path(out), "sweep"):
+        sweep_store.tidy(store)
+        status = _status(store, spec, variants, resume, overwrite)
+        todo = [v for v, s in zip_(variants, status or [PENDING] * len(variants))
+                if s == PENDING or s.startswith("lost:")]
+        if todo or status is None:
+            def open_store():
+                if status is None:
+                    _new_store(store, spec, variants, spec.until, [store.with_suffix(".vtk")])
+                return Store(store, _probe_names(variants))
+            _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series)
     return xr.open_zarr(store)
+
+
+def variant_count(spec: SweepSpec) -> int:
+    """How many variants ``spec`` plans, counted before any is built."""
+    lens = [len(v) for _, v in spec.axes]
+    n = (max(lens) if spec.zipped else math.prod(lens)) if lens else 1
+    ens = spec.ensemble if isinstance(spec.ensemble, int) and not isinstance(spec.ensemble, bool) else 0
+    return n * max(ens, 1)
+
+
+def _status(store: Path, spec: SweepSpec, variants, resume: bool, overwrite: bool) -> list | None:
+    """Each variant's status in the store to continue, or None for a new store (refusing a
+    store that exists unless ``resume`` or ``overwrite``)."""
+    if store.exists() and not sweep_store.is_store(store):
+        raise ValueError(f"{store}: exists and is not a sweep store; choose another --out or --name")
+    if not store.exists() or overwrite:
+        return None
+    old = Store(store, _probe_names(variants))
+    if not resume:
+        raise ValueError(f"{store}: holds a sweep already ({old.n} variants, {len(old.done)} written); "
+                         f"pass --resume to continue it or --overwrite to replace it")
+    if old.man["variants"] != [v.key for v in variants]:
+        raise ValueError(f"{store}: holds another sweep (its variants' scenes differ from "
+                         f"these); use another --out or --name, or drop --resume")
+    for path, sha in old.man["files"].items():
+        if scene_digests(spec).get(path) != sha:
+            raise ValueError(f"{store}: {path} has changed since the sweep began; "
+                             f"use another --out or --name, or --overwrite")
+    damage = old.check()
+    if damage:
+        _repair(old, damage, store, spec, variants)
+    return old.status()
+
+
+def _repair(old: Store, damage, store: Path, spec: SweepSpec, variants):
+    """Make a damaged store whole before it is continued: the files the plan makes from a
+    new store built aside (only when such a file is damaged), the damaged variants pending."""
+    import tempfile
+    if all(old.chunk(k) is not None for k in damage.files):
+        return old.repair(damage, {})
+    with tempfile.TemporaryDirectory(dir=store.parent, prefix=f".{store.name}.ref-") as tmp:
+        ref = Path(tmp) / store.name
+        _new_store(ref, spec, variants, spec.until)
+        reference = {k: (ref / k).read_bytes() for k in damage.files if (ref / k).is_file()}
+    old.repair(damage, reference)
+
+
+def check(store) -> tuple[int, str]:
+    """(exit code, one line) of ``cosnet sweep --check STORE``: 0 when every file of the
+    store matches its manifest, 1 when some are damaged (naming the variants affected)."""
+    store = Path(store)
+    if not store.is_dir() or not sweep_store.is_store(store):
+        raise ValueError(f"{store}: not a sweep store (no {sweep_store.MANIFEST})")
+    with outdir.locked(store.parent, "sweep check"):
+        s = Store(store)
+        damage = s.check()
+    head = f"{store}: {s.n} variants, {len(s.done)} written"
+    if damage:
+        return 1, f"{head}; {damage.line()}; --resume runs them again"
+    return 0, f"{head}; every file intact (generation {s.man['generation']}, cosnet {s.man['cosnet']})"
 
 
 zip_ = zip  # the builtin, as ``sweep`` takes a ``zip`` flag
@@ -419,7 +484,7 @@ class _Buffer:
     one write per variable for many tasks, instead of one per task on the process that
     shares the cores with the workers."""
 
-    def __init__(self, store: _Store):
+    def __init__(self, store: Store):
         self.store, self.since = store, math.inf
         self.held: list = []
 

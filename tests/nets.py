@@ -87,3 +87,42 @@ def smooth_motion(sim, amplitude=0.2, spin=2.0):
             w_lab = np.cross(seg, vel[i + 1] - vel[i]) / np.dot(seg, seg)
             s.w[e0 + i] = matrix_from_quat(s.q[e0 + i]).T @ w_lab
     s.node_w[:] = spin * (sim.model.node_locked == 0)
+
+
+# A tiny cantilever for sweeps: its stiffness E, perturbation velocity V and end time T vary
+SWEEP_SCENE = """title = "tiny cantilever"
+[materials.steel]
+E = {E}
+G = 8.1e10
+density = 7850.0
+[sections.rod]
+kind = "circle"
+radius = 0.01
+[nodes.root]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [0.5, 0.0, 0.0]
+[lines.rod]
+start = "root"
+end = "tip"
+material = "steel"
+section = "rod"
+elements = 4
+[[effects]]
+kind = "gravity"
+g = [0.0, 0.0, -9.81]
+[initial.perturbation]
+velocity = {V}
+seed = 7
+[run]
+until = {T}
+output_interval = 0.004
+probes = ["tip", "rod@0.5"]
+"""
+
+
+def write_sweep_scene(path, E="2.1e11", V="0.0", T="0.012"):
+    """The tiny cantilever of the sweep tests (4 elements, a few hundred steps) at ``path``."""
+    path.write_text(SWEEP_SCENE.format(E=E, V=V, T=T))
+    return path

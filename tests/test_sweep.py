@@ -21,47 +21,12 @@ pytest.importorskip("distributed")
 xr = pytest.importorskip("xarray")
 
 from cosnet import cli, load_scene
+from nets import write_sweep_scene as write_scene
+from procs import spawn
 from cosnet.runner import run_probes
 from cosnet.scene import build_scene
 from cosnet.sweep import sweep
 from cosnet.variants import parse_vary, plan, set_path
-
-SCENE = """title = "tiny cantilever"
-[materials.steel]
-E = {E}
-G = 8.1e10
-density = 7850.0
-[sections.rod]
-kind = "circle"
-radius = 0.01
-[nodes.root]
-position = [0.0, 0.0, 0.0]
-fixed = true
-[nodes.tip]
-position = [0.5, 0.0, 0.0]
-[lines.rod]
-start = "root"
-end = "tip"
-material = "steel"
-section = "rod"
-elements = 4
-[[effects]]
-kind = "gravity"
-g = [0.0, 0.0, -9.81]
-[initial.perturbation]
-velocity = {V}
-seed = 7
-[run]
-until = {T}
-output_interval = 0.004
-probes = ["tip", "rod@0.5"]
-"""
-
-
-def write_scene(path, E="2.1e11", V="0.0", T="0.012"):
-    path.write_text(SCENE.format(E=E, V=V, T=T))
-    return path
-
 
 @pytest.fixture(scope="module")
 def client():
@@ -195,13 +160,11 @@ def ds_doc(path, changes):
 
 
 def test_resume_runs_only_unfinished_variants(tmp_path, client):
-    import zarr
+    from cosnet.sweep_store import Store
     path = write_scene(tmp_path / "s.toml")
     vary = ["materials.steel.E=1e11,2e11,3e11"]
     first = sweep(path, vary=vary, out=tmp_path, client=client, name="r").load()
-    group = zarr.open_group(str(tmp_path / "r.zarr"), mode="r+")   # as if killed before variant 1 came in
-    group["status"][1] = "pending"
-    group["tip"][1] = np.nan
+    Store(tmp_path / "r.zarr").forget([1])   # as if killed before variant 1 came in
     seen = []
     again = sweep(path, vary=vary, out=tmp_path, client=client, name="r", resume=True,
                   progress=seen.append).load()
@@ -267,18 +230,17 @@ def dask_exe():
 @pytest.fixture(scope="module")
 def scheduler(tmp_path_factory):
     """(address, [worker processes]) of a `dask scheduler` and two `dask worker` processes
-    without nannies (a killed worker stays dead)."""
+    without nannies (a killed worker stays dead), all killed with the test process."""
     port = free_port()
     addr = f"tcp://127.0.0.1:{port}"
     log = tmp_path_factory.mktemp("dask")
-    procs = [subprocess.Popen([dask_exe(), "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                               "--dashboard-address", "127.0.0.1:0"], stdout=subprocess.DEVNULL,
-                              stderr=open(log / "scheduler.log", "w"))]
+    procs = [spawn([dask_exe(), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                    "--dashboard-address", "127.0.0.1:0"], stdout=subprocess.DEVNULL,
+                   stderr=open(log / "scheduler.log", "w"))]
     try:
-        workers = [subprocess.Popen([dask_exe(), "worker", addr, "--nthreads", "1", "--no-nanny",
-                                     "--host", "127.0.0.1", "--dashboard-address", "127.0.0.1:0",
-                                     "--name", f"w{i}"],
-                                    stdout=subprocess.DEVNULL, stderr=open(log / f"w{i}.log", "w"))
+        workers = [spawn([dask_exe(), "worker", addr, "--nthreads", "1", "--no-nanny", "--death-timeout", "60",
+                          "--host", "127.0.0.1", "--dashboard-address", "127.0.0.1:0", "--name", f"w{i}"],
+                         stdout=subprocess.DEVNULL, stderr=open(log / f"w{i}.log", "w"))
                    for i in range(2)]
         procs += workers
         from distributed import Client
@@ -318,16 +280,18 @@ def test_docs_commands_and_python_run_as_written(tmp_path, scheduler, monkeypatc
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("SCHEDULER", scheduler[0])
     lines = [ln for b in doc_blocks("sh") for ln in b.splitlines() if ln.strip()]
-    assert len(lines) == 2
+    assert len(lines) == 5
     for line in lines:
         argv = [os.path.expandvars(a) for a in shlex.split(line)]
         assert argv[0] == "cosnet" and cli.main(argv[1:]) == 0, line
+    assert cli.main([os.path.expandvars(a) for a in shlex.split(lines[2])][1:]) == 2   # again: refused
+    assert "holds a sweep already (2 variants, 2 written)" in capsys.readouterr().err
     assert (tmp_path / "out" / "bridge_stiffness.png").stat().st_size > 0
     ens = xr.open_zarr(tmp_path / "out" / "cantilever.zarr")
     assert ens.sizes["variant"] == 6 and list(ens["initial.perturbation.seed"].values) == [0, 1, 2] * 2
     (code,) = doc_blocks("python")
     exec(compile(code, str(DOCS), "exec"), {})
-    sag = xr.open_zarr(tmp_path / "out" / "cantilever.zarr")["tip"].values[:, -1, 2]
+    sag = xr.open_zarr(tmp_path / "out" / "cantilever_E.zarr")["tip"].values[:, -1, 2]
     assert sag.shape == (2,) and np.all(sag < 0)   # under gravity, the tip has gone down
     capsys.readouterr()
 
