@@ -77,10 +77,37 @@ def stolen_since(start) -> float:
     return (steal - start[0]) / max(total - start[1], 1)
 
 
+def cpu_model() -> str:
+    """The processor's model name (/proc/cpuinfo), else what platform knows."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def commit() -> str:
+    """The checkout's commit (with "+changes" when the tree differs from it), or "unknown"."""
+    import subprocess
+    here = Path(__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True,
+                              text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return (head + ("+changes" if dirty else "")) or "unknown"
+
+
 def machine() -> dict:
     return {"python": platform.python_version(), "numba": numba.__version__,
-            "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
-            "threads": numba.get_num_threads()}
+            "cpu": platform.processor() or platform.machine(), "cpu_model": cpu_model(),
+            "cores": os.cpu_count(), "threads": numba.get_num_threads(), "commit": commit(),
+            "load_average_1min": os.getloadavg()[0]}
 
 
 def table(title: str, header: list[str], rows: list[list]) -> str:
