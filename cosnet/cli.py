@@ -168,11 +168,20 @@ def cmd_modes(args) -> int:
 
 
 def cmd_render(args) -> int:
+    import contextlib
+
+    from . import outdir
     from .render import render
     kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
-    path = render(args.dir, kind=kind, field=args.field, output=args.output, frame=args.frame,
-                  every=args.every, clim=args.clim, view=args.view, warp=args.warp,
-                  min_radius=args.min_radius, window_size=args.size, mode=args.mode)
+    src = Path(args.dir)
+    # a picture written into a run's directory is a write: not while a run or sweep holds it
+    # (--output elsewhere renders the frames written so far)
+    held = (outdir.locked(src, "render") if args.output is None and (src / outdir.LOCK).exists()
+            else contextlib.nullcontext())
+    with held:
+        path = render(args.dir, kind=kind, field=args.field, output=args.output, frame=args.frame,
+                      every=args.every, clim=args.clim, view=args.view, warp=args.warp,
+                      min_radius=args.min_radius, window_size=args.size, mode=args.mode)
     print(path)
     return 0
 

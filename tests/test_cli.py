@@ -16,6 +16,7 @@ import pytest
 from cosnet.io import read_output
 from cosnet.scene import load_scene
 from nets import ROD_SCENE
+from procs import spawn
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -116,8 +117,8 @@ def test_killed_run_resumes_to_the_uninterrupted_result(tiny, tmp_path):
     """SIGKILL mid-run, then --resume: same frames and the same final state, bit for bit."""
     full, cut = tmp_path / "full", tmp_path / "cut"
     until = 0.5
-    proc = subprocess.Popen([sys.executable, "-m", "cosnet.cli", "run", str(tiny), "--out", str(cut),
-                             "--until", str(until)], cwd=REPO, stderr=subprocess.DEVNULL)
+    proc = spawn([sys.executable, "-m", "cosnet.cli", "run", str(tiny), "--out", str(cut),
+                  "--until", str(until)], cwd=REPO, stderr=subprocess.DEVNULL)
     deadline = time.time() + 60
     while time.time() < deadline:
         if (cut / "series.pvd").exists() and (cut / "series.pvd").read_text().count("<DataSet") >= 2 * 4:

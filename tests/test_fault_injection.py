@@ -28,6 +28,7 @@ from cosnet import cli
 from cosnet.io import read_output
 from test_cli import REPO, TINY, cosnet
 from test_scene import dumps
+from procs import spawn
 
 # 101 frames of the tiny rod: runs long enough that a signal sent a few frames in lands
 # before the end even when this process is starved for a while (at 0.3 s, 31 frames took
@@ -105,8 +106,8 @@ def test_killed_at_random_points_and_resumed_ends_bit_identical(scene, full, tmp
     second = int(rng.integers(first + 3, 22))
     out = tmp_path / "cut"
     for k, args in ((first, ()), (second, ("--resume",))):
-        proc = subprocess.Popen(command("run", scene, "--out", out, "--until", UNTIL, *args), cwd=REPO,
-                                stderr=subprocess.DEVNULL)
+        proc = spawn(command("run", scene, "--out", out, "--until", UNTIL, *args), cwd=REPO,
+                     stderr=subprocess.DEVNULL)
         code = stop_after(proc, out, k, signal.SIGKILL, extra=float(rng.uniform(0.0, 0.02)))
         assert code == -signal.SIGKILL, "the run ended before it could be killed"
         assert k <= len(read_output(out).times) < FRAMES    # every listed frame opens
@@ -118,9 +119,8 @@ def test_killed_at_random_points_and_resumed_ends_bit_identical(scene, full, tmp
 def test_ctrl_c_exits_130_and_leaves_a_resumable_run(scene, full, tmp_path):
     out = tmp_path / "cut"
     # started with SIGINT ignored, as a shell starts a background job: still interrupted
-    proc = subprocess.Popen(command("run", scene, "--out", out, "--until", UNTIL), cwd=REPO,
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    proc = spawn(command("run", scene, "--out", out, "--until", UNTIL), cwd=REPO,
+                 stderr=subprocess.PIPE, text=True, then=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     deadline = time.time() + 120
     while frames_written(out) < 4 and proc.poll() is None and time.time() < deadline:
         time.sleep(0.005)
@@ -138,8 +138,8 @@ def test_two_runs_into_one_directory_one_is_refused(scene, full, tmp_path):
     """Started together: one writes the run, the other is refused in one line (the directory
     is locked, or already holds a run), and the probes are not interleaved."""
     out = tmp_path / "both"
-    procs = [subprocess.Popen(command("run", scene, "--out", out, "--until", UNTIL), cwd=REPO,
-                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    procs = [spawn(command("run", scene, "--out", out, "--until", UNTIL), cwd=REPO,
+                   stderr=subprocess.PIPE, text=True) for _ in range(2)]
     results = [(p.wait(timeout=180), p.stderr.read()) for p in procs]
     codes = sorted(c for c, _ in results)
     assert codes == [0, 2], results
@@ -149,17 +149,21 @@ def test_two_runs_into_one_directory_one_is_refused(scene, full, tmp_path):
 
 
 def test_a_directory_locked_by_a_running_run_is_refused(scene, tmp_path):
+    """A run into a directory another run holds is refused, and so is a picture that would
+    be written into it."""
+    import os
+    import socket
+
     from cosnet import outdir
     out = tmp_path / "held"
     with outdir.locked(out):
-        r = cosnet("run", scene, "--out", out, "--until", 0.02)
-    assert r.returncode == 2
-    import os
-    import socket
-    assert one_error_line(r.stderr) == (f"cosnet: error: {out}: another run (process {os.getpid()} on "
-                                        f"{socket.gethostname()}) is writing into it; wait for it to end "
-                                        f"or choose another --out")
-    assert not (out / "series.pvd").exists()
+        runs = [cosnet("run", scene, "--out", out, "--until", 0.02), cosnet("render", out, "--png")]
+    for r in runs:
+        assert r.returncode == 2
+        assert one_error_line(r.stderr) == (f"cosnet: error: {out}: another run (process {os.getpid()} on "
+                                            f"{socket.gethostname()}) is writing into it; wait for it to "
+                                            f"end or choose another --out")
+    assert not (out / "series.pvd").exists() and not (out / "render.png").exists()
 
 
 @pytest.mark.parametrize("damage", ["truncated", "random bytes"])

@@ -16,6 +16,8 @@ import time
 import numpy as np
 import pytest
 
+from procs import spawn
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # Runs the nets named by argv[3:] in turn and saves each one's state arrays (and, for the
@@ -58,8 +60,8 @@ for case in sys.argv[3:]:
 
 def start(cache, out, cases):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), NUMBA_NUM_THREADS="2")
-    return subprocess.Popen([sys.executable, "-c", WORKER, str(out), os.path.join(REPO, "cases"), *cases],
-                            env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return spawn([sys.executable, "-c", WORKER, str(out), os.path.join(REPO, "cases"), *cases],
+                 env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
 def run(cache, out, cases):
@@ -138,8 +140,8 @@ def test_processes_saving_into_one_cache_at_once_keep_every_entry(tmp_path):
     (kernels/rotations.py) every key of both finds its own data."""
     from numba.core.caching import IndexDataCacheFile
     n = 150
-    procs = [subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path), str(n), str(tag)],
-                              cwd=REPO, stderr=subprocess.PIPE, text=True) for tag in (1, 2)]
+    procs = [spawn([sys.executable, "-c", SAVER, str(tmp_path), str(n), str(tag)],
+                   cwd=REPO, stderr=subprocess.PIPE, text=True) for tag in (1, 2)]
     for proc in procs:
         _, err = proc.communicate(timeout=600)
         assert proc.returncode == 0, err
