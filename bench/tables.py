@@ -1,4 +1,5 @@
-"""The tables of docs/performance.md and docs/accuracy.md, made from the benchmarks' JSON.
+"""The tables of docs/performance.md, docs/accuracy.md and docs/faults.md, made from the
+benchmarks' JSON.
 
 A page holds each table between two markers:
 
@@ -22,7 +23,7 @@ from pathlib import Path
 
 BENCH = Path(__file__).resolve().parent
 DOCS = BENCH.parent / "docs"
-PAGES = ("performance.md", "accuracy.md")
+PAGES = ("performance.md", "accuracy.md", "faults.md")
 BLOCK = re.compile(r"(<!-- bench table (\w+) -->\n)(.*?)(<!-- end bench table -->)", re.S)
 
 
@@ -207,7 +208,26 @@ def snakes_accuracy() -> str:
                   rows)
 
 
-TABLES = {"snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated, "snakes_accuracy": snakes_accuracy,
+def measured_on(m: dict, extra: str = "") -> str:
+    """The line under a table saying where its figures were measured."""
+    where = f"{m.get('cpu_model', m.get('cpu', '?'))}, {m.get('cores', '?')} cores"
+    load = f", load average {m['load_average_1min']:.1f} at the end" if "load_average_1min" in m else ""
+    return f"\nMeasured on {where}{load}{extra}, commit {m.get('commit', 'unknown')}.\n"
+
+
+def soak() -> str:
+    d = _json("soak.json")
+    rows = [[r["case"], f"{r['steps']:,}", str(r["frames"]), f"{r['wall_s']:.0f}",
+             f"{r['rss_mb_at_frame_10']:.0f} → {r['rss_mb_last']:.0f} (max {r['rss_mb_max']:.0f})",
+             f"{r['open_files_min']}–{r['open_files_max']}",
+             f"{r['energy_first']:.4g} / {r['energy_max']:.4g} / {r['energy_max_second_half']:.4g} / "
+             f"{r['energy_last']:.4g}"] for r in d["runs"]]
+    return _table(["case", "steps", "frames and checkpoints", "wall s", "resident MB, frame 10 → last",
+                   "open files", "energy J: first / max / max of 2nd half / last"], rows) + measured_on(
+        d["machine"], f" (load {d['load_before']:.1f} before), `{d['command']}`")
+
+
+TABLES = {"soak": soak, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated, "snakes_accuracy": snakes_accuracy,
           "throughput": throughput, "contact_friction": contact_friction, "pyelastica": pyelastica,
           "accuracy_space": accuracy_space, "accuracy_time": accuracy_time, "cosseratbench": cosseratbench}
 
