@@ -245,7 +245,7 @@ def cmd_sweep(args) -> int:
                ensemble=args.ensemble, until=args.until, out=args.out, name=args.name,
                scheduler=args.scheduler, workers=args.workers, batch=args.batch,
                resume=args.resume, overwrite=args.overwrite, limits=not args.no_limits,
-               progress=progress, vtk=args.vtk)
+               progress=progress, vtk=args.vtk, flush_every=args.flush_every)
     sys.stderr.write("\n")
     store = ds.encoding.get("source", "")
     print(summary(ds, args.plot or None))
@@ -352,6 +352,8 @@ def parser() -> argparse.ArgumentParser:
     again.add_argument("--overwrite", action="store_true", help="replace the store already at OUT/NAME.zarr")
     s.add_argument("--no-limits", action="store_true",
                    help="lift the limit on the number of variants (see docs/faults.md)")
+    s.add_argument("--flush-every", type=float, default=2.0, metavar="SECONDS",
+                   help="the longest a finished variant waits before it is written (default 2; 0: at once)")
     s.add_argument("--check", metavar="STORE",
                    help="check every file of a store against its manifest (exit 1 if damaged)")
     s.add_argument("--vtk", action="store_true",

@@ -4,7 +4,8 @@
 scene loader before anything runs), runs each with ``run_probes`` -- the frames and probes of
 ``cosnet run`` -- on a Dask cluster (a LocalCluster of one single-threaded worker process per
 core unless a scheduler address or a Client is given) and writes the finished variants into
-``OUT/<name>.zarr`` (at most FLUSH_EVERY seconds after they arrive, and on an interrupt), an
+``OUT/<name>.zarr`` (at most ``flush_every`` seconds after they arrive, default FLUSH_EVERY,
+and on an interrupt), an
 xarray Dataset:
 
     dims        variant, time (the output frames), component (x, y, z)
@@ -175,9 +176,9 @@ def _coord(values):
     return np.array([v if isinstance(v, str) else repr(v) for v in values], dtype=object)
 
 
-def _new_store(store: Path, spec: SweepSpec, variants, until, replace=()):
+def _new_store(store: Path, spec: SweepSpec, variants, until):
     """Build the store of ``variants`` beside ``store`` and rename it into place whole (an
-    existing store, and the folders ``replace``, are removed once the new one is in)."""
+    existing store is removed once the new one is in)."""
     import xarray as xr
     scheds = {schedule(v.scene, until)[1:] for v in variants}
     frames = max(f for _, f in scheds)
@@ -203,7 +204,7 @@ def _new_store(store: Path, spec: SweepSpec, variants, until, replace=()):
                                         values=[_plain(v.values) for v in variants], until=until,
                                         scene=str(spec.path), files=scene_digests(spec)), new)
         sweep_store._write_json(new / sweep_store.MANIFEST, man)
-        sweep_store.install(new, store, replace)
+        sweep_store.install(new, store)
     except BaseException:
         shutil.rmtree(new, ignore_errors=True)
         raise
@@ -303,7 +304,7 @@ def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
 
 def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=None,
           client=None, scheduler=None, workers=None, batch=None, resume=False, overwrite=False,
-          limits=True, retries=1, progress=None, vtk=False):
+          limits=True, retries=1, progress=None, vtk=False, flush_every=FLUSH_EVERY):
     """Run a sweep and return its Dataset (opened from ``OUT/<name>.zarr``).
 
     scene: a scene file or sweep file (or ready case name); vary: ["KEY=VALUES", ...];
@@ -315,8 +316,9 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     store (else it is refused); limits: refuse more than limits.MAX_VARIANTS variants;
     progress: called with a dict (done, failed, running, total, eta, dashboard) as the sweep
     goes; vtk: also write each variant's VTK series into OUT/<name>.vtk/variant_NNNN (written
-    by the workers: on a cluster of several machines OUT must be a folder they share).
-    OUT stays locked (as a run locks its directory) for the whole sweep.
+    by the workers: on a cluster of several machines OUT must be a folder they share);
+    flush_every: the longest a finished variant waits on the client before it is written (s;
+    0 writes each task's results as they arrive). OUT stays locked (as a run locks its directory) for the whole sweep.
     """
     try:
         import distributed  # noqa: F401
@@ -337,17 +339,22 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     series = str(store.with_suffix(".vtk").resolve()) if vtk else None
     if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
         raise ValueError(f"--batch must be a positive integer, got {batch!r}")
+    if isinstance(flush_every, bool) or not isinstance(flush_every, (int, float)) or not flush_every >= 0:
+        raise ValueError(f"--flush-every must be a number of seconds >= 0, got {flush_every!r}")
     with outdir.locked(Path(out), "sweep"):
         sweep_store.tidy(store)
         status = _status(store, spec, variants, resume, overwrite)
         todo = [v for v, s in zip_(variants, status or [PENDING] * len(variants))
                 if s == PENDING or s.startswith("lost:")]
+        if status is None and overwrite:   # the workers may start writing series before the store is made
+            shutil.rmtree(store.with_suffix(".vtk"), ignore_errors=True)
         if todo or status is None:
             def open_store():
                 if status is None:
-                    _new_store(store, spec, variants, spec.until, [store.with_suffix(".vtk")])
+                    _new_store(store, spec, variants, spec.until)
                 return Store(store, _probe_names(variants))
-            _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series)
+            _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series,
+                     flush_every)
     return xr.open_zarr(store)
 
 
@@ -418,7 +425,8 @@ def _probe_names(variants) -> list[str]:
     return list(dict.fromkeys(p.name for v in variants for p in v.scene.run.probes))
 
 
-def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series=None):
+def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries, progress, series=None,
+             flush_every=FLUSH_EVERY):
     """Run the variants ``todo`` on the cluster, writing each task's results into the store
     ``open_store()`` creates or opens -- while the first variant compiles the kernels on a
     worker, or, when this machine's cache holds them, while the first variants run."""
@@ -453,7 +461,7 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
             futures = submit()
         track = _Tracker(len(todo), len(groups[0]), dash, progress)
         track.update(client)
-        buffer = _Buffer(out)
+        buffer = _Buffer(out, flush_every)
 
         def tick():
             buffer.flush(due=True)
@@ -480,12 +488,12 @@ def _run_all(open_store, spec, todo, client, scheduler, workers, batch, retries,
 
 class _Buffer:
     """Finished variants held on the client and written into the store together, at most
-    FLUSH_EVERY seconds after the first of them arrived (and at the end or on an interrupt):
+    ``every`` seconds after the first of them arrived (and at the end or on an interrupt):
     one write per variable for many tasks, instead of one per task on the process that
     shares the cores with the workers."""
 
-    def __init__(self, store: Store):
-        self.store, self.since = store, math.inf
+    def __init__(self, store: Store, every: float = FLUSH_EVERY):
+        self.store, self.since, self.every = store, math.inf, every
         self.held: list = []
 
     def add(self, results: list):
@@ -495,8 +503,8 @@ class _Buffer:
         self.flush(due=True)
 
     def flush(self, due: bool = False):
-        """Write what is held (only once FLUSH_EVERY seconds have passed, when ``due``)."""
-        if not self.held or (due and time.monotonic() - self.since < FLUSH_EVERY):
+        """Write what is held (only once ``every`` seconds have passed, when ``due``)."""
+        if not self.held or (due and time.monotonic() - self.since < self.every):
             return
         held, self.held = self.held, []
         self.store.write(held)

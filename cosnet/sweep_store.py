@@ -365,18 +365,15 @@ def manifest(meta: dict, root: Path) -> dict:
                 chunks={k: digest(root / k) for k in store_files(root)})
 
 
-def install(new: Path, store: Path, also=()):
-    """Rename the finished store ``new`` into ``store``; an existing store (and the folders
-    ``also``, e.g. its VTK series) is moved aside first and removed only once the new one is
-    in place."""
+def install(new: Path, store: Path):
+    """Rename the finished store ``new`` into ``store``; an existing store is moved aside
+    first and removed only once the new one is in place."""
     old = hidden(store, "old")
     if store.exists():
         os.replace(store, old)
     os.replace(new, store)
     _sync_dir(store.parent)
     shutil.rmtree(old, ignore_errors=True)
-    for extra in also:
-        shutil.rmtree(extra, ignore_errors=True)
 
 
 def is_store(path: Path) -> bool:

@@ -30,7 +30,7 @@ from cosnet.sweep import DEATH_TIMEOUT, check, sweep
 from cosnet.sweep_store import MANIFEST, Store
 from cosnet.variants import set_path
 from nets import write_sweep_scene
-from procs import session, started, wait_until
+from procs import session, spawn, started, wait_until
 from test_io import small_disk  # noqa: F401 -- the tmpfs fixture
 
 E = [1e11, 1.5e11, 2e11, 2.5e11, 3e11, 3.5e11]
@@ -48,9 +48,9 @@ def client():
 
 @pytest.fixture(scope="module")
 def long_scene(tmp_path_factory):
-    """(scene, each variant's tip series run on its own) of variants long enough (about 2 s
+    """(scene, each variant's tip series run on its own) of variants long enough (about 1 s
     each) that a sweep of them can be caught running."""
-    path = write_sweep_scene(tmp_path_factory.mktemp("long") / "s.toml", T="4.0")
+    path = write_sweep_scene(tmp_path_factory.mktemp("long") / "s.toml", T="2.0")
     return path, reference(path)
 
 
@@ -132,7 +132,8 @@ def test_more_variants_than_the_limit_are_refused_with_their_count(tmp_path, cli
     assert [str(s) for s in ds.status.values] == ["ok"] * 3
 
 
-def test_an_unreachable_scheduler_is_one_line_naming_it(tmp_path, capsys):
+def test_an_unreachable_scheduler_is_one_line_naming_it(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(sys.modules["cosnet.sweep"], "CONNECT_TIMEOUT", 2)
     with socket.socket() as s:   # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         addr = f"tcp://127.0.0.1:{s.getsockname()[1]}"
@@ -140,8 +141,8 @@ def test_an_unreachable_scheduler_is_one_line_naming_it(tmp_path, capsys):
     assert cli.main(["sweep", str(write_sweep_scene(tmp_path / "s.toml")), "--scheduler", addr,
                      "--out", str(tmp_path)]) == 2
     line = one_line(capsys.readouterr().err)
-    assert line.startswith(f"cosnet: error: --scheduler {addr}: cannot reach it within 10 s")
-    assert time.perf_counter() - t0 < 60   # a time-out, not a hang
+    assert line.startswith(f"cosnet: error: --scheduler {addr}: cannot reach it within 2 s")
+    assert time.perf_counter() - t0 < 30   # a time-out, not a hang
 
 
 # ---------------------------------------------------------------------- processes
@@ -151,16 +152,22 @@ def test_two_sweeps_at_once_the_second_is_refused_naming_the_first(tmp_path, lon
     every variant, equal to the variants run one by one."""
     path, ref = long_scene
     store = tmp_path / "s.zarr"
+    lock = tmp_path / ".cosnet.lock"
     with started(command("sweep", path, "--vary", VARY, "--out", tmp_path, "--batch", "1", "--workers", "2"),
                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as first:
-        assert wait_until(lambda: (store / MANIFEST).exists() or first.poll() is not None, 120)
+        # held from before the cluster starts: its pid is in the lock file
+        assert wait_until(lambda: (lock.exists() and lock.read_text().startswith(f"{first.pid} "))
+                          or first.poll() is not None, 120)
         assert first.poll() is None, first.communicate()
-        for argv in (("sweep", path, "--vary", "materials.steel.E=1e11,2e11", "--out", tmp_path),
-                     ("run", path, "--out", tmp_path)):
-            r = subprocess.run(command(*argv), capture_output=True, text=True, timeout=120)
-            assert r.returncode == 2 and one_line(r.stderr) == (
+        second = [spawn(command(*argv), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                  for argv in (("sweep", path, "--vary", "materials.steel.E=1e11,2e11", "--out", tmp_path),
+                               ("run", path, "--out", tmp_path))]
+        for p in second:
+            _, err = p.communicate(timeout=120)
+            assert p.returncode == 2 and one_line(err) == (
                 f"cosnet: error: {tmp_path}: another sweep (process {first.pid} on {HOST}) is writing "
-                f"into it; wait for it to end or choose another --out"), r.stderr
+                f"into it; wait for it to end or choose another --out"), err
+        assert first.poll() is None, "the first sweep ended before the others were refused"
         out, err = first.communicate(timeout=300)
         assert first.returncode == 0, err
     ds = xr.open_zarr(store).load()
@@ -174,7 +181,8 @@ def test_a_killed_client_takes_its_workers_and_resumes_bit_for_bit(tmp_path, lon
     the same scene run on its own."""
     path, ref = long_scene
     store = tmp_path / "s.zarr"
-    argv = ("sweep", path, "--vary", VARY, "--out", tmp_path, "--batch", "1", "--workers", "2")
+    argv = ("sweep", path, "--vary", VARY, "--out", tmp_path, "--batch", "1", "--workers", "2",
+            "--flush-every", "0")   # each variant written as it comes: killed between two of them
     with started(command(*argv), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                  start_new_session=True) as proc:
         assert wait_until(lambda: written(store) or proc.poll() is not None, 240)
@@ -196,12 +204,11 @@ def test_a_killed_client_takes_its_workers_and_resumes_bit_for_bit(tmp_path, lon
 
 
 # ---------------------------------------------------------------------- the store's own faults
-def test_a_full_disk_during_a_flush_loses_nothing_written(tmp_path, client, small_disk, monkeypatch):  # noqa: F811
+def test_a_full_disk_during_a_flush_loses_nothing_written(tmp_path, client, small_disk):  # noqa: F811
     """A real tmpfs fills up once the first variant is written: the next flush stops the
     sweep with ENOSPC naming a file of the store, no new file is left, the store is whole and
     keeps what was written; with room again --resume ends with every variant equal to its own
     run."""
-    monkeypatch.setattr(sys.modules["cosnet.sweep"], "FLUSH_EVERY", 0.0)   # every finished task is a flush
     path = write_sweep_scene(tmp_path / "s.toml")
     mnt = small_disk("size=4m")
     store = mnt / "s.zarr"
@@ -217,7 +224,7 @@ def test_a_full_disk_during_a_flush_loses_nothing_written(tmp_path, client, smal
             except OSError:   # full
                 pass
     with pytest.raises(OSError, match="No space left on device") as e:
-        sweep(path, vary=[VARY], out=mnt, client=client, batch=1, progress=fill)
+        sweep(path, vary=[VARY], out=mnt, client=client, batch=1, progress=fill, flush_every=0)
     assert str(store) in str(e.value.filename)
     assert not [k for k in os.listdir(store) if ".g" in k or k.endswith(".tmp")]
     kept = written(store)
