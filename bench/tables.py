@@ -227,9 +227,10 @@ def soak() -> str:
         d["machine"], f" (load {d['load_before']:.1f} before), `{d['command']}`")
 
 
-TABLES = {"soak": soak, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated, "snakes_accuracy": snakes_accuracy,
-          "throughput": throughput, "contact_friction": contact_friction, "pyelastica": pyelastica,
-          "accuracy_space": accuracy_space, "accuracy_time": accuracy_time, "cosseratbench": cosseratbench}
+TABLES = {"soak": soak, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
+          "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
+          "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
+          "cosseratbench": cosseratbench}
 
 
 def render(page: Path) -> str:

@@ -377,6 +377,11 @@ def _status(store: Path, spec: SweepSpec, variants, resume: bool, overwrite: boo
     if not resume:
         raise ValueError(f"{store}: holds a sweep already ({old.n} variants, {len(old.done)} written); "
                          f"pass --resume to continue it or --overwrite to replace it")
+    from .cli import package_version
+    if old.man.get("cosnet") != package_version():
+        raise ValueError(f"{store}: was begun by cosnet {old.man.get('cosnet')}, this is cosnet "
+                         f"{package_version()}: its variants would not all be computed alike; finish it "
+                         f"with that version, or pass --overwrite")
     if old.man["variants"] != [v.key for v in variants]:
         raise ValueError(f"{store}: holds another sweep (its variants' scenes differ from "
                          f"these); use another --out or --name, or drop --resume")

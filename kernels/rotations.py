@@ -122,7 +122,8 @@ def _cache_options() -> dict:
     (numba's boundscheck: an IndexError instead of a read or write out of bounds). Numba's
     cache keys ignore such options, so the checked builds get a directory of their own
     ("...-boundscheck"): a normal run never loads a checked kernel, nor a debug run an
-    unchecked one."""
+    unchecked one. Likewise a build at another LLVM optimisation level (NUMBA_OPT) than
+    numba's default 3 ("...-opt1"): a run at full speed never loads a less optimised kernel."""
     from numba.misc.appdirs import AppDirs
     here = os.path.dirname(os.path.abspath(__file__))
     digest = hashlib.sha256()
@@ -132,8 +133,10 @@ def _cache_options() -> dict:
                 digest.update(name.encode() + b"\0" + f.read())
     check = os.environ.get("COSNET_BOUNDSCHECK", "0") not in ("", "0")
     base = numba.config.CACHE_DIR or AppDirs("numba", appauthor=False).user_cache_dir
+    level = getattr(numba.config.OPT, "_raw_value", numba.config.OPT)   # 0..3 or "max"
+    opt = "" if level == 3 else f"-opt{level}"
     numba.config.CACHE_DIR = os.path.join(base, f"cosnet-{digest.hexdigest()[:16]}"
-                                          + ("-boundscheck" if check else ""))
+                                          + ("-boundscheck" if check else "") + opt)
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 

@@ -103,13 +103,18 @@ def test_a_repeated_sweep_is_refused_and_overwrite_replaces(tmp_path, client, ca
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".r.zarr")] == []
 
 
-def test_resume_refuses_a_changed_scene_or_store_of_another_sweep(tmp_path, client):
+def test_resume_refuses_another_sweep_a_changed_scene_or_another_version(tmp_path, client):
     path = write_sweep_scene(tmp_path / "s.toml")
     sweep(path, vary=["materials.steel.E=1e11,2e11"], out=tmp_path, client=client, name="r")
     with pytest.raises(ValueError, match="holds another sweep"):
         sweep(path, vary=["materials.steel.E=1e11,3e11"], out=tmp_path, client=client, name="r", resume=True)
     path.write_text(path.read_text() + "# a comment: the same variants, another file\n")
     with pytest.raises(ValueError, match=re.escape(f"{path} has changed since the sweep began")):
+        sweep(path, vary=["materials.steel.E=1e11,2e11"], out=tmp_path, client=client, name="r", resume=True)
+    manifest = tmp_path / "r.zarr" / MANIFEST
+    doc = json.loads(manifest.read_text())
+    manifest.write_text(json.dumps(dict(doc, cosnet="0.0.1")))
+    with pytest.raises(ValueError, match="was begun by cosnet 0.0.1, this is cosnet"):
         sweep(path, vary=["materials.steel.E=1e11,2e11"], out=tmp_path, client=client, name="r", resume=True)
     with pytest.raises(ValueError, match="not a sweep store"):
         (tmp_path / "x.zarr").mkdir()
