@@ -318,7 +318,8 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     goes; vtk: also write each variant's VTK series into OUT/<name>.vtk/variant_NNNN (written
     by the workers: on a cluster of several machines OUT must be a folder they share);
     flush_every: the longest a finished variant waits on the client before it is written (s;
-    0 writes each task's results as they arrive). OUT stays locked (as a run locks its directory) for the whole sweep.
+    0 writes each task's results as they arrive). OUT stays locked for the whole sweep, as a
+    run locks its directory.
     """
     try:
         import distributed  # noqa: F401
@@ -385,8 +386,9 @@ def _status(store: Path, spec: SweepSpec, variants, resume: bool, overwrite: boo
     if old.man["variants"] != [v.key for v in variants]:
         raise ValueError(f"{store}: holds another sweep (its variants' scenes differ from "
                          f"these); use another --out or --name, or drop --resume")
+    now = scene_digests(spec)
     for path, sha in old.man["files"].items():
-        if scene_digests(spec).get(path) != sha:
+        if now.get(path) != sha:
             raise ValueError(f"{store}: {path} has changed since the sweep began; "
                              f"use another --out or --name, or --overwrite")
     damage = old.check()
@@ -400,7 +402,8 @@ def _repair(old: Store, damage, store: Path, spec: SweepSpec, variants):
     new store built aside (only when such a file is damaged), the damaged variants pending."""
     import tempfile
     if all(old.chunk(k) is not None for k in damage.files):
-        return old.repair(damage, {})
+        old.repair(damage, {})
+        return
     with tempfile.TemporaryDirectory(dir=store.parent, prefix=f".{store.name}.ref-") as tmp:
         ref = Path(tmp) / store.name
         _new_store(ref, spec, variants, spec.until)
@@ -414,7 +417,7 @@ def check(store) -> tuple[int, str]:
     store = Path(store)
     if not store.is_dir() or not sweep_store.is_store(store):
         raise ValueError(f"{store}: not a sweep store (no {sweep_store.MANIFEST})")
-    with outdir.locked(store.parent, "sweep check"):
+    with outdir.locked(store.parent, "check"):
         s = Store(store)
         damage = s.check()
     head = f"{store}: {s.n} variants, {len(s.done)} written"

@@ -81,7 +81,10 @@ def _write_json(path: Path, doc: dict):
     except OSError:
         tmp.unlink(missing_ok=True)
         raise
-    _sync_dir(path.parent)
+    try:   # the rename has happened: a failed flush of the folder does not undo it
+        _sync_dir(path.parent)
+    except OSError:
+        pass
 
 
 def store_files(root: Path) -> list[str]:
@@ -220,6 +223,10 @@ class Store:
         """Replace the store's ``files`` {key: bytes} and mark variants ``done`` (written)
         or ``undone`` (to run again) as one commit: all of it lands or none."""
         g = self.man["generation"] + 1
+        chunks = dict(self.man["chunks"])
+        chunks.update({key: [len(data), hashlib.sha256(data).hexdigest()] for key, data in files.items()})
+        written = (set(self.man["done"]) | set(done)) - set(undone)
+        man = dict(self.man, generation=g, done=sorted(written), chunks=chunks, commit=sorted(files))
         made = []
         try:
             for key, data in files.items():
@@ -227,17 +234,23 @@ class Store:
                 _write_file(made[-1], data)
             for d in {p.parent for p in made}:
                 _sync_dir(d)
-            chunks = dict(self.man["chunks"])
-            chunks.update({key: [len(data), hashlib.sha256(data).hexdigest()] for key, data in files.items()})
-            written = (set(self.man["done"]) | set(done)) - set(undone)
-            man = dict(self.man, generation=g, done=sorted(written), chunks=chunks, commit=sorted(files))
             _write_json(self.root / MANIFEST, man)
-        except BaseException:   # a full disk, an interrupt: the last commit stays as it was
-            for p in made:
-                p.unlink(missing_ok=True)
+        except BaseException:   # a full disk, an interrupt: the commit landed whole or not at all
+            if self._generation_on_disk() == g:
+                self.man = man
+                self.recover()
+            else:
+                for p in made:
+                    p.unlink(missing_ok=True)
             raise
         self.man = man
         self.recover()
+
+    def _generation_on_disk(self) -> int | None:
+        try:
+            return json.loads((self.root / MANIFEST).read_text()).get("generation")
+        except (OSError, ValueError, AttributeError):
+            return None
 
     def write(self, results: list):
         """Commit finished variants [(index, record)] (records of sweep.run_batch)."""
