@@ -352,7 +352,7 @@ def parser() -> argparse.ArgumentParser:
     again.add_argument("--overwrite", action="store_true", help="replace the store already at OUT/NAME.zarr")
     s.add_argument("--no-limits", action="store_true",
                    help="lift the limit on the number of variants (see docs/faults.md)")
-    s.add_argument("--flush-every", type=float, default=2.0, metavar="SECONDS",
+    s.add_argument("--flush-every", type=float, metavar="SECONDS",
                    help="the longest a finished variant waits before it is written (default 2; 0: at once)")
     s.add_argument("--check", metavar="STORE",
                    help="check every file of a store against its manifest (exit 1 if damaged)")

@@ -200,10 +200,9 @@ def _new_store(store: Path, spec: SweepSpec, variants, until):
     new = sweep_store.hidden(store, "new")
     try:
         ds.to_zarr(new, mode="w", encoding=enc, zarr_format=2, consolidated=True)
-        man = sweep_store.manifest(dict(probes=probes, variants=[v.key for v in variants],
+        sweep_store.write_manifest(dict(probes=probes, variants=[v.key for v in variants],
                                         values=[_plain(v.values) for v in variants], until=until,
                                         scene=str(spec.path), files=scene_digests(spec)), new)
-        sweep_store._write_json(new / sweep_store.MANIFEST, man)
         sweep_store.install(new, store)
     except BaseException:
         shutil.rmtree(new, ignore_errors=True)
@@ -304,7 +303,7 @@ def _batches(todo: list, batch: int | None, nworkers: int) -> list[list]:
 
 def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=None,
           client=None, scheduler=None, workers=None, batch=None, resume=False, overwrite=False,
-          limits=True, retries=1, progress=None, vtk=False, flush_every=FLUSH_EVERY):
+          limits=True, retries=1, progress=None, vtk=False, flush_every=None):
     """Run a sweep and return its Dataset (opened from ``OUT/<name>.zarr``).
 
     scene: a scene file or sweep file (or ready case name); vary: ["KEY=VALUES", ...];
@@ -318,7 +317,7 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     goes; vtk: also write each variant's VTK series into OUT/<name>.vtk/variant_NNNN (written
     by the workers: on a cluster of several machines OUT must be a folder they share);
     flush_every: the longest a finished variant waits on the client before it is written (s;
-    0 writes each task's results as they arrive). OUT stays locked for the whole sweep, as a
+    default FLUSH_EVERY; 0 writes each task's results as they arrive). OUT stays locked for the whole sweep, as a
     run locks its directory.
     """
     try:
@@ -340,6 +339,7 @@ def sweep(scene, vary=(), zip=False, ensemble=None, until=None, out="out", name=
     series = str(store.with_suffix(".vtk").resolve()) if vtk else None
     if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
         raise ValueError(f"--batch must be a positive integer, got {batch!r}")
+    flush_every = FLUSH_EVERY if flush_every is None else flush_every
     if isinstance(flush_every, bool) or not isinstance(flush_every, (int, float)) or not flush_every >= 0:
         raise ValueError(f"--flush-every must be a number of seconds >= 0, got {flush_every!r}")
     with outdir.locked(Path(out), "sweep"):

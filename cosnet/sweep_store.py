@@ -74,13 +74,8 @@ def _sync_dir(path: Path):
 
 def _write_json(path: Path, doc: dict):
     """Replace ``path`` by ``doc`` in one rename (a reader sees the old file or the new)."""
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        _write_file(tmp, json.dumps(doc, separators=(",", ":")).encode())
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)
-        raise
+    from .io import replace_atomically
+    replace_atomically(path, lambda tmp: _write_file(tmp, json.dumps(doc, separators=(",", ":")).encode()))
     try:   # the rename has happened: a failed flush of the folder does not undo it
         _sync_dir(path.parent)
     except OSError:
@@ -149,7 +144,7 @@ class _Array:
     def read(self, root: Path, c: int) -> np.ndarray:
         """Chunk ``c`` as a writable block (blank where no file was written)."""
         path = root / self.key(c)
-        return self.decode(path.read_bytes()).copy() if path.exists() else self.blank()
+        return self.decode(path.read_bytes()) if path.exists() else self.blank()
 
 
 # ---------------------------------------------------------------------- the manifest and its checks
@@ -207,16 +202,20 @@ class Store:
     # -- crash recovery
     def recover(self):
         """Finish the manifest's commit (rename its new files in) and remove new files of a
-        generation that was never committed."""
+        generation that was never committed: what a crash may have left (on opening)."""
+        self._roll_forward()
+        for dirpath, _, names in os.walk(self.root):
+            for n in names:
+                if _NEW.search(n) or n == MANIFEST + ".tmp":
+                    os.unlink(os.path.join(dirpath, n))
+
+    def _roll_forward(self):
+        """Rename the new files of the manifest's commit over the old ones."""
         g = self.man["generation"]
         for key in self.man.get("commit", []):
             new = self.root / f"{key}.g{g}"
             if new.exists():
                 os.replace(new, self.root / key)
-        for dirpath, _, names in os.walk(self.root):
-            for n in names:
-                if _NEW.search(n) or n == MANIFEST + ".tmp":
-                    os.unlink(os.path.join(dirpath, n))
 
     # -- writing
     def commit(self, files: dict[str, bytes], done=(), undone=()):
@@ -238,13 +237,13 @@ class Store:
         except BaseException:   # a full disk, an interrupt: the commit landed whole or not at all
             if self._generation_on_disk() == g:
                 self.man = man
-                self.recover()
+                self._roll_forward()
             else:
                 for p in made:
                     p.unlink(missing_ok=True)
             raise
         self.man = man
-        self.recover()
+        self._roll_forward()   # its own files only: no walk over the whole store per flush
 
     def _generation_on_disk(self) -> int | None:
         try:
@@ -368,14 +367,14 @@ def tidy(store: Path):
             shutil.rmtree(p, ignore_errors=True)
 
 
-def manifest(meta: dict, root: Path) -> dict:
-    """The first manifest of a store built at ``root``: ``meta`` (variants, probes, scene
-    digests) with the cosnet version, the creation time and every file's digest."""
+def write_manifest(meta: dict, root: Path):
+    """Write the first manifest of a store built at ``root``: ``meta`` (variants, probes,
+    scene digests) with the cosnet version, the creation time and every file's digest."""
     from .cli import package_version
-    return dict(format=FORMAT, cosnet=package_version(),
-                created=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **meta,
-                generation=0, done=[], commit=[],
-                chunks={k: digest(root / k) for k in store_files(root)})
+    _write_json(root / MANIFEST, dict(format=FORMAT, cosnet=package_version(),
+                                      created=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **meta,
+                                      generation=0, done=[], commit=[],
+                                      chunks={k: digest(root / k) for k in store_files(root)}))
 
 
 def install(new: Path, store: Path):

@@ -28,14 +28,6 @@ from cosnet.scene import build_scene
 from cosnet.sweep import sweep
 from cosnet.variants import parse_vary, plan, set_path
 
-@pytest.fixture(scope="module")
-def client():
-    from distributed import Client, LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as c:
-        yield c
-
-
 def read_csv(path):
     rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     return rows[:, 1], rows[:, 2:]

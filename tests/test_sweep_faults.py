@@ -31,6 +31,7 @@ from cosnet.sweep_store import MANIFEST, Store
 from cosnet.variants import set_path
 from nets import write_sweep_scene
 from procs import session, spawn, started, wait_until
+from test_fault_injection import command
 from test_io import small_disk  # noqa: F401 -- the tmpfs fixture
 
 E = [1e11, 1.5e11, 2e11, 2.5e11, 3e11, 3.5e11]
@@ -39,23 +40,11 @@ HOST = socket.gethostname()
 
 
 @pytest.fixture(scope="module")
-def client():
-    from distributed import Client, LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as c:
-        yield c
-
-
-@pytest.fixture(scope="module")
 def long_scene(tmp_path_factory):
     """(scene, each variant's tip series run on its own) of variants long enough (about 1 s
     each) that a sweep of them can be caught running."""
     path = write_sweep_scene(tmp_path_factory.mktemp("long") / "s.toml", T="2.0")
     return path, reference(path)
-
-
-def command(*args):
-    return [sys.executable, "-m", "cosnet.cli", *map(str, args)]
 
 
 def one_line(err: str) -> str:
@@ -266,7 +255,7 @@ def test_a_commit_cut_short_lands_whole_or_not_at_all(tmp_path, client, monkeypa
     assert files(root) == before and written(root) == [0, 2, 3, 5]
     s = Store(root)
     with monkeypatch.context() as m:                 # after the manifest: the renames are left undone
-        m.setattr(Store, "recover", lambda self: None)
+        m.setattr(Store, "_roll_forward", lambda self: None)
         s.write([(1, rec)])
     assert any(k.endswith(f".g{s.man['generation']}") for k in os.listdir(root / "tip"))
     again = Store(root)                              # opened again: rolled forward
