@@ -14,7 +14,6 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -112,13 +111,17 @@ def test_resume_refuses_another_sweep_a_changed_scene_or_another_version(tmp_pat
 
 def test_more_variants_than_the_limit_are_refused_with_their_count(tmp_path, client, capsys, monkeypatch):
     path = write_sweep_scene(tmp_path / "s.toml")
-    t0 = time.perf_counter()
-    assert cli.main(["sweep", str(path), "--vary", "materials.steel.E=linspace(1e11, 3e11, 200)",
-                     "--vary", "materials.steel.G=linspace(7e10, 9e10, 200)", "--out", str(tmp_path)]) == 2
+
+    def planned(*a, **k):
+        raise AssertionError("the variants were planned before the limit refused them")
+    with monkeypatch.context() as m:
+        m.setattr(sys.modules["cosnet.sweep"], "plan", planned)
+        assert cli.main(["sweep", str(path), "--vary", "materials.steel.E=linspace(1e11, 3e11, 200)",
+                         "--vary", "materials.steel.G=linspace(7e10, 9e10, 200)", "--out", str(tmp_path)]) == 2
     assert one_line(capsys.readouterr().err) == (
         f"cosnet: error: {path}: the variations give 40,000 variants, above the limit of "
         f"{limits.MAX_VARIANTS:,}; pass --no-limits to go ahead")
-    assert time.perf_counter() - t0 < 5 and not (tmp_path / "s.zarr").exists()   # refused before planning
+    assert not (tmp_path / "s.zarr").exists()
     monkeypatch.setattr(limits, "MAX_VARIANTS", 2)
     with pytest.raises(ValueError, match="3 variants, above the limit of 2"):
         sweep(path, vary=["materials.steel.E=1e11,2e11,3e11"], out=tmp_path, client=client)
@@ -131,12 +134,10 @@ def test_an_unreachable_scheduler_is_one_line_naming_it(tmp_path, capsys, monkey
     with socket.socket() as s:   # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         addr = f"tcp://127.0.0.1:{s.getsockname()[1]}"
-    t0 = time.perf_counter()
     assert cli.main(["sweep", str(write_sweep_scene(tmp_path / "s.toml")), "--scheduler", addr,
                      "--out", str(tmp_path)]) == 2
-    line = one_line(capsys.readouterr().err)
+    line = one_line(capsys.readouterr().err)   # the connection's time-out, not a hang, ended it
     assert line.startswith(f"cosnet: error: --scheduler {addr}: cannot reach it within 2 s")
-    assert time.perf_counter() - t0 < 30   # a time-out, not a hang
 
 
 # ---------------------------------------------------------------------- processes
