@@ -16,7 +16,7 @@ from numba import njit, prange
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-from .rotations import INNER, KERNEL, stable_cache_key
+from .compiler import INNER, KERNEL, stable_cache_key
 
 # Threads waiting for work sleep instead of spinning. GNU OpenMP, numba's usual threading
 # layer, spins between parallel loops by default; a thread spinning on a core shared with

@@ -43,7 +43,8 @@ from numba import njit
 
 from .compose import account_kernel, load_kernel
 from .obstacles import FREE, SLIDE, STICK, obstacle_distance
-from .rotations import CACHED, cross, quat_rotate, quat_rotate_inv
+from .compiler import CACHED
+from .rotations import cross, quat_rotate, quat_rotate_inv
 from .segments import deepest_point
 
 

@@ -4,7 +4,7 @@ from outside between run() calls) and the first non-finite value."""
 import numpy as np
 from numba import njit
 
-from .rotations import CACHED
+from .compiler import CACHED
 
 FNV_OFFSET = np.uint64(0xCBF29CE484222325)
 FNV_PRIME = np.uint64(0x100000001B3)

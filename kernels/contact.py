@@ -59,7 +59,7 @@ from numba import njit
 
 from .compose import account_kernel, load_kernel
 from .friction import plane_tangent, stick_slip, turn_into_plane
-from .rotations import CACHED
+from .compiler import CACHED
 
 HASH_X, HASH_Y, HASH_Z = 73856093, 19349663, 83492791
 COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away points)

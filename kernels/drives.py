@@ -24,7 +24,8 @@ from .backend import ENTRY, STEP
 from .compose import constraint_kernels
 from .effects import table_interval
 from .motion import place_line_end
-from .rotations import CACHED, cross, exp_rates, quat_exp, quat_mul, quat_rotate, quat_rotate_inv
+from .compiler import CACHED
+from .rotations import cross, exp_rates, quat_exp, quat_mul, quat_rotate, quat_rotate_inv
 
 # what a drive holds of a node's position and rotation (ORIENTED: a rotation on SO(3))
 FREE, PRESCRIBED, ACROSS_AXIS, ORIENTED = 0, 1, 2, 3

@@ -12,7 +12,8 @@ from numba import njit
 
 from .backend import STEP
 from .compose import flow_kernel, load_kernel
-from .rotations import CACHED, cross, quat_rotate, quat_rotate_inv
+from .compiler import CACHED
+from .rotations import cross, quat_rotate, quat_rotate_inv
 
 
 class GravityParams(NamedTuple):

@@ -20,8 +20,9 @@ from numba import njit, prange
 
 from .backend import PASS, STEP, dispatch
 from .layout import columns, quat_columns, uint
-from .rotations import (INLINE, INNER, cross, stable_cache_key, quat_mul, quat_rotate, quat_rotate_inv, relative_quat,
-                        relative_rotation, small_rotation)
+from .compiler import INLINE, INNER, stable_cache_key
+from .rotations import (cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, relative_rotation,
+                        small_rotation)
 
 # elements per block of whole lines (the unit of the threaded internal loads; a block's
 # scratch stays in cache)

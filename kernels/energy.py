@@ -13,7 +13,8 @@ import math
 from numba import njit
 
 from .elastic import end_frame
-from .rotations import CACHED, quat_rotate_inv, relative_rotation
+from .compiler import CACHED
+from .rotations import quat_rotate_inv, relative_rotation
 
 # not the kernels' fastmath: under it LLVM may take the test for a non-finite strain for
 # always true, and a NaN must be found here

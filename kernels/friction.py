@@ -28,7 +28,7 @@ import math
 
 from numba import njit
 
-from .rotations import CACHED, CACHED_INNER
+from .compiler import CACHED, CACHED_INNER
 
 
 @njit(**CACHED, inline="always")

@@ -36,7 +36,8 @@ from numba import njit
 
 from .compose import load_kernel
 from .elastic import end_frame
-from .rotations import CACHED, CACHED_INLINE, cross, quat_mul, quat_rotate, relative_rotation
+from .compiler import CACHED, CACHED_INLINE
+from .rotations import cross, quat_mul, quat_rotate, relative_rotation
 
 
 class SphericalJointParams(NamedTuple):

@@ -13,8 +13,8 @@ from numba import njit, prange
 
 from .backend import ENTRY, PASS, STEP, dispatch, each_node
 from .layout import columns, quat_columns
-from .rotations import (INLINE, INNER, cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate,
-                        quat_rotate_inv, stable_cache_key)
+from .compiler import INLINE, INNER, stable_cache_key
+from .rotations import cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # rows per task of the threaded element loops (each block runs the vectorised serial loop)
 BLOCK = 4096

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .friction import plane_tangent, stick_slip
-from .rotations import CACHED, CACHED_INNER
+from .compiler import CACHED, CACHED_INNER
 
 PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
 SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}

@@ -46,7 +46,7 @@ from .contact import segment_closest
 from .friction import plane_tangent, stick_slip, turn_into_plane
 from .obstacles import (BOX, CAPSULE, FAR, FREE, MESH, PLANE, SLIDE, SPHERE, STICK, ObstacleParams, add_obstacle,
                         obstacle_distance, triangle_closest)
-from .rotations import CACHED, CACHED_INNER
+from .compiler import CACHED, CACHED_INNER
 
 BISECTIONS = 48  # of a box's distance slope along the segment: t* to 4e-15
 TINY = 1e-300

@@ -3,9 +3,9 @@
 The suite is mostly compilation (each combination of effects, stepper and backend compiles
 its own step), so it runs on every core (pytest-xdist, ``-n auto``), and every worker
 compiles into and loads from the usual cache (a directory per kernel source under
-NUMBA_CACHE_DIR, else under numba's user cache: kernels/rotations.py): a step one worker
+NUMBA_CACHE_DIR, else under numba's user cache: kernels/compiler.py): a step one worker
 compiled, the others load. Saving into one cache from several processes at once is safe
-because kernels/rotations.py locks numba's saves (tests/test_reproducible.py checks it).
+because kernels/compiler.py locks numba's saves (tests/test_reproducible.py checks it).
 """
 
 import pytest

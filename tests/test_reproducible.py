@@ -137,7 +137,7 @@ for i in range(n):
 def test_processes_saving_into_one_cache_at_once_keep_every_entry(tmp_path):
     """Numba's own save, run by two processes at once, drops entries or sends one key to
     another's data file (both start from their own copy of the index); with the save locked
-    (kernels/rotations.py) every key of both finds its own data."""
+    (kernels/compiler.py) every key of both finds its own data."""
     from numba.core.caching import IndexDataCacheFile
     n = 150
     procs = [spawn([sys.executable, "-c", SAVER, str(tmp_path), str(n), str(tag)],
@@ -156,7 +156,7 @@ def test_processes_saving_into_one_cache_at_once_keep_every_entry(tmp_path):
 CLOSURES = r"""
 import sys
 from numba import njit
-from cosnet.kernels.rotations import stable_cache_key
+from cosnet.kernels.compiler import stable_cache_key
 
 @njit(cache=True)
 def double(x):

@@ -1,0 +1,270 @@
+"""How cosnet's kernels are compiled and cached: the options every kernel starts from, and the
+adjustments to numba that make its on-disk cache safe to share (between processes compiling at
+once, between a cold and a warm start, between builds with other options)."""
+
+import contextlib
+import hashlib
+import os
+import pickle
+import time
+
+import numba
+from llvmlite import binding as llvm
+from numba.core import codegen
+
+
+def _use_own_copies():
+    """Make every compiled library call its own copies of the functions it links in.
+
+    Numba links a callee into each caller's module as a ``linkonce_odr`` copy, and the copy is
+    optimised again with its caller (inlined, or re-vectorised with fast-math: other
+    instructions, other rounding). The JIT then resolves such a weak symbol to the first
+    definition it has seen: in a process that compiled the callee first, that is the callee's
+    own library; in one that loads the caller from the cache, the caller's copy. The same step
+    thus ran different code cold and warm (and in a run resumed after a kill mid-compilation),
+    and its results differed in the last bits. Internal copies are never shared, so a
+    library's code is the same whether it was compiled here or loaded. (Numba's runtime
+    helpers NRT_* keep their linkage: its reference-count pruning finds them by name.)"""
+    cls = getattr(codegen, "CPUCodeLibrary", None)
+    optimize = getattr(cls, "_optimize_final_module", None)
+    if optimize is None or getattr(optimize, "own_copies", False):
+        return   # already done, or a numba built otherwise: results stay correct, only not
+                 # bit-identical between a cold and a warm cache (tests/test_reproducible.py)
+
+    def optimize_own_copies(self):
+        for fn in self._final_module.functions:
+            if (not fn.is_declaration and fn.linkage == llvm.Linkage.linkonce_odr
+                    and not fn.name.startswith("NRT_")):
+                fn.linkage = llvm.Linkage.internal
+        optimize(self)
+    optimize_own_copies.own_copies = True
+    cls._optimize_final_module = optimize_own_copies
+
+
+_use_own_copies()
+
+
+def _lock_cache_saves():
+    """Make numba's on-disk cache safe for processes saving into one directory at once
+    (the test workers, a sweep's workers, two runs started together).
+
+    Numba saves an overload by reading the function's index, picking the first data-file
+    name that index does not use, and writing both back. Two processes doing so at once
+    each start from their own copy of the index: one's entry is dropped, or both pick one
+    file name for different overloads, and the index can then send one signature to the
+    other's code. Each save here holds an exclusive lock on a file beside the index from
+    reading it to writing the data, so saves follow one another; loads need no lock (the
+    index and data files are replaced atomically, and an index naming data not yet written
+    reads as a cache miss). Where fcntl is missing (Windows) saves stay as numba makes them:
+    give parallel processes separate NUMBA_CACHE_DIRs there."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    from numba.core import caching
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    save = getattr(cls, "save", None)
+    if save is None or getattr(save, "locked", False):
+        return
+
+    def locked_save(self, key, data):
+        with open(self._index_path + ".lock", "ab") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)   # released as the file closes, or the process dies
+            save(self, key, data)
+    locked_save.locked = True
+    cls.save = locked_save
+
+
+_lock_cache_saves()
+
+
+# how long a compilation waits for another process compiling the same kernel before it
+# compiles the kernel itself (the other may be stopped, not dead: a dead one frees the lock)
+COMPILE_WAIT = 600.0
+_held: dict = {}   # lock path -> [open lock file, depth] of the compilations in this process
+# the event fired around a wait for another process's compilation (data: the lock path), for
+# a progress display to say why nothing seems to happen
+WAIT_EVENT = "cosnet:compile-wait"
+
+
+def compile_lock_path(dispatcher, sig):
+    """Return the lock file that stands for compiling ``dispatcher`` for ``sig`` (a tuple of
+    numba types) into the on-disk cache, or None when nothing is to be waited for: the
+    function is not cached, or the signature is compiled in this process or saved already."""
+    from numba.core import caching, sigutils
+    cache = getattr(dispatcher, "_cache", None)
+    if not isinstance(cache, caching.Cache):
+        return None
+    args, _ = sigutils.normalize_signature(sig)
+    if tuple(args) in dispatcher.overloads:
+        return None
+    try:
+        key = cache._index_key(sig, dispatcher.targetctx.codegen())
+        if key in cache._cache_file._load_index():
+            return None
+        index = cache._cache_file._index_path
+    except Exception:   # another numba's internals: compile as numba would
+        return None
+    return f"{index}.{hashlib.sha256(repr(key).encode()).hexdigest()[:16]}.compiling"
+
+
+@contextlib.contextmanager
+def compiling(path):
+    """Hold the lock ``path`` (from compile_lock_path) while compiling: another process asking
+    for the same kernel waits (at most COMPILE_WAIT s) and then loads what this one saved. A
+    compilation nested in one of the same path in this process does not wait for itself."""
+    import fcntl
+    entry = _held.get(path)
+    if entry is None:
+        try:
+            f = open(path, "ab")
+        except OSError:   # a cache folder we cannot write: compile unlocked, as numba would
+            yield
+            return
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            _wait_for(f, path)
+        entry = _held[path] = [f, 0]
+    entry[1] += 1
+    try:
+        yield
+    finally:
+        entry[1] -= 1
+        if entry[1] == 0:
+            del _held[path]
+            entry[0].close()   # frees the lock
+
+
+def _wait_for(f, path):
+    import fcntl
+
+    from numba.core import event
+    deadline = time.monotonic() + COMPILE_WAIT
+    with event.trigger_event(WAIT_EVENT, data=path):
+        while time.monotonic() < deadline:
+            time.sleep(0.02)
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except OSError:
+                pass
+
+
+def _lock_compilations():
+    """Make a process that needs a kernel another process is compiling into the same cache
+    wait for it and load the result, instead of compiling it a second time (two test workers,
+    a sweep's workers, a run started beside another). Numba looks in its cache, and on a miss
+    compiles: two processes starting together thus both paid the whole compilation. Now a
+    miss takes a lock per kernel and signature (compiling) and looks again once it holds it.
+    Locks are taken callers before callees, along the call graph, so two processes never wait
+    for each other; a process that dies frees its locks. Where fcntl is missing (Windows)
+    compilations stay as numba makes them."""
+    try:
+        import fcntl  # noqa: F401
+    except ImportError:
+        return
+    from numba.core import dispatcher
+    cls = dispatcher.Dispatcher
+    compile_ = cls.compile
+    if getattr(compile_, "locked", False):
+        return
+
+    def locked_compile(self, sig):
+        path = compile_lock_path(self, sig)
+        if path is None:
+            return compile_(self, sig)
+        with compiling(path):
+            return compile_(self, sig)   # which loads what another process saved meanwhile
+    locked_compile.locked = True
+    cls.compile = locked_compile
+
+
+_lock_compilations()
+
+
+def _describe(value):
+    """Return a description of a closure cell that every process gives alike: a jitted
+    function by its module, name, bytecode and own cells; anything else as it is."""
+    py = getattr(value, "py_func", value)
+    code = getattr(py, "__code__", None)
+    if code is None:
+        return value
+    cells = tuple(_describe(c.cell_contents) for c in (py.__closure__ or ()))
+    return (py.__module__, py.__qualname__, hashlib.sha256(code.co_code).hexdigest(), cells)
+
+
+def stable_cache_key(dispatcher):
+    """Give a closure compiled by ``njit(cache=True)`` a cache key that is the same in every
+    process, and return it. Numba keys a closure by the pickle of its cells; a cell holding
+    a jitted function pickles with a random id drawn per process, so such a closure never
+    found itself in the cache: every process compiled it again and its index grew by one
+    entry per process. The cells are described by what they compute instead (_describe)."""
+    cache = dispatcher._cache
+    if not hasattr(cache, "_index_key"):  # caching off (no cache directory)
+        return dispatcher
+    py = dispatcher.py_func
+    cells = pickle.dumps(tuple(_describe(c.cell_contents) for c in (py.__closure__ or ())))
+    code = hashlib.sha256(py.__code__.co_code).hexdigest()
+
+    def index_key(sig, codegen):
+        return (sig, codegen.magic_tuple(), (code, hashlib.sha256(cells).hexdigest()))
+    cache._index_key = index_key
+    return dispatcher
+
+
+def _cache_options() -> dict:
+    """Return the options every kernel starts from, and point numba's on-disk cache at a
+    directory of this exact kernel source: "cosnet-<digest of kernels/*.py>" under
+    NUMBA_CACHE_DIR, else under numba's user cache. Numba checks a cached function against
+    its own file only, so a step kernel cached before a kernel it calls (in another file)
+    changed would go on running the old code; a new source digest starts a fresh directory.
+
+    Debug mode: with COSNET_BOUNDSCHECK=1 in the environment every kernel checks its indices
+    (numba's boundscheck: an IndexError instead of a read or write out of bounds). Numba's
+    cache keys ignore such options, so the checked builds get a directory of their own
+    ("...-boundscheck"): a normal run never loads a checked kernel, nor a debug run an
+    unchecked one. Likewise a build at another LLVM optimisation level (NUMBA_OPT) than
+    numba's default 3 ("...-opt1"): a run at full speed never loads a less optimised kernel."""
+    from numba.misc.appdirs import AppDirs
+    here = os.path.dirname(os.path.abspath(__file__))
+    digest = hashlib.sha256()
+    for name in sorted(os.listdir(here)):
+        if name.endswith(".py"):
+            with open(os.path.join(here, name), "rb") as f:
+                digest.update(name.encode() + b"\0" + f.read())
+    check = os.environ.get("COSNET_BOUNDSCHECK", "0") not in ("", "0")
+    base = numba.config.CACHE_DIR or AppDirs("numba", appauthor=False).user_cache_dir
+    level = getattr(numba.config.OPT, "_raw_value", numba.config.OPT)   # 0..3 or "max"
+    opt = "" if level == 3 else f"-opt{level}"
+    numba.config.CACHE_DIR = os.path.join(base, f"cosnet-{digest.hexdigest()[:16]}"
+                                          + ("-boundscheck" if check else "") + opt)
+    return dict(cache=True, boundscheck=True) if check else dict(cache=True)
+
+
+# Options every kernel starts from. The contact, joint and checksum kernels use them as they
+# are, without fast-math or numpy's error model: their results are pinned bit for bit (the
+# reproducibility tests, --resume), and reassociation would change them; the checksum's
+# integer passes gain nothing from either.
+CACHED = _cache_options()
+# the same, inlined by numba where called (the joints' helpers)
+CACHED_INLINE = dict(CACHED, inline="always")
+# the same, for helpers called only from other kernels: without the Python entry wrapper,
+# whose compilation (unboxing a record of dozens of arrays) costs more than a small body's
+CACHED_INNER = dict(CACHED, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
+# propagate so that a blow-up stays visible to the instability watch
+FAST = {"contract", "arcp", "reassoc", "nsz"}
+# Division by zero gives inf/NaN (numpy's error model) rather than raising: the zero test
+# python's model puts before every division is an early exit, which stops vectorisation.
+KERNEL = dict(CACHED, fastmath=FAST, error_model="numpy")
+# Kernels called only from other kernels: no Python entry wrapper. Numba otherwise builds and
+# compiles, for every function, a wrapper unboxing its arguments from Python objects; for a
+# function taking the model, state and loads records (47 arrays) that alone is most of a
+# second of compilation, even for a body of one line.
+INNER = dict(KERNEL, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# Inlined by numba where called: for the bodies of vectorised loops whose arguments are
+# tuples of arrays (left to LLVM, such calls, passing dozens of array fields, slowed the
+# vectorised passes by half). Numba types an inlined body afresh at every call site, so the
+# scalar helpers below are plain functions instead: compiled once, inlined by LLVM.
+INLINE = dict(INNER, inline="always")
