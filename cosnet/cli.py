@@ -97,10 +97,52 @@ def cmd_run(args) -> int:
 
 
 def _write_run(args, scene, sim, out: Path, until: float) -> int:
-    from .record import Progress, Recorder, kernels_compiled
+    from .compiling import CompileLog
+    from .record import kernels_compiled
     if not kernels_compiled(sim):
         print("compiling kernels (first run only)...", file=sys.stderr)
+    status = CompileStatus(sys.stderr)
+    with CompileLog(status) as log:
+        return _record(args, scene, sim, out, until, log, status)
+
+
+class CompileStatus:
+    """A CompileLog report writing one status line on ``stream``: kernels compiled, of how
+    many (when this machine has compiled the step before), the one under way, and the seconds
+    left by this machine's earlier times; at most every ``every`` s. ``clear()`` wipes the
+    line before other output."""
+
+    def __init__(self, stream, every: float = 0.25):
+        self.stream, self.every = stream, every
+        self.last = -every
+        self.shown = False
+
+    def __call__(self, status):
+        import time
+        now = time.monotonic()
+        if now - self.last < self.every and not status.waiting:
+            return
+        self.last = now
+        if status.waiting:
+            text = f"waiting for another process compiling {status.kernel}"
+        else:
+            of = "" if status.expected is None else f" of about {max(status.expected, status.done)}"
+            left = "" if status.left is None else f", about {status.left:.0f} s left"
+            text = f"compiling kernels: {status.done}{of} ({status.kernel}{left})"
+        self.stream.write(f"\r  {text:<76.76}")
+        self.stream.flush()
+        self.shown = True
+
+    def clear(self):
+        if self.shown:
+            self.stream.write("\r" + " " * 78 + "\r")
+            self.shown = False
+
+
+def _record(args, scene, sim, out: Path, until: float, log, status) -> int:
+    from .record import Progress, Recorder
     rec = Recorder(out, sim, until, scene.run.interval, scene.run.probes, resume=args.resume)
+    status.clear()
     if args.resume and rec.done:
         print(f"{scene.path}: already at t = {sim.time:.6g} s = --until; nothing to do", file=sys.stderr)
         return 0
@@ -110,9 +152,14 @@ def _write_run(args, scene, sim, out: Path, until: float) -> int:
           f"dt = {sim.dt:.4g} s, {rec.steps_left()} steps to t = {until:g} s -> {out}", file=sys.stderr)
     print(f"fast_modes {fast_modes_line(sim)}", file=sys.stderr)
     progress = Progress(until, sim.dt)
-    rec.run(progress)
-    progress(sim, force=True)
-    sys.stderr.write(f"\ndone: {rec.writer.frames} frames in {out}\n")
+
+    def tick(sim, force=False):   # the progress line replaces the compilation's
+        status.clear()
+        progress(sim, force)
+    rec.run(tick)
+    tick(sim, force=True)
+    compiled = f" (compiling {len(log.kernels)} kernels took {log.seconds:.0f} s)" if log.kernels else ""
+    sys.stderr.write(f"\ndone: {rec.writer.frames} frames in {out}{compiled}\n")
     return 0
 
 

@@ -1,0 +1,196 @@
+"""What numba compiles in this process, how long each kernel takes, and how long is left.
+
+A ``CompileLog`` listens to numba's compile events while it is open: for every kernel
+compiled (a cache miss) it records its own time (the kernels compiled inside it excluded),
+split into numba's part (type inference, lowering) and LLVM's (optimisation, linking, machine
+code), and the time spent waiting for another process compiling a kernel this one needs
+(kernels/compiler.py). Loads from the cache fire no event: they are what is left of a phase.
+
+What a step needs is learned per machine: closing a log stores, beside numba's cache, the
+kernels compiled for each outermost one with their times, so the next compilation of that
+kernel can say how many kernels remain and about how long they take on this machine.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections import Counter
+from dataclasses import dataclass
+
+from numba.core import event
+
+from .kernels.compiler import WAIT_EVENT
+
+LEARNED = "compile-times.cosnet.json"   # beside the cache directories, shared by them all
+
+
+@dataclass
+class Kernel:
+    """One compilation: the kernel's name, its own seconds (total, of which LLVM), the
+    outermost kernel it was compiled for."""
+    name: str
+    seconds: float = 0.0
+    llvm: float = 0.0
+    root: str = ""
+
+
+@dataclass
+class Status:
+    """Where a compilation stands: kernels compiled so far, those expected in all (None when
+    this machine has not compiled this step before), the kernel under way, and the seconds
+    left by this machine's earlier times (None when unknown)."""
+    done: int
+    expected: int | None
+    kernel: str
+    left: float | None
+    waiting: bool = False
+
+
+def learned_path() -> str:
+    """The file of this machine's compile times: beside the cache directories of every kernel
+    source (kernels/compiler.py), so an edited kernel keeps its estimate."""
+    from numba.core import config
+    return os.path.join(os.path.dirname(getattr(config, "CACHE_DIR")), LEARNED)
+
+
+def _read_learned() -> dict:
+    try:
+        with open(learned_path()) as f:
+            data = json.load(f)
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+class CompileLog(event.Listener):
+    """Records compilations while open (``with CompileLog(report) as log``): ``kernels`` (a
+    Kernel each, in the order they finished), ``waited`` (seconds). ``report``, if given,
+    receives a Status as each kernel starts compiling or a wait begins."""
+
+    def __init__(self, report=None):
+        self.report = report
+        self.kernels: list[Kernel] = []
+        self.waited = 0.0
+        self._stack: list = []   # [Kernel, start, seconds of the kernels compiled inside it]
+        self._llvm_depth = 0
+        self._wait_start = self._llvm_start = 0.0
+        self._plans = _read_learned().get("plans", {})
+
+    # numba's listener interface, one object for several event kinds
+    def on_start(self, ev):
+        self._dispatch(ev)
+
+    def on_end(self, ev):
+        self._dispatch(ev)
+
+    def _dispatch(self, ev):
+        if ev.kind == "numba:compile":
+            self._compile(ev)
+        elif ev.kind == "numba:llvm_lock":
+            self._llvm(ev)
+        elif ev.kind == WAIT_EVENT:
+            self._wait(ev)
+
+    def _compile(self, ev):
+        now = time.perf_counter()
+        if ev.is_start:
+            py = ev.data["dispatcher"].py_func
+            name = f"{py.__module__}.{py.__qualname__}"
+            root = self._stack[0][0].name if self._stack else name
+            self._stack.append([Kernel(name, root=root), now, 0.0])
+            self._tell(name)
+            return
+        kernel, start, nested = self._stack.pop()
+        kernel.seconds = now - start - nested
+        self.kernels.append(kernel)
+        if self._stack:
+            self._stack[-1][2] += now - start
+
+    def _llvm(self, ev):
+        # LLVM's lock is taken re-entrantly: time the outermost hold, for the kernel on top
+        if ev.is_start:
+            self._llvm_depth += 1
+            if self._llvm_depth == 1:
+                self._llvm_start = time.perf_counter()
+            return
+        self._llvm_depth -= 1
+        if self._llvm_depth == 0 and self._stack:
+            self._stack[-1][0].llvm += time.perf_counter() - self._llvm_start
+
+    def _wait(self, ev):
+        if ev.is_start:
+            self._wait_start = time.perf_counter()
+            self._tell(os.path.basename(str(ev.data)).split(".py")[0].rsplit("-", 1)[0], waiting=True)
+        else:
+            self.waited += time.perf_counter() - self._wait_start
+
+    def _tell(self, name, waiting=False):
+        if self.report is None:
+            return
+        root = self._stack[0][0].name if self._stack else name
+        plan = self._plans.get(root)
+        expected = left = None
+        if plan:
+            # the plan's kernels not yet finished here (names repeat: closures made by one
+            # factory share theirs), the ones under way included: their own time lies ahead
+            finished = Counter(k.name for k in self.kernels if k.root == root)
+            unfinished = []
+            for entry_name, seconds in plan:
+                if finished[entry_name] > 0:
+                    finished[entry_name] -= 1
+                else:
+                    unfinished.append(seconds)
+            others = sum(1 for k in self.kernels if k.root != root)
+            expected = others + len(plan)
+            left = float(sum(unfinished))
+        self.report(Status(len(self.kernels), expected, name.rsplit(".", 1)[-1], left, waiting))
+
+    def __enter__(self):
+        for kind in ("numba:compile", "numba:llvm_lock", WAIT_EVENT):
+            event.register(kind, self)
+        return self
+
+    def __exit__(self, *exc):
+        for kind in ("numba:compile", "numba:llvm_lock", WAIT_EVENT):
+            event.unregister(kind, self)
+        if self.kernels and exc[0] is None:
+            self._learn()
+
+    @property
+    def seconds(self) -> float:
+        return sum(k.seconds for k in self.kernels)
+
+    @property
+    def llvm(self) -> float:
+        return sum(k.llvm for k in self.kernels)
+
+    def by_root(self) -> dict:
+        """{outermost kernel: (kernels compiled for it, seconds)}."""
+        out: dict = {}
+        for k in self.kernels:
+            n, s = out.get(k.root, (0, 0.0))
+            out[k.root] = (n + 1, s + k.seconds)
+        return out
+
+    def _learn(self):
+        """Store each outermost kernel's plan on this machine: the kernels compiled for it, in
+        order, with their own seconds (a best effort: a cache folder we cannot write only loses
+        the estimates)."""
+        learned = _read_learned()
+        plans = learned.setdefault("plans", {})
+        for root in {k.root for k in self.kernels}:
+            plan = [[k.name, round(k.seconds, 4)] for k in self.kernels if k.root == root]
+            # a step compiled over a partly warm cache compiles fewer kernels than it needs:
+            # it does not replace a fuller plan
+            if len(plan) >= len(plans.get(root, ())):
+                plans[root] = plan
+        path = learned_path()
+        try:
+            tmp = f"{path}.{os.getpid()}.tmp"
+            with open(tmp, "w") as f:
+                json.dump(learned, f, indent=0, sort_keys=True)
+            os.replace(tmp, path)
+        except OSError:
+            pass

@@ -1,0 +1,141 @@
+"""Compilation seen from outside: two processes asking at once for a kernel that is in no cache
+compile it once (the second waits for the first, kernels/compiler.py, and loads what it
+saved); the compile log (cosnet/compiling.py) times each kernel, learns what a step needs, and
+the CLI's status line says how many kernels remain and how long they take here."""
+
+import sys
+
+import pytest
+
+
+from procs import started
+
+KERNEL = """
+from numba import njit
+from cosnet.kernels.compiler import CACHED
+
+@njit(**CACHED)
+def spring_force(k, x):
+    return -k * x
+"""
+
+# asks for spring_force(float64, float64), saying when it starts waiting for another process;
+# prints its value and how many compilations it ran
+CHILD = r"""
+import sys
+
+import pytest
+sys.path.insert(0, sys.argv[1])
+from numba.core import event
+from cosnet.kernels.compiler import WAIT_EVENT
+import lockmod
+
+class Tell(event.Listener):
+    def on_start(self, ev):
+        print("waiting", flush=True)
+    def on_end(self, ev):
+        pass
+
+compiled = []
+class Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__name__)
+    def on_end(self, ev):
+        pass
+
+event.register(WAIT_EVENT, Tell())
+event.register("numba:compile", Count())
+print("force", lockmod.spring_force(2.0, 0.25), "compiled", len(compiled), flush=True)
+"""
+
+
+def test_a_kernel_being_compiled_elsewhere_is_waited_for_and_loaded(tmp_path):
+    from numba import float64
+
+    from cosnet.kernels.compiler import compile_lock_path, compiling
+    (tmp_path / "lockmod.py").write_text(KERNEL)
+    sys.path.insert(0, str(tmp_path))
+    try:
+        import lockmod
+    finally:
+        sys.path.remove(str(tmp_path))
+    sig = (float64, float64)
+    path = compile_lock_path(lockmod.spring_force, sig)
+    assert path is not None   # in no cache yet: compiling it takes the lock
+    with started([sys.executable, "-c", CHILD, tmp_path], stdout=-1, stderr=-1, text=True) as child:
+        with compiling(path):     # this process compiles it; the child asks meanwhile
+            first = child.stdout.readline().strip()   # the child's first word: it waits
+            assert first == "waiting", (first, child.stderr.read() if first == "" else "")
+            lockmod.spring_force.compile(sig)
+        out, err = child.communicate(timeout=120)   # the lock is free: the child goes on
+    assert child.returncode == 0, err
+    _, force, _, compiled = out.split()
+    assert float(force) == -0.5
+    assert compiled == "0"   # loaded what this process saved, compiled nothing itself
+
+
+PAIR = """
+from numba import njit
+from cosnet.kernels.compiler import CACHED
+
+@njit(**CACHED)
+def inner(x):
+    return x * x
+
+@njit(**CACHED)
+def outer(x):
+    return inner(x) + 1.0
+"""
+
+
+def _fresh_module(folder, name, text):
+    """Import ``text`` as module ``name`` from ``folder`` (a new file: in no cache)."""
+    import importlib
+    folder.mkdir()
+    (folder / f"{name}.py").write_text(text)
+    sys.path.insert(0, str(folder))
+    try:
+        sys.modules.pop(name, None)
+        return importlib.import_module(name)
+    finally:
+        sys.path.remove(str(folder))
+
+
+def test_the_compile_log_times_each_kernel_and_learns_what_a_step_needs(tmp_path, monkeypatch):
+    import cosnet.compiling as compiling
+    monkeypatch.setattr(compiling, "learned_path", lambda: str(tmp_path / "learned.json"))
+    first = _fresh_module(tmp_path / "a", "pairmod", PAIR)
+    with compiling.CompileLog() as log:
+        assert first.outer(3.0) == 10.0
+    names = [k.name for k in log.kernels]
+    assert names == ["pairmod.inner", "pairmod.outer"]   # callee finished first
+    assert {k.root for k in log.kernels} == {"pairmod.outer"}
+    assert all(0.0 < k.llvm < k.seconds for k in log.kernels)
+    assert log.by_root() == {"pairmod.outer": (2, log.seconds)}
+    # the same kernels, new to the cache (another file): the log now knows what is coming
+    seen = []
+    second = _fresh_module(tmp_path / "b", "pairmod", PAIR)
+    with compiling.CompileLog(seen.append):
+        assert second.outer(2.0) == 5.0
+    start = seen[0]
+    assert (start.kernel, start.done, start.expected) == ("outer", 0, 2)
+    assert start.left == pytest.approx(sum(round(k.seconds, 4) for k in log.kernels), abs=1e-9)
+    assert seen[1].kernel == "inner" and seen[1].left == start.left   # nothing finished yet
+
+
+def test_the_status_line_says_how_many_kernels_and_how_long():
+    import io
+
+    from cosnet.cli import CompileStatus
+    from cosnet.compiling import Status
+    out = io.StringIO()
+    status = CompileStatus(out, every=0.0)
+    status(Status(done=30, expected=52, kernel="kick_loads", left=16.4))
+    status(Status(done=3, expected=None, kernel="scan_words", left=None))
+    status(Status(done=3, expected=None, kernel="advance_verlet", left=None, waiting=True))
+    lines = [line.rstrip() for line in out.getvalue().split("\r") if line]
+    assert lines == ["  compiling kernels: 30 of about 52 (kick_loads, about 16 s left)",
+                     "  compiling kernels: 3 (scan_words)",
+                     "  waiting for another process compiling advance_verlet"]
+    status.clear()
+    assert out.getvalue().endswith("\r" + " " * 78 + "\r")
