@@ -107,10 +107,16 @@ def _joint_error(what, p, model):
 
 
 def _load_error(what, p, field, table, size):
-    if p.force.shape != (table.shape[0], 3) or p.torque.shape != (table.shape[0], 3):
+    k = table.shape[0]
+    if p.force.shape != (k, 3) or p.torque.shape != (k, 3):
         return f"{what}: force and torque need one row of 3 per entry"
+    if p.omega.shape != (k,) or p.phase.shape != (k,):
+        return f"{what}: omega and phase need one entry per row"
     if p.values.shape != p.times.shape:
         return f"{what}: the amplitude table's times and values differ in length"
+    o, m = p.table, p.times.shape[0]
+    if o.shape != (k + 1,) or o[0] < 0 or o[-1] > m or np.any(np.diff(o) < 0):
+        return f"{what}.table is not an offset table of {k} rows into {m} table entries"
     return _index_error(f"{what}.{field}", table, size)
 
 

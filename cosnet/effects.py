@@ -40,7 +40,35 @@ def _amplitude(owner, times, values, omega, phase):
     for name, x in (("omega", omega), ("phase", phase)):
         if not math.isfinite(float(x)):
             raise ValueError(f"{owner}: {name} must be finite, got {x}")
-    return t, v, float(omega), float(phase)
+    # one row: its table is the whole of times/values
+    return t, v, np.array([0, t.size], dtype=np.int64), np.array([float(omega)]), np.array([float(phase)])
+
+
+POOLED = ("times", "values")   # the load records' arrays shared by their rows through ``table``
+
+
+def join_loads(records):
+    """Return (joined, views) for load records of one type (NodeLoadParams, LineLoadParams):
+    one record holding every row of ``records`` in order, its amplitude tables pooled (row
+    offsets shifted), and for each given record one made of views into the joined arrays, so
+    that what is read or changed through a declared effect's own record is what the kernel
+    reads."""
+    cls = type(records[0])
+    rows = [f for f in cls._fields if f not in POOLED and f != "table"]
+    joined = {f: np.concatenate([getattr(r, f) for r in records]) for f in rows + list(POOLED)}
+    table, start = [0], 0
+    for r in records:
+        table.extend(start + r.table[1:] - r.table[0])
+        start = table[-1]
+    joined["table"] = np.array(table, dtype=np.int64)
+    out = cls(**joined)
+    views, k = [], 0
+    for r in records:
+        n = r.table.shape[0] - 1
+        views.append(cls(**{f: getattr(out, f)[k:k + n] for f in rows},
+                         **{f: getattr(out, f) for f in POOLED}, table=out.table[k:k + n + 1]))
+        k += n
+    return out, views
 
 
 class Gravity(Effect):
@@ -89,6 +117,7 @@ class NodeLoad(Effect):
             Key("torque", vec3, TORQUE, doc="torque, lab frame"), *AMPLITUDE)
     record = NodeLoadParams
     adds_energy = True
+    join = staticmethod(join_loads)
 
     def __init__(self, node: Node, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), *,
                  times=None, values=None, omega=0.0, phase=0.0):
@@ -103,7 +132,7 @@ class NodeLoad(Effect):
     def bind(self, on: Binding):
         on.check_node(self.node, "NodeLoad")
         return NodeLoadParams(np.array([self.node.index], dtype=np.int64), self.force[None].copy(),
-                              self.torque[None].copy(), *self.amp)
+                              self.torque[None].copy(), *(a.copy() for a in self.amp))
 
 
 class LineLoad(Effect):
@@ -116,6 +145,7 @@ class LineLoad(Effect):
             *AMPLITUDE)
     record = LineLoadParams
     adds_energy = True
+    join = staticmethod(join_loads)
 
     def __init__(self, line: Line, force_per_length=(0.0, 0.0, 0.0), torque_per_length=(0.0, 0.0, 0.0),
                  *, times=None, values=None, omega=0.0, phase=0.0):
@@ -130,7 +160,7 @@ class LineLoad(Effect):
     def bind(self, on: Binding):
         on.check_line(self.line, "LineLoad")
         return LineLoadParams(np.array([self.line.index], dtype=np.int64), self.force[None].copy(),
-                              self.torque[None].copy(), *self.amp)
+                              self.torque[None].copy(), *(a.copy() for a in self.amp))
 
 
 class Damping(Effect):

@@ -96,6 +96,10 @@ class Effect:
     stage: str = "load"
     kernel: Callable | None = None
     adds_energy = False
+    # join(records) -> (joined, views), or None: effects of one class declared one after
+    # another run as one record, so that their number is not part of the compiled step's type
+    # (each effect keeps a record of views into the joined arrays; see cosnet.effects.join_loads)
+    join = None
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)

@@ -42,6 +42,28 @@ def check_threads(threads) -> int:
     return int(threads)
 
 
+def joined_records(effects, records) -> tuple[list, list]:
+    """Return (records, kernel records): each effect's record, and the (stage, record) pairs
+    the step runs, where every run of effects of one class that declares ``join`` (one after
+    another, so the loads still add up in the declared order) is one joined record and its
+    effects' records are views into it."""
+    own, kernel = list(records), []
+    i = 0
+    while i < len(effects):
+        cls = type(effects[i])
+        j = i + 1
+        while cls.join is not None and j < len(effects) and type(effects[j]) is cls:
+            j += 1
+        if j - i > 1:
+            joined, views = cls.join(records[i:j])
+            own[i:j] = views
+            kernel.append((cls.stage, joined))
+        else:
+            kernel.append((cls.stage, records[i]))
+        i = j
+    return own, kernel
+
+
 class Simulation:
     """A net in motion.
 
@@ -74,7 +96,8 @@ class Simulation:
     dt: float
     steps: int
     watch: Watch
-    _params: list
+    _params: list          # each effect's kernel record (views into a joined one, for joined effects)
+    _kernel_params: list   # the records the kernels read, joined runs as one
     _load_params: tuple
     _flow_params: tuple
     _step_effects: tuple   # (load, flow, constraint) records, as the stepper takes them
@@ -104,10 +127,11 @@ class Simulation:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
         on = Binding(net, self.model, self.state, tuple(self.effects))
-        self._params = [e.bind(on) for e in self.effects]   # each effect's kernel record
-        self._load_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "load")
-        self._flow_params = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "flow")
-        constraints = tuple(p for e, p in zip(self.effects, self._params) if e.stage == "constraint")
+        self._params, kernel_records = joined_records(self.effects, [e.bind(on) for e in self.effects])
+        self._kernel_params = [p for _, p in kernel_records]   # what the kernels read
+        self._load_params = tuple(p for stage, p in kernel_records if stage == "load")
+        self._flow_params = tuple(p for stage, p in kernel_records if stage == "flow")
+        constraints = tuple(p for stage, p in kernel_records if stage == "constraint")
         self._step_effects = (self._load_params, self._flow_params, constraints)
         self._advance = STEPPERS[stepper]
         self.threads = self._choose_threads(threads)

@@ -74,10 +74,10 @@ class Watch:
         """Raise ValueError (one line, starting with who) if an index table the kernels trust
         is out of range or an array has the wrong shape; a no-op while their seal is unchanged."""
         sim = self.sim
-        seal = table_seal(sim.model, sim.state, sim.loads, sim._params)
+        seal = table_seal(sim.model, sim.state, sim.loads, sim._kernel_params)
         if seal == self.tables:
             return
-        problem = table_error(sim.model, sim.state, sim.loads, sim._params)
+        problem = table_error(sim.model, sim.state, sim.loads, sim._kernel_params)
         if problem:  # the kernels index by these tables unchecked
             raise ValueError(f"{who}: {problem}")
         self.tables = seal

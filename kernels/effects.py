@@ -21,23 +21,28 @@ class GravityParams(NamedTuple):
 
 
 class NodeLoadParams(NamedTuple):
+    """Node loads, a row each (one declared NodeLoad, or several joined: compose.join_records)."""
     nodes: np.ndarray    # (k,) int64
     force: np.ndarray    # (k, 3) lab force at the node's reference point
     torque: np.ndarray   # (k, 3) lab torque
-    times: np.ndarray    # (m,) amplitude table abscissae (m = 0: constant amplitude 1)
-    values: np.ndarray   # (m,) amplitude table
-    omega: float         # harmonic factor sin(omega t + phase) when omega != 0
-    phase: float
+    times: np.ndarray    # (m,) the rows' amplitude tables, one after another (abscissae)
+    values: np.ndarray   # (m,) their values
+    table: np.ndarray    # (k + 1,) int64: row j's table is times[table[j]:table[j + 1]] (empty:
+                         # constant amplitude 1)
+    omega: np.ndarray    # (k,) harmonic factor sin(omega t + phase) where omega != 0
+    phase: np.ndarray    # (k,)
 
 
 class LineLoadParams(NamedTuple):
+    """Distributed loads, a row each (as NodeLoadParams)."""
     lines: np.ndarray    # (k,) int64
     force: np.ndarray    # (k, 3) force per unit length f, lab frame (1.4)
     torque: np.ndarray   # (k, 3) torque per unit length l, lab frame (1.4)
     times: np.ndarray
     values: np.ndarray
-    omega: float
-    phase: float
+    table: np.ndarray
+    omega: np.ndarray
+    phase: np.ndarray
 
 
 class DampingParams(NamedTuple):
@@ -79,13 +84,15 @@ def interp_table(t, times, values):
 
 
 @njit(**CACHED, inline="always")
-def load_amplitude(p, t):
-    """Return the time factor of a load: table interpolation times sin(omega t + phase)."""
+def row_amplitude(p, j, t):
+    """Return the time factor of row j of a load record: its table interpolated at t, times
+    sin(omega t + phase)."""
     a = 1.0
-    if p.times.shape[0] > 0:
-        a = interp_table(t, p.times, p.values)
-    if p.omega != 0.0:
-        a *= math.sin(p.omega * t + p.phase)
+    lo, hi = p.table[j], p.table[j + 1]
+    if hi > lo:
+        a = interp_table(t, p.times[lo:hi], p.values[lo:hi])
+    if p.omega[j] != 0.0:
+        a *= math.sin(p.omega[j] * t + p.phase[j])
     return a
 
 
@@ -126,9 +133,11 @@ def add_node_force(model, state, loads, nd, fx, fy, fz):
 @load_kernel(NodeLoadParams)
 @njit(**STEP)
 def add_node_loads(p, model, state, loads):
-    """Update loads.node_f, loads.node_tau given the node loads F(t, nu), L(t, nu) (1.5)/(1.7)."""
-    a = load_amplitude(p, state.clock[0])
+    """Update loads.node_f, loads.node_tau given the node loads F(t, nu), L(t, nu) (1.5)/(1.7),
+    row by row."""
+    t = state.clock[0]
     for j in range(p.nodes.shape[0]):
+        a = row_amplitude(p, j, t)
         nd = p.nodes[j]
         add_node_force(model, state, loads, nd, a * p.force[j, 0], a * p.force[j, 1], a * p.force[j, 2])
         for k in range(3):
@@ -141,8 +150,9 @@ def add_line_loads(p, model, state, loads):
     """Update loads.f (nv,3), loads.tau (ne,3) given distributed loads f, l per unit length
     on the listed lines (1.4): vertices take f times their Voronoi length, elements l times
     their length (in their body frame)."""
-    a = load_amplitude(p, state.clock[0])
+    t = state.clock[0]
     for j in range(p.lines.shape[0]):
+        a = row_amplitude(p, j, t)
         l = p.lines[j]
         for vt in range(model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]):
             s = a * model.voronoi_rest_length[vt]

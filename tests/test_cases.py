@@ -122,7 +122,7 @@ def _lorry_load(scene, t):
     total = 0.0
     for e in scene.effects:
         if isinstance(e, cosnet.NodeLoad):
-            times, values, _, _ = e.amp
+            times, values = e.amp[:2]
             total += e.force[2] * np.interp(t, times, values)
     return total
 

@@ -175,7 +175,7 @@ def test_scene_builds_the_same_net_as_the_api(tmp_path):
     assert [type(e) for e in scene.effects] == [type(e) for e in effects]
     np.testing.assert_array_equal(scene.effects[1].force, effects[1].force)
     assert scene.effects[1].node is scene.net.node("body")
-    assert scene.effects[1].amp[2] == 3.0 and scene.effects[3].rotational == 0.2
+    assert scene.effects[1].amp[3][0] == 3.0 and scene.effects[3].rotational == 0.2   # omega of its one row
     assert scene.run.stepper == "pefrl" and scene.run.dt is None and scene.run.until == 0.01
     assert [p.name for p in scene.run.probes] == ["body", "arm@0.5"]
 

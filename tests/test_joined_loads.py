@@ -1,0 +1,68 @@
+"""Loads declared one after another run as one record (cosnet.simulation.joined_records): their
+number is not part of the compiled step's type, each row keeps its own amplitude, and each
+declared effect's record is a view into the joined one."""
+
+import math
+
+import numba
+import numpy as np
+import pytest
+
+import cosnet
+from cosnet.kernels.stepping import evaluate_loads
+from nets import free_net
+
+T = 0.3
+
+
+def _loads(net):
+    body, a, b = net.node("body"), net.node("a"), net.node("b")
+    return [cosnet.NodeLoad(body, force=(1.0, -2.0, 3.0), times=[0.0, 1.0], values=[0.0, 2.0]),
+            cosnet.NodeLoad(a, torque=(0.0, 0.0, 0.5), omega=3.0, phase=0.5),
+            cosnet.NodeLoad(b, force=(0.0, 0.0, -5.0))]
+
+
+def _node_loads(sim):
+    sim.state.clock[0] = T
+    evaluate_loads(sim.model, sim.state, sim.loads, sim._load_params, sim._backend)
+    return sim.loads.node_f.copy(), sim.loads.node_tau.copy()
+
+
+def test_a_run_of_node_loads_is_one_record_whatever_its_length():
+    net = free_net()
+    three = cosnet.Simulation(net, effects=[cosnet.Gravity(), *_loads(net)])
+    six = cosnet.Simulation(net, effects=[cosnet.Gravity(), *_loads(net), *_loads(net)])
+    assert [len(s._load_params) for s in (three, six)] == [2, 2]
+    assert three._load_params[1].nodes.shape == (3,) and six._load_params[1].nodes.shape == (6,)
+    # the same step serves both: adding a load changes numbers, not the compiled code
+    assert numba.typeof(three._step_effects) == numba.typeof(six._step_effects)
+    # separated by another effect, runs stay apart (the loads add up in the declared order)
+    split = cosnet.Simulation(net, effects=[_loads(net)[0], cosnet.Gravity(), *_loads(net)[1:]])
+    assert [type(p).__name__ for p in split._load_params] == ["NodeLoadParams", "GravityParams", "NodeLoadParams"]
+
+
+def test_each_row_keeps_its_amplitude_and_its_own_record_is_live():
+    net = free_net()
+    loads = _loads(net)
+    sim = cosnet.Simulation(net, effects=[cosnet.Gravity(), *loads])
+    f, tau = _node_loads(sim)
+    for load in loads:                      # switch every load off through its own record
+        rec = sim.effect_params(load)
+        assert np.shares_memory(rec.force, sim._load_params[1].force)
+        rec.force[:] = 0.0
+        rec.torque[:] = 0.0
+    f0, tau0 = _node_loads(sim)
+    body, a, b = (net.node(n).index for n in ("body", "a", "b"))
+    # table: 0 -> 2 over 1 s; harmonic: sin(omega t + phase); constant: 1
+    np.testing.assert_allclose(f[body] - f0[body], 0.6 * np.array([1.0, -2.0, 3.0]), rtol=1e-12, atol=1e-12)
+    assert tau[a, 2] - tau0[a, 2] == pytest.approx(0.5 * math.sin(3.0 * T + 0.5), rel=1e-12)
+    np.testing.assert_allclose(f[b] - f0[b], [0.0, 0.0, -5.0], rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(f[a], f0[a])   # a carries a torque only
+
+
+def test_a_corrupted_joined_table_is_refused_before_a_step():
+    net = free_net()
+    sim = cosnet.Simulation(net, effects=[*_loads(net)])
+    sim.effect_params(sim.effects[0]).table[1] = 99   # past the pooled amplitude tables
+    with pytest.raises(ValueError, match=r"node load\.table is not an offset table of 3 rows into 2 table entries"):
+        sim.run(steps=1)
