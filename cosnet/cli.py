@@ -97,12 +97,12 @@ def cmd_run(args) -> int:
 
 
 def _write_run(args, scene, sim, out: Path, until: float) -> int:
-    from .compiling import CompileLog
+    from .compiling import CompileLog, compiling_alongside
     from .record import kernels_compiled
     if not kernels_compiled(sim):
         print("compiling kernels (first run only)...", file=sys.stderr)
     status = CompileStatus(sys.stderr)
-    with CompileLog(status) as log:
+    with CompileLog(status, llvm=False) as log, compiling_alongside(scene.path, sim):
         return _record(args, scene, sim, out, until, log, status)
 
 
@@ -173,6 +173,41 @@ def fast_modes_line(sim) -> str:
         full = dt_with(sim, "resolve")
         text += f" ({est / full:.3g}x the {full:.4g} s of \"resolve\")"
     return text + f"; \"auto\" gives {auto:.4g} s ({auto / est:.3g}x)"
+
+
+def cmd_compile(args) -> int:
+    """Compile scenes' kernels into numba's cache, several processes at once: a kernel two of
+    them need is compiled by one while the other waits for it (kernels/compiler.py)."""
+    import concurrent.futures as cf
+    import multiprocessing
+
+    from .compiling import compile_scene
+    if args.all:
+        paths = sorted(cases_dir().glob("*.toml"))
+    else:
+        paths = [scene_path(a) for a in args.scenes or [None]]
+    jobs = min(args.jobs or os.cpu_count() or 1, len(paths))
+    failed = 0
+    with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+        # one scene: a second process compiles its kick alongside; several: a scene per process
+        running = {pool.submit(compile_scene, str(p), len(paths) == 1): p for p in paths}
+        try:
+            for done in cf.as_completed(running):
+                name = running[done]
+                try:
+                    r = done.result()
+                except (ValueError, RuntimeError) as e:
+                    failed += 1
+                    print(f"{name}: {_one_line(e)}", file=sys.stderr)
+                    continue
+                what = (f"compiled {r['kernels']} kernels in {r['seconds']:.0f} s" if r["kernels"]
+                        else "all kernels cached")
+                print(f"{name}: {what}", file=sys.stderr)
+        except BaseException:
+            for f in running:
+                f.cancel()
+            raise
+    return 2 if failed else 0
 
 
 def cmd_info(args) -> int:
@@ -337,6 +372,10 @@ def parser() -> argparse.ArgumentParser:
                    help="lift the limits on elements, memory, steps and frames (see docs/faults.md)")
     r.add_argument("--threads", help="threads for the step (default: the scene's [run] threads, else "
                    "by net size; see docs/threads.md)")
+    c = sub.add_parser("compile", help="compile the kernels of scenes into the cache, ahead of their runs")
+    c.add_argument("scenes", nargs="*", metavar="scene", help="scene files or ready case names (default: bridge)")
+    c.add_argument("--all", action="store_true", help="every ready case of cases/")
+    c.add_argument("--jobs", type=_positive_int, help="processes compiling at once (default: one per core)")
     i = sub.add_parser("info", help="describe a scene")
     i.add_argument("scene", help="scene file or ready case name")
     m = sub.add_parser("modes", help="normal modes of a scene's net (§6): spectrum and VTK mode shapes")
@@ -417,7 +456,7 @@ def main(argv=None) -> int:
         # ignored, as a shell starts background jobs: Python then installs no handler
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        return {"run": cmd_run, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
+        return {"run": cmd_run, "compile": cmd_compile, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
                 "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
     except ValueError as e:
         print(f"cosnet: error: {_one_line(e)}", file=sys.stderr)

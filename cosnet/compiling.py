@@ -13,8 +13,11 @@ kernel can say how many kernels remain and about how long they take on this mach
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import subprocess
+import sys
 import time
 from collections import Counter
 from dataclasses import dataclass
@@ -52,7 +55,7 @@ def learned_path() -> str:
     """The file of this machine's compile times: beside the cache directories of every kernel
     source (kernels/compiler.py), so an edited kernel keeps its estimate."""
     from numba.core import config
-    return os.path.join(os.path.dirname(getattr(config, "CACHE_DIR")), LEARNED)
+    return os.path.join(os.path.dirname(config.CACHE_DIR), LEARNED)  # type: ignore[attr-defined]
 
 
 def _read_learned() -> dict:
@@ -67,10 +70,12 @@ def _read_learned() -> dict:
 class CompileLog(event.Listener):
     """Records compilations while open (``with CompileLog(report) as log``): ``kernels`` (a
     Kernel each, in the order they finished), ``waited`` (seconds). ``report``, if given,
-    receives a Status as each kernel starts compiling or a wait begins."""
+    receives a Status as each kernel starts compiling or a wait begins. ``llvm``: time LLVM's
+    share too (numba fires an event at every hold of its LLVM lock: some overhead)."""
 
-    def __init__(self, report=None):
+    def __init__(self, report=None, llvm: bool = True):
         self.report = report
+        self._kinds = ("numba:compile", WAIT_EVENT) + (("numba:llvm_lock",) if llvm else ())
         self.kernels: list[Kernel] = []
         self.waited = 0.0
         self._stack: list = []   # [Kernel, start, seconds of the kernels compiled inside it]
@@ -148,12 +153,12 @@ class CompileLog(event.Listener):
         self.report(Status(len(self.kernels), expected, name.rsplit(".", 1)[-1], left, waiting))
 
     def __enter__(self):
-        for kind in ("numba:compile", "numba:llvm_lock", WAIT_EVENT):
+        for kind in self._kinds:
             event.register(kind, self)
         return self
 
     def __exit__(self, *exc):
-        for kind in ("numba:compile", "numba:llvm_lock", WAIT_EVENT):
+        for kind in self._kinds:
             event.unregister(kind, self)
         if self.kernels and exc[0] is None:
             self._learn()
@@ -194,3 +199,64 @@ class CompileLog(event.Listener):
             os.replace(tmp, path)
         except OSError:
             pass
+
+
+def compile_scene(path, alongside: bool = True) -> dict:
+    """Update numba's cache given a scene file: build it as `cosnet run` does and compile (or
+    load) every kernel its first frames and its steps need, on a simulation thrown away after
+    one step (``alongside``: with a second process compiling the kick, compiling_alongside).
+    Returns {"scene", "kernels" (compiled in this process), "seconds" (compiling)}."""
+    from .scene import load_scene
+    scene = load_scene(path)
+    sim = scene.simulation()
+    helper = compiling_alongside(path, sim) if alongside else contextlib.nullcontext()
+    with CompileLog(llvm=False) as log, helper:
+        sim.check()
+        sim.run(steps=1)
+        sim.energy()
+    return {"scene": str(path), "kernels": len(log.kernels), "seconds": log.seconds}
+
+
+# What the second process runs: argv = scene file, threads.
+_HELPER = "import sys; from cosnet.compiling import compile_kick; compile_kick(sys.argv[1], int(sys.argv[2]))"
+
+
+def compile_kick(path, threads: int):
+    """Compile (into numba's cache) the kick of a scene's step: the loads, internal and
+    declared, and the velocity update, for the types the step will call it with. The larger
+    half of a step's compilation, and the half the step reaches last."""
+    from numba import typeof, types
+
+    from .kernels.stepping import kick_loads
+    from .scene import load_scene
+    sim = load_scene(path).simulation(threads=threads)
+    kick_loads.compile((typeof(sim.model), typeof(sim.state), typeof(sim.loads), typeof(sim._step_effects),
+                        types.float64, typeof(sim._backend)))
+
+
+@contextlib.contextmanager
+def compiling_alongside(path, sim):
+    """Run the block (which compiles ``sim``'s step) with a second process compiling the kick
+    of the same step meanwhile, where the step is not cached and there is a second core: the
+    block's compilation, reaching the kick, waits for that process and loads its work
+    (kernels/compiler.py), while the frame-0 kernels and the drift were compiled here. The
+    process dies with this one and is stopped when the block ends."""
+    from .record import kernels_compiled
+    if (os.cpu_count() or 1) < 2 or kernels_compiled(sim):
+        yield
+        return
+    helper = subprocess.Popen([sys.executable, "-c", _HELPER, str(path), str(sim.threads)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+    try:
+        yield
+    finally:
+        if helper.poll() is None:
+            helper.kill()
+        helper.wait()
+
+
+def _die_with_parent():
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG

@@ -263,3 +263,18 @@ def test_out_of_memory_ends_in_one_line(tiny, capsys, monkeypatch):
         raise MemoryError
     monkeypatch.setattr(cosnet.scene, "load_scene", exhausted)
     assert main_err(capsys, "info", tiny) == (2, f"cosnet: error: {tiny}: out of memory: too large for this machine")
+
+
+def test_compile_ahead_leaves_the_run_nothing_to_compile(tiny, tmp_path):
+    """`cosnet compile SCENE` fills the cache with every kernel `cosnet run SCENE` needs: the
+    run then compiles nothing, and compiling again finds everything cached."""
+    r = cosnet("compile", tiny, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.startswith(f"{tiny}: ")
+    run = cosnet("run", tiny, "--out", tmp_path / "out", "--until", 0.02)
+    assert run.returncode == 0, run.stderr
+    assert "compiling" not in run.stderr   # no status line, no "(compiling N kernels took ...)"
+    again = cosnet("compile", tiny)
+    assert again.returncode == 0 and again.stderr == f"{tiny}: all kernels cached\n", again.stderr
+    bad = cosnet("compile", tmp_path / "nothing.toml")
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "nothing.toml" in bad.stderr

@@ -1,14 +1,17 @@
 """Compilation seen from outside: two processes asking at once for a kernel that is in no cache
 compile it once (the second waits for the first, kernels/compiler.py, and loads what it
 saved); the compile log (cosnet/compiling.py) times each kernel, learns what a step needs, and
-the CLI's status line says how many kernels remain and how long they take here."""
+the CLI's status line says how many kernels remain and how long they take here; the second
+process compiling a step's kick alongside compiles the kick the step calls, and ends with its
+block."""
 
+import os
 import sys
+import time
 
 import pytest
 
-
-from procs import started
+from procs import started, wait_until
 
 KERNEL = """
 from numba import njit
@@ -139,3 +142,41 @@ def test_the_status_line_says_how_many_kernels_and_how_long():
                      "  waiting for another process compiling advance_verlet"]
     status.clear()
     assert out.getvalue().endswith("\r" + " " * 78 + "\r")
+
+
+def test_the_kick_compiled_alongside_is_the_one_the_step_calls(tmp_path):
+    """compile_kick (what the second process runs) asks for the kick with the very types the
+    step calls it with: once the step is compiled (and the kick with it, into the cache),
+    compile_kick finds the kick in the cache and compiles nothing."""
+    import cosnet
+    from cosnet.compiling import compile_kick
+    from cosnet.kernels.stepping import kick_loads
+    from nets import write_sweep_scene
+    path = write_sweep_scene(tmp_path / "scene.toml")
+    cosnet.load_scene(path).simulation(threads=1).run(steps=1)
+    from cosnet.compiling import CompileLog
+    with CompileLog() as log:
+        compile_kick(path, 1)
+    assert log.kernels == [] and len(kick_loads.overloads) >= 1
+
+
+def test_the_process_compiling_alongside_ends_with_the_block(tmp_path, monkeypatch):
+    """The second process is started only for a step not cached yet, and is gone when the
+    block ends, finished or not."""
+    import cosnet
+    from cosnet import compiling, record
+    from nets import write_sweep_scene
+    sim = cosnet.load_scene(write_sweep_scene(tmp_path / "scene.toml")).simulation(threads=1)
+    marker = tmp_path / "helper.pid"
+    monkeypatch.setattr(compiling, "_HELPER", f"import os, time; open({str(marker)!r}, 'w').write(str(os.getpid())); "
+                                              "time.sleep(600)")
+    monkeypatch.setattr(record, "kernels_compiled", lambda sim: True)
+    with compiling.compiling_alongside("scene.toml", sim):
+        time.sleep(0.5)
+    assert not marker.exists()             # cached: nothing started
+    monkeypatch.setattr(record, "kernels_compiled", lambda sim: False)
+    with compiling.compiling_alongside("scene.toml", sim):
+        assert wait_until(lambda: marker.exists() and marker.read_text(), 60)
+        pid = int(marker.read_text())
+        assert os.path.exists(f"/proc/{pid}")
+    assert not os.path.exists(f"/proc/{pid}")   # killed and reaped as the block ended
