@@ -227,7 +227,23 @@ def soak() -> str:
         d["machine"], f" (load {d['load_before']:.1f} before), `{d['command']}`")
 
 
-TABLES = {"soak": soak, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
+def startup() -> str:
+    d = _json("startup.json")
+    rows = []
+    for r in d["runs"]:
+        c, w = r["cold"], r["warm"]
+        ph = c["phases"]
+        rows.append([r["case"], f"{c['first_frame']:.1f}", f"{ph['import'][0]:.1f}", f"{ph['build'][0]:.1f}",
+                     str(c["kernels"]), f"{c['compile'] - c['llvm'] - c['waited']:.1f} + {c['llvm']:.1f}",
+                     f"{c['waited']:.1f}", f"{c['first_frame'] - c['compile']:.1f}", f"{w['first_frame']:.2f}",
+                     f"{w['phases']['import'][0]:.2f}"])
+    return _table(["case", "cold: first frame s", "import s", "build s", "kernels compiled here",
+                   "compiling s: numba + LLVM", "waiting for the kick s", "rest s", "warm: first frame s",
+                   "import s"], rows) + measured_on(
+        d["machine"], f" (load {d['load_before']:.1f} before), `{d['command'].strip()}`, {d['wall_s'] / 60:.0f} min")
+
+
+TABLES = {"soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
           "cosseratbench": cosseratbench}

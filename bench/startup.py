@@ -1,0 +1,99 @@
+"""Start-up: where the time goes between starting cosnet and its first frame, per shipped case.
+
+    python bench/startup.py [CASE ...]          (default: every case in cases/)
+
+Each case runs twice in processes of its own, one at a time, with a numba cache directory of
+its own: cold (the cache empty) then warm (the cache the cold run left). Each process does
+what `cosnet run CASE` does up to its first frame after t = 0, and times the phases: starting
+Python and importing cosnet, loading the scene, building the simulation (flattening), frame 0
+(the watch's energy and checksum kernels), the step to frame 1, with a second process
+compiling the step's kick meanwhile when it is not cached (cosnet.compiling.compiling_alongside,
+as `cosnet run` does). Compilation in the first process is split by the compile log
+(cosnet/compiling.py) into numba's part (type inference, lowering) and LLVM's (optimisation,
+linking, machine code), waits for the second included; what a phase spends beyond those is
+loading kernels from the cache and running them. The figures go to startup.json and the table of
+docs/performance.md (bench/tables.py).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = ROOT / "cases"
+
+# What one process does (argv: case, output folder, the wall-clock time its parent started it);
+# each phase: [seconds, of which compiling, of which LLVM].
+PHASES = r"""
+import json, sys, time
+born = float(sys.argv[3])
+marks = {"python": [time.time() - born, 0.0, 0.0]}
+t = time.perf_counter()
+done = [0.0, 0.0]
+def mark(name, log=None):
+    global t
+    now = time.perf_counter()
+    c, l = (log.seconds, log.llvm) if log is not None else (0.0, 0.0)
+    marks[name] = [now - t, c - done[0], l - done[1]]
+    t, done[:] = now, [c, l]
+import cosnet
+from cosnet.compiling import CompileLog, compiling_alongside
+from cosnet.record import Recorder
+mark("import")
+with CompileLog() as log:
+    scene = cosnet.load_scene(sys.argv[1])
+    mark("load", log)
+    sim = scene.simulation()
+    mark("build", log)
+    helper = compiling_alongside(sys.argv[1], sim)   # as `cosnet run` does
+    helper.__enter__()
+    rec = Recorder(sys.argv[2], sim, scene.run.interval, scene.run.interval, scene.run.probes)
+    mark("frame_0", log)
+    rec.run()
+    mark("frame_1", log)
+    helper.__exit__(None, None, None)
+print(json.dumps({"phases": marks, "steps": sim.steps, "kernels": len(log.kernels),
+                  "compile": log.seconds, "llvm": log.llvm, "waited": log.waited,
+                  "first_frame": time.time() - born,
+                  "by_root": {k.rsplit(".", 1)[-1]: v for k, v in log.by_root().items()}}))
+"""
+
+def one(case: Path, cache: str) -> dict:
+    with tempfile.TemporaryDirectory() as out:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        born = time.time()
+        done = subprocess.run([sys.executable, "-c", PHASES, str(case), out, repr(born)], env=env,
+                              capture_output=True, text=True, timeout=1800)
+    if done.returncode:
+        raise SystemExit(f"{case.name}: {done.stderr.strip().splitlines()[-1]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str]) -> int:
+    from harness import write_json
+    names = argv or sorted(p.stem for p in CASES.glob("*.toml"))
+    runs = []
+    load_before = os.getloadavg()[0]
+    started = time.perf_counter()
+    for name in names:
+        with tempfile.TemporaryDirectory() as cache:
+            cold, warm = one(CASES / f"{name}.toml", cache), one(CASES / f"{name}.toml", cache)
+        runs.append({"case": name, "cold": cold, "warm": warm})
+        print(f"{name:16s} cold {cold['first_frame']:6.1f} s ({cold['kernels']} kernels, compile "
+              f"{cold['compile']:.1f} s of which LLVM {cold['llvm']:.1f})  warm {warm['first_frame']:5.2f} s",
+              flush=True)
+    write_json(__file__, {"command": "python bench/startup.py " + " ".join(argv), "load_before": load_before,
+                          "wall_s": time.perf_counter() - started, "runs": runs})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
