@@ -224,14 +224,18 @@ _HELPER = "import sys; from cosnet.compiling import compile_kick; compile_kick(s
 def compile_kick(path, threads: int):
     """Compile (into numba's cache) the kick of a scene's step: the loads, internal and
     declared, and the velocity update, for the types the step will call it with. The larger
-    half of a step's compilation, and the half the step reaches last."""
+    half of a step's compilation, and the half the step reaches last. A scene with drives
+    first gets the loads on their own, as the drives' reactions in its frame 0 ask for them."""
     from numba import typeof, types
 
-    from .kernels.stepping import kick_loads
+    from .drives import Drive
+    from .kernels.stepping import evaluate_loads, kick_loads
     from .scene import load_scene
     sim = load_scene(path).simulation(threads=threads)
-    kick_loads.compile((typeof(sim.model), typeof(sim.state), typeof(sim.loads), typeof(sim._step_effects),
-                        types.float64, typeof(sim._backend)))
+    model, state, loads, backend = (typeof(x) for x in (sim.model, sim.state, sim.loads, sim._backend))
+    if any(isinstance(e, Drive) for e in sim.effects):
+        evaluate_loads.compile((model, state, loads, typeof(sim._load_params), backend))
+    kick_loads.compile((model, state, loads, typeof(sim._step_effects), types.float64, backend))
 
 
 @contextlib.contextmanager

@@ -99,7 +99,7 @@ class Effect:
     # join(records) -> (joined, views), or None: effects of one class declared one after
     # another run as one record, so that their number is not part of the compiled step's type
     # (each effect keeps a record of views into the joined arrays; see cosnet.effects.join_loads)
-    join = None
+    join: Callable | None = None
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
