@@ -2,8 +2,10 @@
 
     python bench/startup.py [CASE ...]          (default: every case in cases/)
 
-Each case runs twice in processes of its own, one at a time, with a numba cache directory of
-its own: cold (the cache empty) then warm (the cache the cold run left). Each process does
+Each case runs three times in processes of its own, one at a time, with a numba cache
+directory of its own: cold (the cache empty), warm (the cache the cold run left), then warm
+with one effect kind the case does not declare added (a small line load, else a node load,
+else gravity): what an edit that adds an effect costs. Each process does
 what `cosnet run CASE` does up to its first frame after t = 0, and times the phases: starting
 Python and importing cosnet, loading the scene, building the simulation (flattening), frame 0
 (the watch's energy and checksum kernels), the step to frame 1, with a second process
@@ -77,6 +79,24 @@ def one(case: Path, cache: str) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+# effect kinds to add, the first the case lacks: kind, keys (given a line's and a node's name)
+EXTRA = (("line_load", 'line = "{line}"\nforce_per_length = [0.0, 0.0, -1e-3]'),
+         ("node_load", 'node = "{node}"\nforce = [0.0, 0.0, -1e-3]'),
+         ("gravity", "g = [0.0, 0.0, -1e-3]"))
+
+
+def with_new_kind(case: Path, folder: Path) -> tuple[str, Path]:
+    """The case with one effect kind it lacks added, written into folder: (kind, path)."""
+    import tomllib
+    doc = tomllib.loads(case.read_text())
+    kinds = {e.get("kind") for e in doc.get("effects", [])}
+    kind, keys = next((k, v) for k, v in EXTRA if k not in kinds)
+    text = keys.format(line=next(iter(doc["lines"])), node=next(iter(doc["nodes"])))
+    path = folder / case.name
+    path.write_text(case.read_text().replace("\n[run]", f"\n[[effects]]\nkind = \"{kind}\"\n{text}\n\n[run]", 1))
+    return kind, path
+
+
 def main(argv: list[str]) -> int:
     from harness import write_json
     names = argv or sorted(p.stem for p in CASES.glob("*.toml"))
@@ -84,12 +104,15 @@ def main(argv: list[str]) -> int:
     load_before = os.getloadavg()[0]
     started = time.perf_counter()
     for name in names:
-        with tempfile.TemporaryDirectory() as cache:
-            cold, warm = one(CASES / f"{name}.toml", cache), one(CASES / f"{name}.toml", cache)
-        runs.append({"case": name, "cold": cold, "warm": warm})
+        case = CASES / f"{name}.toml"
+        with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as scenes:
+            cold, warm = one(case, cache), one(case, cache)
+            kind, edited = with_new_kind(case, Path(scenes))
+            added = one(edited, cache)
+        runs.append({"case": name, "cold": cold, "warm": warm, "added_kind": kind, "added": added})
         print(f"{name:16s} cold {cold['first_frame']:6.1f} s ({cold['kernels']} kernels, compile "
-              f"{cold['compile']:.1f} s of which LLVM {cold['llvm']:.1f})  warm {warm['first_frame']:5.2f} s",
-              flush=True)
+              f"{cold['compile']:.1f} s of which LLVM {cold['llvm']:.1f})  warm {warm['first_frame']:5.2f} s  "
+              f"+{kind} {added['first_frame']:5.1f} s", flush=True)
     write_json(__file__, {"command": "python bench/startup.py " + " ".join(argv), "load_before": load_before,
                           "wall_s": time.perf_counter() - started, "runs": runs})
     return 0
