@@ -158,7 +158,8 @@ def _record(args, scene, sim, out: Path, until: float, log, status) -> int:
         progress(sim, force)
     rec.run(tick)
     tick(sim, force=True)
-    compiled = f" (compiling {len(log.kernels)} kernels took {log.seconds:.0f} s)" if log.kernels else ""
+    took = log.seconds + log.waited   # the waits for the kick compiled alongside included
+    compiled = f" (compiling {len(log.kernels)} kernels took {took:.0f} s)" if log.kernels else ""
     sys.stderr.write(f"\ndone: {rec.writer.frames} frames in {out}{compiled}\n")
     return 0
 

@@ -1,10 +1,10 @@
 """What numba compiles in this process, how long each kernel takes, and how long is left.
 
 A ``CompileLog`` listens to numba's compile events while it is open: for every kernel
-compiled (a cache miss) it records its own time (the kernels compiled inside it excluded),
-split into numba's part (type inference, lowering) and LLVM's (optimisation, linking, machine
-code), and the time spent waiting for another process compiling a kernel this one needs
-(kernels/compiler.py). Loads from the cache fire no event: they are what is left of a phase.
+compiled (a cache miss) it records its own time (the kernels compiled inside it and the waits
+excluded), split into numba's part (type inference, lowering) and LLVM's (optimisation,
+linking, machine code), and apart, the time spent waiting for another process compiling a
+kernel this one needs (kernels/compiler.py). Loads from the cache fire no event: they are what is left of a phase.
 
 What a step needs is learned per machine: closing a log stores, beside numba's cache, the
 kernels compiled for each outermost one with their times, so the next compilation of that
@@ -128,8 +128,11 @@ class CompileLog(event.Listener):
         if ev.is_start:
             self._wait_start = time.perf_counter()
             self._tell(os.path.basename(str(ev.data)).split(".py")[0].rsplit("-", 1)[0], waiting=True)
-        else:
-            self.waited += time.perf_counter() - self._wait_start
+            return
+        took = time.perf_counter() - self._wait_start
+        self.waited += took
+        if self._stack:   # a wait inside a compilation is not that kernel's own time
+            self._stack[-1][2] += took
 
     def _tell(self, name, waiting=False):
         if self.report is None:
