@@ -235,8 +235,9 @@ def startup() -> str:
         ph = c["phases"]
         rows.append([r["case"], f"{c['first_frame']:.1f}", f"{ph['import'][0]:.1f}", f"{ph['build'][0]:.1f}",
                      str(c["kernels"]), f"{c['compile'] - c['llvm']:.1f} + {c['llvm']:.1f}",
-                     f"{c['waited']:.1f}", f"{c['first_frame'] - c['compile'] - c['waited']:.1f}", f"{w['first_frame']:.2f}",
-                     f"{w['phases']['import'][0]:.2f}", f"{r['added']['first_frame']:.1f} ({r['added_kind']})"])
+                     f"{c['waited']:.1f}", f"{c['first_frame'] - c['compile'] - c['waited']:.1f}",
+                     f"{w['first_frame']:.2f}", f"{w['phases']['import'][0]:.2f}",
+                     f"{r['added']['first_frame']:.1f} ({r['added_kind']})"])
     return _table(["case", "cold: first frame s", "import s", "build s", "kernels compiled here",
                    "compiling s: numba + LLVM", "waiting for the kick s", "rest s", "warm: first frame s",
                    "import s", "warm + a new effect kind: first frame s"], rows) + measured_on(
