@@ -12,8 +12,8 @@ Python and importing cosnet, loading the scene, building the simulation (flatten
 compiling the step's kick meanwhile when it is not cached (cosnet.compiling.compiling_alongside,
 as `cosnet run` does). Compilation in the first process is split by the compile log
 (cosnet/compiling.py) into numba's part (type inference, lowering) and LLVM's (optimisation,
-linking, machine code), waits for the second included; what a phase spends beyond those is
-loading kernels from the cache and running them. The figures go to startup.json and the table of
+linking, machine code); the waits for the second process are counted apart; what a phase
+spends beyond those is loading kernels from the cache and running them. The figures go to startup.json and the table of
 docs/performance.md (bench/tables.py).
 """
 
@@ -55,13 +55,11 @@ with CompileLog() as log:
     mark("load", log)
     sim = scene.simulation()
     mark("build", log)
-    helper = compiling_alongside(sys.argv[1], sim)   # as `cosnet run` does
-    helper.__enter__()
-    rec = Recorder(sys.argv[2], sim, scene.run.interval, scene.run.interval, scene.run.probes)
-    mark("frame_0", log)
-    rec.run()
-    mark("frame_1", log)
-    helper.__exit__(None, None, None)
+    with compiling_alongside(sys.argv[1], sim):   # as `cosnet run` does
+        rec = Recorder(sys.argv[2], sim, scene.run.interval, scene.run.interval, scene.run.probes)
+        mark("frame_0", log)
+        rec.run()
+        mark("frame_1", log)
 print(json.dumps({"phases": marks, "steps": sim.steps, "kernels": len(log.kernels),
                   "compile": log.seconds, "llvm": log.llvm, "waited": log.waited,
                   "first_frame": time.time() - born,

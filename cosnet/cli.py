@@ -99,10 +99,11 @@ def cmd_run(args) -> int:
 def _write_run(args, scene, sim, out: Path, until: float) -> int:
     from .compiling import CompileLog, compiling_alongside
     from .record import kernels_compiled
-    if not kernels_compiled(sim):
+    cached = kernels_compiled(sim)
+    if not cached:
         print("compiling kernels (first run only)...", file=sys.stderr)
     status = CompileStatus(sys.stderr)
-    with CompileLog(status, llvm=False) as log, compiling_alongside(scene.path, sim):
+    with CompileLog(status, llvm=False) as log, compiling_alongside(scene.path, sim, cached):
         return _record(args, scene, sim, out, until, log, status)
 
 

@@ -127,7 +127,7 @@ class CompileLog(event.Listener):
     def _wait(self, ev):
         if ev.is_start:
             self._wait_start = time.perf_counter()
-            self._tell(os.path.basename(str(ev.data)).split(".py")[0].rsplit("-", 1)[0], waiting=True)
+            self._tell(str(ev.data), waiting=True)
             return
         took = time.perf_counter() - self._wait_start
         self.waited += took
@@ -242,14 +242,15 @@ def compile_kick(path, threads: int):
 
 
 @contextlib.contextmanager
-def compiling_alongside(path, sim):
+def compiling_alongside(path, sim, cached: bool | None = None):
     """Run the block (which compiles ``sim``'s step) with a second process compiling the kick
     of the same step meanwhile, where the step is not cached and there is a second core: the
     block's compilation, reaching the kick, waits for that process and loads its work
     (kernels/compiler.py), while the frame-0 kernels and the drift were compiled here. The
-    process dies with this one and is stopped when the block ends."""
+    process dies with this one and is stopped when the block ends. ``cached``: whether the
+    step is cached, when the caller knows (record.kernels_compiled)."""
     from .record import kernels_compiled
-    if (os.cpu_count() or 1) < 2 or kernels_compiled(sim):
+    if (os.cpu_count() or 1) < 2 or (kernels_compiled(sim) if cached is None else cached):
         yield
         return
     helper = subprocess.Popen([sys.executable, "-c", _HELPER, str(path), str(sim.threads)],

@@ -110,8 +110,8 @@ _lock_cache_saves()
 # compiles the kernel itself (the other may be stopped, not dead: a dead one frees the lock)
 COMPILE_WAIT = 600.0
 _held: dict = {}   # lock path -> [open lock file, depth] of the compilations in this process
-# the event fired around a wait for another process's compilation (data: the lock path), for
-# a progress display to say why nothing seems to happen
+# the event fired around a wait for another process's compilation (data: the kernel's
+# qualified name, module.function), for a progress display to say why nothing seems to happen
 WAIT_EVENT = "cosnet:compile-wait"
 
 
@@ -137,10 +137,11 @@ def compile_lock_path(dispatcher, sig):
 
 
 @contextlib.contextmanager
-def compiling(path):
-    """Hold the lock ``path`` (from compile_lock_path) while compiling: another process asking
-    for the same kernel waits (at most COMPILE_WAIT s) and then loads what this one saved. A
-    compilation nested in one of the same path in this process does not wait for itself."""
+def compiling(path, kernel: str = ""):
+    """Hold the lock ``path`` (from compile_lock_path) while compiling ``kernel`` (its name, for
+    WAIT_EVENT): another process asking for the same kernel waits (at most COMPILE_WAIT s) and
+    then loads what this one saved. A compilation nested in one of the same path in this
+    process does not wait for itself."""
     import fcntl
     entry = _held.get(path)
     if entry is None:
@@ -152,7 +153,7 @@ def compiling(path):
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            _wait_for(f, path)
+            _wait_for(f, kernel)
         entry = _held[path] = [f, 0]
     entry[1] += 1
     try:
@@ -164,12 +165,12 @@ def compiling(path):
             entry[0].close()   # frees the lock
 
 
-def _wait_for(f, path):
+def _wait_for(f, kernel):
     import fcntl
 
     from numba.core import event
     deadline = time.monotonic() + COMPILE_WAIT
-    with event.trigger_event(WAIT_EVENT, data=path):
+    with event.trigger_event(WAIT_EVENT, data=kernel):
         while time.monotonic() < deadline:
             time.sleep(0.02)
             try:
@@ -202,7 +203,8 @@ def _lock_compilations():
         path = compile_lock_path(self, sig)
         if path is None:
             return compile_(self, sig)
-        with compiling(path):
+        py = self.py_func
+        with compiling(path, f"{py.__module__}.{py.__qualname__}"):
             return compile_(self, sig)   # which loads what another process saved meanwhile
     locked_compile.locked = True
     cls.compile = locked_compile

@@ -22,12 +22,11 @@ def spring_force(k, x):
     return -k * x
 """
 
-# asks for spring_force(float64, float64), saying when it starts waiting for another process;
+# asks for spring_force(float64, float64), saying when it starts waiting for another process and
+# for which kernel;
 # prints its value and how many compilations it ran
 CHILD = r"""
 import sys
-
-import pytest
 sys.path.insert(0, sys.argv[1])
 from numba.core import event
 from cosnet.kernels.compiler import WAIT_EVENT
@@ -35,7 +34,7 @@ import lockmod
 
 class Tell(event.Listener):
     def on_start(self, ev):
-        print("waiting", flush=True)
+        print("waiting for", ev.data, flush=True)
     def on_end(self, ev):
         pass
 
@@ -67,8 +66,8 @@ def test_a_kernel_being_compiled_elsewhere_is_waited_for_and_loaded(tmp_path):
     assert path is not None   # in no cache yet: compiling it takes the lock
     with started([sys.executable, "-c", CHILD, tmp_path], stdout=-1, stderr=-1, text=True) as child:
         with compiling(path):     # this process compiles it; the child asks meanwhile
-            first = child.stdout.readline().strip()   # the child's first word: it waits
-            assert first == "waiting", (first, child.stderr.read() if first == "" else "")
+            first = child.stdout.readline().strip()   # the child's first line: it waits, for what
+            assert first == "waiting for lockmod.spring_force", (first, child.stderr.read() if first == "" else "")
             lockmod.spring_force.compile(sig)
         out, err = child.communicate(timeout=120)   # the lock is free: the child goes on
     assert child.returncode == 0, err
