@@ -183,14 +183,16 @@ def cmd_compile(args) -> int:
     import concurrent.futures as cf
     import multiprocessing
 
-    from .compiling import compile_scene
+    from .compiling import compile_scene, die_with_parent
     if args.all:
         paths = sorted(cases_dir().glob("*.toml"))
     else:
         paths = [scene_path(a) for a in args.scenes or [None]]
     jobs = min(args.jobs or os.cpu_count() or 1, len(paths))
     failed = 0
-    with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+    # the workers die with this process: a killed `cosnet compile` leaves none compiling on
+    with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
+                                initializer=die_with_parent) as pool:
         # one scene: a second process compiles its kick alongside; several: a scene per process
         running = {pool.submit(compile_scene, str(p), len(paths) == 1): p for p in paths}
         try:

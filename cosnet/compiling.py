@@ -254,7 +254,7 @@ def compiling_alongside(path, sim, cached: bool | None = None):
         yield
         return
     helper = subprocess.Popen([sys.executable, "-c", _HELPER, str(path), str(sim.threads)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=die_with_parent)
     try:
         yield
     finally:
@@ -263,8 +263,9 @@ def compiling_alongside(path, sim, cached: bool | None = None):
         helper.wait()
 
 
-def _die_with_parent():
+def die_with_parent():
+    """Have the kernel kill this process when its parent dies (Linux; elsewhere nothing)."""
     if sys.platform.startswith("linux"):
         import ctypes
         import signal
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)   # 1: PR_SET_PDEATHSIG

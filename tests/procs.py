@@ -8,26 +8,19 @@ started it dies (Linux ``PR_SET_PDEATHSIG``; elsewhere only ``started``'s clean-
 """
 
 import contextlib
-import ctypes
 import os
 import signal
 import subprocess
-import sys
 import time
 
-PR_SET_PDEATHSIG = 1
-
-
-def _die_with_parent():
-    if sys.platform.startswith("linux"):
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+from cosnet.compiling import die_with_parent
 
 
 def spawn(args, then=None, **kw) -> subprocess.Popen:
     """subprocess.Popen(args, **kw) whose child is killed with the test process; ``then``
     runs in the child after that (e.g. to ignore SIGINT)."""
     def pre():
-        _die_with_parent()
+        die_with_parent()
         if then is not None:
             then()
     return subprocess.Popen([str(a) for a in args], preexec_fn=pre, **kw)
