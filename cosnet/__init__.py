@@ -22,6 +22,7 @@ from .modes import DiscreteModes, main_modes, modes
 from .scene import RunSettings, Scene, build_scene, load_scene
 from .sweep import sweep
 from .drives import Path
+from .fluid import resistive_coefficients, wave_number
 
 # every effect cosnet declares is exported under its class name (cosnet.Gravity, ...)
 _EFFECTS = {cls.__name__: cls for cls in builtin_effects().values()}
@@ -34,5 +35,5 @@ __all__ = [
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",
-    "sweep", "Path",
+    "sweep", "Path", "resistive_coefficients", "wave_number",
 ]

@@ -29,7 +29,7 @@ from .scene_values import Unit
 ENTRY_POINTS = "cosnet.effects"
 # in the order kinds are listed
 BUILTIN_MODULES = ("cosnet.effects", "cosnet.drives", "cosnet.active", "cosnet.contact", "cosnet.obstacles",
-                   "cosnet.joints", "cosnet.bodies")
+                   "cosnet.joints", "cosnet.bodies", "cosnet.fluid")
 REFERENCES = ("node", "line", "lines", "path")   # converters naming parts of the net, or a file
 
 
@@ -131,6 +131,11 @@ class Effect:
     def dissipated(self, sim) -> float:
         """Energy (J) this effect has taken out of the net so far, part of sim.dissipated()
         (0 for effects that keep no such account)."""
+        return 0.0
+
+    def supplied(self, sim) -> float:
+        """Work (J) a medium moving on its own (a current, wind, waves) has done on the net
+        through this effect so far, part of sim.supplied() (0 for other effects)."""
         return 0.0
 
     def check_state(self, sim):

@@ -240,6 +240,14 @@ def coefficients(v):
     return a
 
 
+def pair(v):
+    """Two numbers >= 0 (coefficients normal and tangential to a line)."""
+    a = array((2,))(v)
+    if np.any(a < 0):
+        raise _Bad(f"must be two numbers >= 0, got {_show(v)}")
+    return a
+
+
 def string_list(v):
     if not isinstance(v, list):
         raise _Bad(f"must be a list of strings, got {_show(v)}")

@@ -375,9 +375,14 @@ class Simulation:
 
     def dissipated(self) -> float:
         """Energy taken out of the net so far (J) by the effects that account for it (damping,
-        an obstacle's friction): energy() - driver_work() - actuation_work() + dissipated()
-        is conserved to the scheme's order."""
+        an obstacle's friction, a fluid's drag): energy() - driver_work() - actuation_work()
+        - supplied() + dissipated() is conserved to the scheme's order."""
         return sum(e.dissipated(self) for e in self.effects)
+
+    def supplied(self) -> float:
+        """Work done on the net so far (J) by the medium around it (a fluid's current, wind,
+        waves), as the effects that feel it account for it."""
+        return sum(e.supplied(self) for e in self.effects)
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""

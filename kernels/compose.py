@@ -11,6 +11,9 @@ Account kernels (optional, beside a load kernel): kernel(effect, model, state, h
   just before and just after every kick: the work the effect's load does in the kick, h times
   its load dotted with the mean of the velocities before and after (what the kick gives the
   kinetic energy, exactly)
+Inertia kernels (optional, beside a flow kernel): kernel(effect, model, state, loads), run
+  after the loads are evaluated and their work accounted, just before the kick divides them
+  by the masses: an effect that adds mass (a fluid's added mass) turns f into m M^-1 f
 Constraint kernels, a pair (kinematic effects: prescribed motion), run after every stage:
   after a drift of h:  kernel(effect, model, state, h)          -> set the prescribed pose
                        at the stage's end time state.clock[0], and its velocity
@@ -32,6 +35,7 @@ KERNELS: dict = {}   # declaration -> the kernel as decorated (callable from Pyt
 DRIFT_CONSTRAINTS: dict = {}
 KICK_CONSTRAINTS: dict = {}
 ACCOUNTS: dict = {}
+INERTIAS: dict = {}
 
 
 def _inner(kernel):
@@ -69,6 +73,15 @@ def account_kernel(declaration):
     declaration that has a load kernel)."""
     def register(kernel):
         ACCOUNTS[declaration] = _inner(kernel)
+        return kernel
+    return register
+
+
+def inertia_kernel(declaration):
+    """Register the decorated njit function as the inertia kernel of ``declaration`` (a
+    declaration that has a flow kernel)."""
+    def register(kernel):
+        INERTIAS[declaration] = _inner(kernel)
         return kernel
     return register
 
@@ -118,6 +131,8 @@ apply_loads = _chain(LOAD_KERNELS, "load")
 apply_flows = _chain(FLOW_KERNELS, "flow")
 # apply_accounts(effects, model, state, h / 2): the work of every load effect that keeps one
 apply_accounts = _chain(ACCOUNTS, "account", optional=True)
+# apply_inertias(effects, model, state, loads): the loads as the masses of the effects that add some see them
+apply_inertias = _chain(INERTIAS, "inertia", optional=True)
 
 
 class UnresolvedRecord:

@@ -19,7 +19,8 @@ import numpy as np
 from numba import njit
 
 from .backend import ENTRY, STEP
-from .compose import apply_accounts, apply_drift_constraints, apply_flows, apply_kick_constraints, apply_loads
+from .compose import (apply_accounts, apply_drift_constraints, apply_flows, apply_inertias, apply_kick_constraints,
+                      apply_loads)
 from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads_on, kick_state
 
@@ -87,11 +88,13 @@ def kick_loads(model, state, loads, effects, h, backend):
     """Update velocities by a kick of length h, wrapped in half flows of the velocity effects,
     then restore the prescribed ones. effects = (load, flow, constraint) effect tuples. The
     load effects that keep an account of their work see the velocities on both sides of the
-    kick."""
+    kick; flow effects that add mass (a fluid's) turn the loads into what the kick divides by
+    the masses alone."""
     load_effects, flow_effects, constraint_effects = effects
     apply_flows(flow_effects, model, state, 0.5 * h)
     evaluate_loads(model, state, loads, load_effects, backend)
     apply_accounts(load_effects, model, state, 0.5 * h)
+    apply_inertias(flow_effects, model, state, loads)
     kick_state(model, state, loads, h, backend)
     apply_accounts(load_effects, model, state, 0.5 * h)
     apply_flows(flow_effects, model, state, 0.5 * h)

@@ -1,0 +1,531 @@
+"""Kernels of the fluid medium: drag, added mass, buoyancy and the medium's inertia force on
+lines in water or air (Morison's equation), or the resistive forces of Stokes flow.
+
+The medium's velocity U(x, t) is a current (a vector scaled by a profile over height and a
+factor over time) plus linear (Airy) waves. What the medium does to a line splits three ways:
+- forces of position and time alone (buoyancy; the inertia force of an accelerating medium):
+  half their impulse on each side of the kick, which is the same as putting them in it
+  (positions do not move during a kick);
+- drag, a function of the relative velocity u = v - U: a velocity flow, solved exactly at a
+  line's interior vertices (the tangential part and the normal part of u each keep their
+  direction, their size decaying as u / (1 + k u h / m) for Morison's quadratic law, as
+  u exp(-c h / m) for the linear one), so it is stable at any step and exact for a line
+  falling or dragged along a fixed direction; at a node, where line ends of several
+  directions meet, by one linearly implicit step (unconditionally stable);
+- added mass: a submerged vertex's mass is the matrix m + a_n (1 - t t^T) + a_t t t^T
+  (t its tangent), the kick's forces are divided by it (``add_fluid_mass``), and the flows
+  above use it.
+The half flows run drag, then forces before the kick, and forces, then drag after it, so
+that the step stays symmetric (p.turn remembers which half is next).
+Lines are listed by row (p.lines); quantities per unit rest length are per row. Vertical is
++z; the free surface, when there is one, is the plane z = p.surface at rest.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .backend import STEP
+from .compose import flow_kernel, inertia_kernel
+from .compiler import CACHED, INNER
+from .effects import interp_table, table_interval
+from .rotations import cross, quat_rotate, quat_rotate_inv
+
+MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
+
+
+class FluidParams(NamedTuple):
+    law: int                 # MORISON or LINEAR
+    lines: np.ndarray        # (k,) int64 the lines in the medium, a row each
+    line_row: np.ndarray     # (nl,) int64 each line's row, -1 for lines out of the medium
+    drag_n: np.ndarray       # (k,) normal drag per length: 1/2 rho C_dn d (Morison) or c_n (linear)
+    drag_t: np.ndarray       # (k,) tangential: 1/2 rho C_dt pi d (Morison) or c_t (linear)
+    added_n: np.ndarray      # (k,) added mass per length normal to the line, C_an rho A
+    added_t: np.ndarray      # (k,) along it, C_at rho A
+    inertia_n: np.ndarray    # (k,) fluid-inertia mass per length, rho A (1 + C_an) (0: no such force)
+    inertia_t: np.ndarray    # (k,) rho A (1 + C_at)
+    buoyancy: np.ndarray     # (k,) upthrust per length when submerged, rho g A (0: none)
+    surface: float           # z of the still free surface (inf: the medium fills space)
+    depth: float             # water depth below the still surface (inf: deep water)
+    stretch: int             # 1: Wheeler stretching of the wave kinematics, 0: held above z = surface
+    current: np.ndarray      # (3,) current velocity (before the profile and time factors)
+    profile_z: np.ndarray    # (m,) heights of the current's profile table (empty: factor 1)
+    profile_f: np.ndarray    # (m,) its factors
+    power: np.ndarray        # (3,) power-law profile ((z - z0) / z_ref)^alpha: alpha (0: none), z_ref, z0
+    times: np.ndarray        # (m,) times of the current's time factor (empty: factor 1)
+    values: np.ndarray       # (m,) its values
+    wave_a: np.ndarray       # (nw,) amplitude of each Airy component
+    wave_w: np.ndarray       # (nw,) angular frequency
+    wave_k: np.ndarray       # (nw,) wave number (dispersion relation over p.depth)
+    wave_cos: np.ndarray     # (nw,) direction of travel, cos and sin of the heading
+    wave_sin: np.ndarray     # (nw,)
+    wave_phase: np.ndarray   # (nw,)
+    node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves to their drive
+    turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
+    dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
+    supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
+
+
+@njit(**CACHED, inline="always")
+def time_factor(p, t):
+    """Return (f, df/dt) of the current's time table at t (1, 0 without one)."""
+    n = p.times.shape[0]
+    if n == 0:
+        return 1.0, 0.0
+    f = interp_table(t, p.times, p.values)
+    if n < 2 or t <= p.times[0] or t >= p.times[n - 1]:
+        return f, 0.0
+    lo = table_interval(t, p.times)
+    return f, (p.values[lo + 1] - p.values[lo]) / (p.times[lo + 1] - p.times[lo])
+
+
+@njit(**CACHED, inline="always")
+def depth_factors(k, zs, d):
+    """Return cosh(k (zs + d)) / sinh(k d) and sinh(k (zs + d)) / sinh(k d), written with
+    exponentials that neither overflow in deep water nor lose the finite-depth term."""
+    e = math.exp(k * zs)
+    if math.isinf(d):
+        return e, e
+    r = math.exp(-k * (zs + 2.0 * d))
+    s = 1.0 - math.exp(-2.0 * k * d)
+    return (e + r) / s, (e - r) / s
+
+
+@njit(**INNER)
+def medium_at(p, x, y, z, t):
+    """Return (wet, U, A): whether point (x, y, z) is in the medium at time t (below the
+    free surface, waves included), and the medium's velocity U and acceleration A there
+    (3-tuples; zero where it is dry)."""
+    nw = p.wave_a.shape[0]
+    zeta = z - p.surface
+    eta = 0.0
+    for c in range(nw):
+        th = p.wave_k[c] * (x * p.wave_cos[c] + y * p.wave_sin[c]) - p.wave_w[c] * t + p.wave_phase[c]
+        eta += p.wave_a[c] * math.cos(th)
+    if zeta > eta:
+        return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    f = 1.0
+    if p.profile_z.shape[0] > 0:
+        f = interp_table(z, p.profile_z, p.profile_f)
+    if p.power[0] != 0.0:
+        above = z - p.power[2]
+        f *= (above / p.power[1]) ** p.power[0] if above > 0.0 else 0.0
+    ft, dft = time_factor(p, t)
+    c0, c1, c2 = p.current[0] * f, p.current[1] * f, p.current[2] * f
+    ux, uy, uz = c0 * ft, c1 * ft, c2 * ft
+    ax, ay, az = c0 * dft, c1 * dft, c2 * dft
+    if nw > 0:
+        d = p.depth
+        zs = zeta
+        if p.stretch == 1:   # Wheeler: the wet column [-d, eta] mapped onto [-d, 0]
+            zs = zeta - eta if math.isinf(d) else d * (zeta - eta) / (d + eta)
+        elif zs > 0.0:       # plain: kinematics above the still surface as at it
+            zs = 0.0
+        for c in range(nw):
+            k, w, a = p.wave_k[c], p.wave_w[c], p.wave_a[c]
+            th = k * (x * p.wave_cos[c] + y * p.wave_sin[c]) - w * t + p.wave_phase[c]
+            ch, sh = depth_factors(k, zs, d)
+            ct, st = math.cos(th), math.sin(th)
+            uh, ah = a * w * ch * ct, a * w * w * ch * st
+            ux += uh * p.wave_cos[c]
+            uy += uh * p.wave_sin[c]
+            uz += a * w * sh * st
+            ax += ah * p.wave_cos[c]
+            ay += ah * p.wave_sin[c]
+            az -= a * w * w * sh * ct
+    return True, (ux, uy, uz), (ax, ay, az)
+
+
+@njit(**CACHED, inline="always")
+def line_tangent(x, i, lo, hi):
+    """Return the unit tangent at vertex i of the line whose vertices are lo..hi-1: the chord
+    between its neighbours (the end element's at the ends)."""
+    a, b = max(i - 1, lo), min(i + 1, hi - 1)
+    tx, ty, tz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+    n = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if n == 0.0:
+        return 0.0, 0.0, 1.0
+    return tx / n, ty / n, tz / n
+
+
+@njit(**CACHED, inline="always")
+def wet_shares(za, zb, s):
+    """Return (w_a, w_b): the integrals of (1 - tau) and tau over the part of an element
+    from height za (tau = 0) to zb (tau = 1) that lies below s: the shares of its upthrust
+    its two vertices carry (the gradient of its buoyancy potential)."""
+    if za <= s and zb <= s:
+        return 0.5, 0.5
+    if za > s and zb > s:
+        return 0.0, 0.0
+    tc = (s - za) / (zb - za)
+    if za <= s:
+        return tc - 0.5 * tc * tc, 0.5 * tc * tc
+    return 0.5 * (1.0 - tc) * (1.0 - tc), 0.5 * (1.0 - tc * tc)
+
+
+@njit(**CACHED, inline="always")
+def solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
+    """Return x with A x = b for the symmetric positive definite A (Cramer's rule)."""
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)
+    return ((c00 * b0 + c01 * b1 + c02 * b2) * inv, (c01 * b0 + c11 * b1 + c12 * b2) * inv,
+            (c02 * b0 + c12 * b1 + c22 * b2) * inv)
+
+
+@njit(**CACHED, inline="always")
+def split_mass(m, an, at, t, fx, fy, fz):
+    """Return (m + an (1 - t t^T) + at t t^T)^-1 f for unit t."""
+    ft = fx * t[0] + fy * t[1] + fz * t[2]
+    nx, ny, nz = fx - ft * t[0], fy - ft * t[1], fz - ft * t[2]
+    gt, gn = ft / (m + at), 1.0 / (m + an)
+    return gn * nx + gt * t[0], gn * ny + gt * t[1], gn * nz + gt * t[2]
+
+
+@njit(**CACHED, inline="always")
+def decay(u, k, m, h, law):
+    """Return the size u >= 0 of a relative velocity after time h of m u' = -k u |u|
+    (MORISON) or m u' = -k u (LINEAR), exactly."""
+    if law == MORISON:
+        return u / (1.0 + k * u * h / m)
+    return u * math.exp(-k * h / m)
+
+
+@njit(**INNER)
+def vertex_force(p, model, state, j, l, i, lo, hi, t, tan, wet, acc):
+    """Return the force of position and time on vertex i (line l, row j): its share of the
+    upthrust of the elements beside it, and the medium's inertia force l_i (rho A (1 + C_a))
+    A split along the tangent (the latter where the vertex is wet), each a 3-tuple."""
+    x = state.x
+    up = 0.0
+    if p.buoyancy[j] != 0.0:
+        e0 = model.line_element_offsets[l] + (i - lo)
+        if i > lo:
+            up += model.element_rest_length[e0 - 1] * wet_shares(x[i - 1, 2], x[i, 2], p.surface)[1]
+        if i < hi - 1:
+            up += model.element_rest_length[e0] * wet_shares(x[i, 2], x[i + 1, 2], p.surface)[0]
+        up *= p.buoyancy[j]
+    fx = fy = fz = 0.0
+    if wet and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):
+        lv = model.voronoi_rest_length[i]
+        at = acc[0] * tan[0] + acc[1] * tan[1] + acc[2] * tan[2]
+        cn, ct = lv * p.inertia_n[j], lv * p.inertia_t[j]
+        fx = cn * (acc[0] - at * tan[0]) + ct * at * tan[0]
+        fy = cn * (acc[1] - at * tan[1]) + ct * at * tan[1]
+        fz = cn * (acc[2] - at * tan[2]) + ct * at * tan[2]
+    return (0.0, 0.0, up), (fx, fy, fz)
+
+
+@njit(**INNER)
+def push_vertices(p, model, state, h):
+    """Update state.v of the interior vertices by the impulse h of the forces of position and
+    time, through the added mass; p.supplied by the inertia force's work."""
+    x, v = state.x, state.v
+    t = state.clock[0]
+    nl = model.line_vertex_offsets.shape[0] - 1
+    supplied = 0.0
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        for i in range(lo + 1, hi - 1):
+            tan = line_tangent(x, i, lo, hi)
+            wet, _, acc = medium_at(p, x[i, 0], x[i, 1], x[i, 2], t)
+            fb, fi = vertex_force(p, model, state, j, l, i, lo, hi, t, tan, wet, acc)
+            m = model.vertex_mass[i]
+            lv = model.voronoi_rest_length[i] if wet else 0.0
+            dv = split_mass(m, lv * p.added_n[j], lv * p.added_t[j], tan,
+                            h * (fb[0] + fi[0]), h * (fb[1] + fi[1]), h * (fb[2] + fi[2]))
+            for k in range(3):
+                supplied += h * fi[k] * (v[i, k] + 0.5 * dv[k])
+                v[i, k] += dv[k]
+    p.supplied[0] += supplied
+
+
+@njit(**INNER)
+def drag_vertices(p, model, state, h):
+    """Update state.v of the interior vertices by the exact flow of drag for time h (the
+    tangential and normal parts of the relative velocity each decaying along their own
+    direction, through the added mass); p.dissipated and p.supplied by its work."""
+    x, v = state.x, state.v
+    t = state.clock[0]
+    nl = model.line_vertex_offsets.shape[0] - 1
+    dissipated = supplied = 0.0
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or (p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        for i in range(lo + 1, hi - 1):
+            wet, um, _ = medium_at(p, x[i, 0], x[i, 1], x[i, 2], t)
+            if not wet:
+                continue
+            tan = line_tangent(x, i, lo, hi)
+            lv = model.voronoi_rest_length[i]
+            m = model.vertex_mass[i]
+            mn, mt = m + lv * p.added_n[j], m + lv * p.added_t[j]
+            u0 = (v[i, 0] - um[0], v[i, 1] - um[1], v[i, 2] - um[2])
+            ut = u0[0] * tan[0] + u0[1] * tan[1] + u0[2] * tan[2]
+            un = (u0[0] - ut * tan[0], u0[1] - ut * tan[1], u0[2] - ut * tan[2])
+            sn = math.sqrt(un[0] * un[0] + un[1] * un[1] + un[2] * un[2])
+            rt = decay(abs(ut), lv * p.drag_t[j], mt, h, p.law) / abs(ut) if ut != 0.0 else 1.0
+            rn = decay(sn, lv * p.drag_n[j], mn, h, p.law) / sn if sn != 0.0 else 1.0
+            jt = mt * (rt - 1.0) * ut                      # impulse along t
+            dissipated -= jt * 0.5 * (1.0 + rt) * ut
+            for k in range(3):
+                jn = mn * (rn - 1.0) * un[k]
+                dissipated -= jn * 0.5 * (1.0 + rn) * un[k]
+                jk = jn + jt * tan[k]
+                supplied += jk * um[k]
+                v[i, k] = um[k] + rt * ut * tan[k] + rn * un[k]
+    p.dissipated[0] += dissipated
+    p.supplied[0] += supplied
+
+
+@njit(**INNER)
+def node_end(p, model, state, a, t):
+    """Return (row, wet, r, tan, lv, U, A) of line end a of a node: the row of its line (-1:
+    not in the medium), whether it is wet, its lab offset r from the node's centre of mass,
+    its tangent, Voronoi length, and the medium's velocity and acceleration there."""
+    l = a // 2
+    j = p.line_row[l] if l < p.line_row.shape[0] else -1
+    vt = model.attach_vertex[a]
+    nd = model.attach_node[a]
+    q, o = state.node_q[nd], model.attach_offset[a]
+    r = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+    lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+    tan = line_tangent(state.x, vt, lo, hi)
+    x = state.x[vt]
+    wet, um, acc = medium_at(p, x[0], x[1], x[2], t)
+    return j, wet and j >= 0, r, tan, model.voronoi_rest_length[vt], um, acc
+
+
+@njit(**INNER)
+def node_mass_matrix(p, model, state, nd, t):
+    """Return the symmetric node mass matrix (a00, a01, a02, a11, a12, a22): its composite
+    mass plus the added mass of its wet line ends."""
+    m = model.node_mass[nd]
+    a00, a01, a02, a11, a12, a22 = m, 0.0, 0.0, m, 0.0, m
+    for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        j, wet, _, tan, lv, _, _ = node_end(p, model, state, model.node_attach_list[s], t)
+        if not wet:
+            continue
+        an, d = lv * p.added_n[j], lv * (p.added_t[j] - p.added_n[j])
+        a00 += an + d * tan[0] * tan[0]
+        a01 += d * tan[0] * tan[1]
+        a02 += d * tan[0] * tan[2]
+        a11 += an + d * tan[1] * tan[1]
+        a12 += d * tan[1] * tan[2]
+        a22 += an + d * tan[2] * tan[2]
+    return a00, a01, a02, a11, a12, a22
+
+
+@njit(**CACHED, inline="always")
+def node_free(p, model, nd):
+    """Whether the medium moves node nd itself (finite mass, no drive holding it)."""
+    return model.node_inv_mass[nd] > 0.0 and not (nd < p.node_skip.shape[0] and p.node_skip[nd] != 0.0)
+
+
+@njit(**INNER)
+def turn_node(model, state, nd, tx, ty, tz):
+    """Update node nd's body angular velocity by the lab angular impulse (tx, ty, tz) on its
+    free axes; return the rotational kinetic energy it added."""
+    q = state.node_q[nd]
+    b = quat_rotate_inv(q[0], q[1], q[2], q[3], tx, ty, tz)
+    de = 0.0
+    for k in range(3):
+        if model.node_locked[nd, k] == 0.0:
+            w0 = state.node_w[nd, k]
+            state.node_w[nd, k] = w0 + model.node_inv_inertia[nd, k] * b[k]
+            de += 0.5 * model.node_inertia[nd, k] * (state.node_w[nd, k] ** 2 - w0 * w0)
+    return de
+
+
+@njit(**CACHED, inline="always")
+def node_spin(state, nd):
+    """Return node nd's angular velocity in the lab frame."""
+    q, w = state.node_q[nd], state.node_w[nd]
+    return quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
+
+
+@njit(**INNER)
+def push_nodes(p, model, state, h):
+    """Update the free nodes' velocities and angular velocities by the impulse h of the forces
+    of position and time on their line ends (through the added mass; the torque about the
+    centre of mass); p.supplied by the inertia force's work."""
+    t = state.clock[0]
+    supplied = 0.0
+    for nd in range(model.node_mass.shape[0]):
+        if not node_free(p, model, nd):
+            continue
+        fx = fy = fz = ix = iy = iz = tx = ty = tz = 0.0
+        for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+            a = model.node_attach_list[s]
+            j, wet, r, tan, _, _, acc = node_end(p, model, state, a, t)
+            if j < 0:
+                continue
+            l = a // 2
+            lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+            fb, fi = vertex_force(p, model, state, j, l, model.attach_vertex[a], lo, hi, t, tan, wet, acc)
+            gx, gy, gz = fb[0] + fi[0], fb[1] + fi[1], fb[2] + fi[2]
+            fx, fy, fz = fx + gx, fy + gy, fz + gz
+            ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
+            c = cross(r[0], r[1], r[2], gx, gy, gz)
+            tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
+        if fx == 0.0 and fy == 0.0 and fz == 0.0 and tx == 0.0 and ty == 0.0 and tz == 0.0:
+            continue
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd, t)
+        dv = solve_sym3(a00, a01, a02, a11, a12, a22, h * fx, h * fy, h * fz)
+        vn = state.node_v[nd]
+        supplied += h * (ix * (vn[0] + 0.5 * dv[0]) + iy * (vn[1] + 0.5 * dv[1]) + iz * (vn[2] + 0.5 * dv[2]))
+        for k in range(3):
+            vn[k] += dv[k]
+        turn_node(model, state, nd, h * tx, h * ty, h * tz)
+    p.supplied[0] += supplied
+
+
+@njit(**CACHED, inline="always")
+def end_drag(p, j, tan, lv, ux, uy, uz):
+    """Return the drag matrix (c_n, c_t - c_n): drag = -(c_n (1 - t t^T) + c_t t t^T) u on a
+    line end of row j with relative velocity u, tangent t and Voronoi length lv."""
+    cn, ct = lv * p.drag_n[j], lv * p.drag_t[j]
+    if p.law == MORISON:
+        ut = ux * tan[0] + uy * tan[1] + uz * tan[2]
+        nx, ny, nz = ux - ut * tan[0], uy - ut * tan[1], uz - ut * tan[2]
+        cn *= math.sqrt(nx * nx + ny * ny + nz * nz)
+        ct *= abs(ut)
+    return cn, ct - cn
+
+
+@njit(**INNER)
+def drag_nodes(p, model, state, h):
+    """Update the free nodes' velocities by one linearly implicit step of the drag on their
+    wet line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
+    step's start, M the mass with the added mass), and their angular velocities by the drag's
+    torque about the centre of mass at v'; p.dissipated and p.supplied by its work."""
+    t = state.clock[0]
+    dissipated = supplied = 0.0
+    for nd in range(model.node_mass.shape[0]):
+        if not node_free(p, model, nd):
+            continue
+        w = node_spin(state, nd)
+        vn = state.node_v[nd]
+        d00 = d01 = d02 = d11 = d12 = d22 = b0 = b1 = b2 = 0.0
+        touched = False
+        for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s], t)
+            if not wet:
+                continue
+            spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
+            gx, gy, gz = um[0] - spin[0], um[1] - spin[1], um[2] - spin[2]   # U - w x r
+            cn, dc = end_drag(p, j, tan, lv, vn[0] - gx, vn[1] - gy, vn[2] - gz)
+            if cn == 0.0 and dc == 0.0:
+                continue
+            touched = True
+            gt = gx * tan[0] + gy * tan[1] + gz * tan[2]
+            d00 += cn + dc * tan[0] * tan[0]
+            d01 += dc * tan[0] * tan[1]
+            d02 += dc * tan[0] * tan[2]
+            d11 += cn + dc * tan[1] * tan[1]
+            d12 += dc * tan[1] * tan[2]
+            d22 += cn + dc * tan[2] * tan[2]
+            b0 += cn * gx + dc * gt * tan[0]
+            b1 += cn * gy + dc * gt * tan[1]
+            b2 += cn * gz + dc * gt * tan[2]
+        if not touched:
+            continue
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd, t)
+        r0 = a00 * vn[0] + a01 * vn[1] + a02 * vn[2] + h * b0
+        r1 = a01 * vn[0] + a11 * vn[1] + a12 * vn[2] + h * b1
+        r2 = a02 * vn[0] + a12 * vn[1] + a22 * vn[2] + h * b2
+        v1 = solve_sym3(a00 + h * d00, a01 + h * d01, a02 + h * d02, a11 + h * d11, a12 + h * d12,
+                        a22 + h * d22, r0, r1, r2)
+        # the drag's torque and the medium's work, at the new velocity
+        tx = ty = tz = given = 0.0
+        for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s], t)
+            if not wet:
+                continue
+            spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
+            ux, uy, uz = v1[0] + spin[0] - um[0], v1[1] + spin[1] - um[1], v1[2] + spin[2] - um[2]
+            cn, dc = end_drag(p, j, tan, lv, vn[0] + spin[0] - um[0], vn[1] + spin[1] - um[1],
+                              vn[2] + spin[2] - um[2])
+            ut = ux * tan[0] + uy * tan[1] + uz * tan[2]
+            fx, fy, fz = -(cn * ux + dc * ut * tan[0]), -(cn * uy + dc * ut * tan[1]), -(cn * uz + dc * ut * tan[2])
+            given += h * (fx * um[0] + fy * um[1] + fz * um[2])
+            c = cross(r[0], r[1], r[2], fx, fy, fz)
+            tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
+        dx, dy, dz = v1[0] - vn[0], v1[1] - vn[1], v1[2] - vn[2]
+        mx = a00 * dx + a01 * dy + a02 * dz
+        my = a01 * dx + a11 * dy + a12 * dz
+        mz = a02 * dx + a12 * dy + a22 * dz
+        gained = 0.5 * (mx * (v1[0] + vn[0]) + my * (v1[1] + vn[1]) + mz * (v1[2] + vn[2]))
+        vn[0], vn[1], vn[2] = v1[0], v1[1], v1[2]
+        gained += turn_node(model, state, nd, h * tx, h * ty, h * tz)
+        supplied += given
+        dissipated += given - gained   # what the medium gave and the motion did not gain
+    p.dissipated[0] += dissipated
+    p.supplied[0] += supplied
+
+
+@flow_kernel(FluidParams)
+@njit(**STEP)
+def flow_fluid(p, model, state, h):
+    """Update state.v, state.node_v, state.node_w by half of what the medium does over a kick
+    of 2 h: drag then the forces of position and time before the kick, the reverse after it;
+    p.dissipated and p.supplied by their work (the medium's own kinetic energy through the
+    added mass counted as the line's)."""
+    if p.turn[0] == 0:
+        drag_vertices(p, model, state, h)
+        drag_nodes(p, model, state, h)
+        push_vertices(p, model, state, h)
+        push_nodes(p, model, state, h)
+        p.turn[0] = 1
+    else:
+        push_vertices(p, model, state, h)
+        push_nodes(p, model, state, h)
+        drag_vertices(p, model, state, h)
+        drag_nodes(p, model, state, h)
+        p.turn[0] = 0
+
+
+@inertia_kernel(FluidParams)
+@njit(**STEP)
+def add_fluid_mass(p, model, state, loads):
+    """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
+    so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
+    parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
+    x = state.x
+    t = state.clock[0]
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        for i in range(lo + 1, hi - 1):
+            wet, _, _ = medium_at(p, x[i, 0], x[i, 1], x[i, 2], t)
+            if not wet:
+                continue
+            tan = line_tangent(x, i, lo, hi)
+            m, lv = model.vertex_mass[i], model.voronoi_rest_length[i]
+            f = loads.f[i]
+            g = split_mass(m, lv * p.added_n[j], lv * p.added_t[j], tan, f[0], f[1], f[2])
+            f[0], f[1], f[2] = m * g[0], m * g[1], m * g[2]
+    for nd in range(model.node_mass.shape[0]):
+        if not node_free(p, model, nd):
+            continue
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd, t)
+        m = model.node_mass[nd]
+        if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
+            continue
+        f = loads.node_f[nd]
+        g = solve_sym3(a00, a01, a02, a11, a12, a22, f[0], f[1], f[2])
+        f[0], f[1], f[2] = m * g[0], m * g[1], m * g[2]

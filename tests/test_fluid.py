@@ -1,0 +1,247 @@
+"""The fluid medium (cosnet.Fluid): drag, added mass, buoyancy, currents and waves, each
+held to its analytic value. Every simulation here declares (Gravity, Fluid), so the suite
+compiles one step for all of them."""
+
+import math
+
+import numpy as np
+import pytest
+
+import cosnet
+
+RHO = 1000.0   # water
+G = 9.81
+
+
+def rod(points, density, radius=0.01, elements=8, pin=False):
+    """A straight line through ``points`` (its two ends) between two point junctions; with
+    ``pin`` the first is held in place and free to turn. Returns (net, start, end)."""
+    mat = cosnet.Material(E=1e9, G=4e8, density=density)
+    net = cosnet.Net()
+    a = net.add_node(points[0], mass=np.inf, inertia=(0.0, 0.0, 0.0)) if pin else net.add_node(points[0])
+    b = net.add_node(points[1])
+    net.add_line(a, b, material=mat, section=cosnet.Circle(radius), elements=elements)
+    return net, a, b
+
+
+@pytest.mark.parametrize("axis, along", [((1.0, 0.0, 0.0), False), ((0.0, 0.0, 1.0), True)],
+                         ids=["across", "along"])
+def test_a_sinking_cylinder_reaches_the_terminal_velocity_of_its_drag(axis, along):
+    # weight - upthrust = drag: (rho_s - rho) g A = 1/2 rho C_d d v^2 across the axis, on the
+    # surface pi d along it; the added mass slows the approach, not the end
+    r, rho_s, cd = 0.01, 2000.0, (1.2, 0.3)
+    net, _, _ = rod(((0.0, 0.0, 0.0), axis), rho_s, r, elements=6)
+    fluid = cosnet.Fluid(RHO, drag=cd, added_mass=(1.0, 0.0), buoyancy=True, surface=100.0)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    sim.run(until=4.0)
+    per_length = 0.5 * RHO * (cd[1] * math.pi if along else cd[0]) * 2 * r
+    v = math.sqrt((rho_s - RHO) * G * math.pi * r * r / per_length)
+    assert np.allclose(sim.state.v[:, 2], -v, rtol=1e-3)
+    assert np.allclose(sim.state.node_v[:, 2], -v, rtol=1e-3)
+
+
+def test_a_pinned_heavy_rod_hangs_where_drag_and_weight_balance():
+    # the moments about the pin of the normal drag k (U cos th)^2 and of the submerged
+    # weight w sin th, both uniform along the rod, balance at sin th = (k U^2 / w) cos^2 th
+    r, rho_s, U, cd = 0.01, 3000.0, 0.5, 1.2
+    net, _, tip = rod(((0.0, 0.0, 0.0), (0.0, 0.0, -1.0)), rho_s, r, pin=True)
+    fluid = cosnet.Fluid(RHO, velocity=(U, 0.0, 0.0), drag=(cd, 0.0), buoyancy=True, surface=10.0)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    sim.run(until=10.0)
+    c = 0.5 * RHO * cd * 2 * r * U * U / ((rho_s - RHO) * G * math.pi * r * r)
+    expected = math.asin((math.sqrt(1 + 4 * c * c) - 1) / (2 * c))
+    x = sim.node_position(tip)
+    assert math.atan2(x[0], -x[2]) == pytest.approx(expected, rel=5e-3)
+    assert sim.supplied() > 0   # the current did work on the rod as it swung out
+
+
+def test_a_neutrally_buoyant_line_is_taken_up_by_the_current_as_quadratic_drag_says():
+    # across and along the line the relative velocity u keeps its direction and obeys
+    # m u' = -k |u| u (m with the added mass across): u = u0 / (1 + k u0 t / m), u0 = -U
+    r, U = 0.01, np.array([0.6, 0.2, 0.0])
+    net, _, _ = rod(((0.0, 0.0, -2.0), (1.0, 0.0, -2.0)), RHO, r, elements=4)
+    fluid = cosnet.Fluid(RHO, velocity=U, drag=(1.2, 0.3), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    sim.run(until=3.0)
+    mass = RHO * math.pi * r * r
+    expected = []
+    for u0, k, m in ((U[0], 0.5 * RHO * 0.3 * math.pi * 2 * r, mass), (U[1], 0.5 * RHO * 1.2 * 2 * r, 2 * mass)):
+        expected.append(u0 - u0 / (1 + k * u0 * sim.time / m))
+    assert np.allclose(sim.state.v[:, :2], expected, rtol=1e-4)
+    assert np.allclose(sim.state.node_v[:, :2], expected, rtol=1e-3)
+    assert np.max(np.abs(sim.state.v[:, 2])) < 1e-9   # neutral: no sinking
+
+
+def test_added_mass_lowers_a_submerged_cantilevers_frequency_by_the_mass_ratio():
+    # every translational mass of the beam grows from m to m (1 + C_a rho / rho_s) across
+    # the line; the rotary inertia (slender: negligible) does not
+    rho_s = 1500.0
+
+    def period(fluid):
+        mat = cosnet.Material(E=2e9, G=8e8, density=rho_s)
+        net = cosnet.Net()
+        root, tip = net.add_node((0.0, 0.0, 0.0), fixed=True), net.add_node((1.0, 0.0, 0.0))
+        net.add_line(root, tip, material=mat, section=cosnet.Circle(0.01), elements=10)
+        sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0)), fluid])
+        s = np.linspace(0.0, 1.0, 11)
+        sim.state.v[:, 1] = 0.005 * s * s * (3 - s)   # near the first mode's shape
+        sim.state.node_v[1, 1] = sim.state.v[-1, 1]
+        ts, ys = [], []
+        while sim.time < 2.0:
+            sim.run(steps=25)
+            ts.append(sim.time)
+            ys.append(sim.node_position(tip)[1])
+        t, y = np.array(ts), np.array(ys)
+        i = np.flatnonzero((y[:-1] < 0) & (y[1:] >= 0))
+        up = t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i])
+        return (up[-1] - up[0]) / (len(up) - 1)
+
+    dry = period(cosnet.Fluid(RHO, lines=[]))
+    wet = period(cosnet.Fluid(RHO, added_mass=(1.0, 0.0)))
+    assert dry / wet == pytest.approx(math.sqrt(rho_s / (rho_s + RHO)), rel=5e-3)
+
+
+def test_a_neutral_dragless_particle_follows_the_airy_orbit():
+    # rho V (1 + C_a) A = (m + C_a rho V) a with m = rho V: the particle's acceleration is the
+    # water's, so it moves on the linear wave's orbit, semi-axes a cosh / sinh (k (z + d)) / sinh(k d)
+    amp, period, depth, z0 = 0.02, 4.0, 20.0, -2.0
+    mat = cosnet.Material(E=1e5, G=4e4, density=RHO)
+    net = cosnet.Net()
+    p, q = net.add_node((-0.025, 0.0, z0)), net.add_node((0.025, 0.0, z0))
+    net.add_line(p, q, material=mat, section=cosnet.Circle(0.005), elements=1)
+    fluid = cosnet.Fluid(RHO, buoyancy=True, added_mass=(1.0, 1.0), surface=0.0, depth=depth,
+                         wave_amplitudes=[amp], wave_periods=[period])
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    w = 2 * math.pi / period
+    k = cosnet.wave_number(w, depth, G)
+    assert w * w == pytest.approx(G * k * math.tanh(k * depth), rel=1e-12)
+    ch = math.cosh(k * (z0 + depth)) / math.sinh(k * depth)
+    sh = math.sinh(k * (z0 + depth)) / math.sinh(k * depth)
+    sim.state.v[:, 0] = sim.state.node_v[:, 0] = amp * w * ch   # on the orbit at t = 0
+    ts, xs = [], []
+    while sim.time < period:
+        sim.run(steps=10)
+        ts.append(sim.time)
+        xs.append(0.5 * (sim.node_position(p) + sim.node_position(q)))
+    t, x = np.array(ts), np.array(xs)
+    # the orbit's semi-axes, apart from the (second-order) Stokes drift
+    fit = np.column_stack([np.ones_like(t), t, np.cos(w * t), np.sin(w * t)])
+    for column, expected in ((0, amp * ch), (2, amp * sh)):
+        c = np.linalg.lstsq(fit, x[:, column], rcond=None)[0]
+        assert math.hypot(c[2], c[3]) == pytest.approx(expected, rel=0.01)
+
+
+@pytest.mark.parametrize("axis, along", [((1.0, 0.0, 0.0), False), ((0.0, 0.0, 1.0), True)],
+                         ids=["sideways", "lengthwise"])
+def test_stokes_flow_resists_sideways_and_lengthwise_by_its_coefficients(axis, along):
+    # resistive-force theory: a filament settling under its weight w per length moves at
+    # w / c_n sideways and w / c_t lengthwise, c_n / c_t the theory's ratio (near 2)
+    cn, ct = cosnet.resistive_coefficients(10.0, 0.01, 1.0)
+    assert 1.5 < cn / ct < 2.0
+    net, _, _ = rod(((0.0, 0.0, 0.0), axis), 1200.0, elements=6)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(RHO, resistance=(cn, ct))])
+    sim.run(until=0.4)   # 30 relaxation times m / c
+    w = 1200.0 * G * math.pi * 0.01 ** 2
+    # the split step's steady state is off by (c h / m)^2 / 24 (here ~1e-5)
+    assert np.allclose(sim.state.v[:, 2], -w / (ct if along else cn), rtol=1e-4)
+
+
+def test_energy_and_what_drag_dissipates_are_conserved_at_order_two():
+    # a rod swinging through the free surface of still water: drag, buoyancy cut at the
+    # surface; the balance closes at the scheme's order
+    def balance(dt):
+        net, _, _ = rod(((0.0, 0.0, 0.0), (math.sin(0.5), 0.0, -math.cos(0.5))), 3000.0, 0.02, 6, pin=True)
+        fluid = cosnet.Fluid(RHO, drag=(1.2, 0.2), buoyancy=True, surface=-0.5)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], dt=dt, force_dt=True)
+        e0 = sim.energy()
+        sim.run(until=0.2)
+        assert sim.dissipated() > 0.01 * abs(e0)
+        return sim.energy() + sim.dissipated() - e0
+
+    errors = [abs(balance(dt)) for dt in (4e-5, 2e-5)]
+    assert errors[0] / errors[1] == pytest.approx(4.0, rel=0.1)
+
+
+def test_checkpoint_round_trip_keeps_the_accounts(tmp_path):
+    net, _, _ = rod(((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)), 2000.0, elements=4)
+
+    def sim():
+        return cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(RHO, velocity=(0.3, 0.0, 0.0),
+                                                                      drag=(1.2, 0.1), buoyancy=True)])
+    a = sim()
+    a.run(steps=500)
+    a.save_checkpoint(tmp_path / "c.npz")
+    a.run(steps=500)
+    b = sim()
+    b.load_checkpoint(tmp_path / "c.npz")
+    b.run(steps=500)
+    assert np.array_equal(a.state.x, b.state.x) and np.array_equal(a.state.node_v, b.state.node_v)
+    assert (a.dissipated(), a.supplied()) == (b.dissipated(), b.supplied())
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(density=-1.0), "density"),
+    (dict(density=RHO, drag=(-1.0, 0.0)), "drag"),
+    (dict(density=RHO, added_mass=(1.0, -0.5)), "added_mass"),
+    (dict(density=RHO, drag=(1.0, 0.0), resistance=(1.0, 0.5)), "not both"),
+    (dict(density=RHO, surface=0.0, depth=1.0, wave_amplitudes=[1.5], wave_periods=[3.0]), "depth"),
+    (dict(density=RHO, wave_amplitudes=[0.5], wave_periods=[3.0]), "surface"),
+    (dict(density=RHO, times=[0.0, 2.0, 1.0], values=[1.0, 1.0, 1.0]), "increase"),
+    (dict(density=RHO, profile_heights=[0.0, -1.0], profile_factors=[1.0, 1.0]), "increase"),
+])
+def test_bad_values_are_refused_in_one_line(kwargs, words):
+    with pytest.raises(ValueError) as e:
+        cosnet.Fluid(**kwargs)
+    assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_buoyancy_needs_gravity_pointing_down():
+    net, _, _ = rod(((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)), 2000.0, elements=2)
+    with pytest.raises(ValueError, match="along -z"):
+        cosnet.Simulation(net, [cosnet.Gravity((9.81, 0.0, 0.0)), cosnet.Fluid(RHO, buoyancy=True)])
+
+
+SCENE = """
+title = "a rod in a current"
+[materials.m]
+E = 1e9
+G = 4e8
+density = 2000.0
+[sections.s]
+kind = "circle"
+radius = 0.01
+[nodes.a]
+position = [0.0, 0.0, 0.0]
+[nodes.b]
+position = [1.0, 0.0, 0.0]
+[lines.rod]
+start = "a"
+end = "b"
+material = "m"
+section = "s"
+elements = 4
+[[effects]]
+kind = "gravity"
+[[effects]]
+kind = "fluid"
+density = {density}
+velocity = [0.5, 0.0, 0.0]
+drag = [1.2, 0.1]
+buoyancy = true
+lines = ["rod"]
+[run]
+until = 0.1
+"""
+
+
+def test_the_scene_declares_the_fluid_and_refuses_a_bad_key_in_one_line(tmp_path):
+    good = tmp_path / "good.toml"
+    good.write_text(SCENE.format(density=1000.0))
+    sim = cosnet.load_scene(good).simulation()
+    assert any(isinstance(e, cosnet.Fluid) for e in sim.effects)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SCENE.format(density=-5.0))
+    with pytest.raises(ValueError) as e:
+        cosnet.load_scene(bad).simulation()
+    msg = str(e.value)
+    assert "bad.toml" in msg and "density" in msg and "\n" not in msg
