@@ -245,3 +245,37 @@ def test_the_scene_declares_the_fluid_and_refuses_a_bad_key_in_one_line(tmp_path
         cosnet.load_scene(bad).simulation()
     msg = str(e.value)
     assert "bad.toml" in msg and "density" in msg and "\n" not in msg
+
+
+def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():
+    # a wire hanging in still water from a fixed fairlead to an anchor, its lower part on a
+    # frictionless seabed (MoorPy's quasi-static solution is for a fully mobilised friction,
+    # which a line laid down in a dynamic run need not reach): the tensions and the length on
+    # the seabed match the elastic catenary's
+    catenary = pytest.importorskip("moorpy.Catenary", reason="MoorPy (pip install '.[peers]') is "
+                                   "not installed").catenary
+    depth, span, r, rho_s, E, sea = 20.0, 40.0, 0.02, 7850.0, 1e11, 1025.0
+    area = math.pi * r * r
+    w = (rho_s - sea) * G * area               # weight in water per length
+    guess = catenary(span, depth, 47.0, E * area, w, CB=0.0, nNodes=25, plots=1)[4]
+    mat = cosnet.Material(E=E, G=E / 2.6, density=rho_s)
+    section = cosnet.Section(A=area, I11=1e-9, I22=1e-9, J=2e-9, radius=r)   # a chain's bending
+    net = cosnet.Net()
+    anchor = net.add_node((0.0, 0.0, -depth), fixed=True)
+    fairlead = net.add_node((span, 0.0, 0.0), fixed=True)
+    points = np.column_stack([guess["X"], np.zeros(25), guess["Z"] - depth])   # starts near rest
+    line = net.add_line(anchor, fairlead, material=mat, section=section, elements=24, points=points,
+                        rest_curvature=(0.0, 0.0, 0.0))
+    # a linear resistance (rate c / m = 4/s) brings the line to rest; the statics do not depend on it
+    fluid = cosnet.Fluid(sea, resistance=(40.0, 40.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
+    bed = cosnet.Obstacle("plane", point=(0.0, 0.0, -depth - r), normal=(0.0, 0.0, 1.0), k=1e6)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid, bed], fast_modes="auto")
+    sim.run(until=6.0)
+    _, _, fh, fv, info = catenary(span, depth, line.length, E * area, w, CB=0.0)
+    n = sim.line_fields(line)["force"]
+    # the fairlead carries the end's half element besides the line's force there
+    held = n[-1] + np.array([0.0, 0.0, w * line.length / 48])
+    assert held[0] == pytest.approx(-fh, rel=0.01) and held[2] == pytest.approx(-fv, rel=0.01)
+    assert n[0][0] == pytest.approx(info["HA"], rel=0.01)
+    grounded = line.length - held[2] / w          # the suspended part's weight is the fairlead's pull
+    assert grounded == pytest.approx(info["LBot"], rel=0.01)

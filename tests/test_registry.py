@@ -115,7 +115,7 @@ def test_stage_and_kernel_follow_from_the_registration():
     assert (cosnet.Gravity.stage, cosnet.Gravity.kernel) == ("load", K.add_gravity)
     assert set(registry.builtin_effects().values()) == {getattr(cosnet, n) for n in (
         "Gravity", "NodeLoad", "LineLoad", "Damping", "Drive", "MuscleTorque", "ActiveCurvature", "Contact",
-        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint", "Body")}
+        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint", "Body", "Fluid")}
 
     from typing import NamedTuple
 
