@@ -129,7 +129,7 @@ class Fluid(Effect):
         if self.resistance is not None and np.any(self.drag):
             raise ValueError("Fluid: give drag (Morison, turbulent) or resistance (Stokes flow), not both")
         self.diameter = None if diameter is None else checks.positive(who, "diameter", diameter)
-        self.added_mass = self._coefficients("added_mass", added_mass)
+        self.added_coefficients = self._coefficients("added_mass", added_mass)
         if not isinstance(buoyancy, (bool, np.bool_)):
             raise ValueError(f"Fluid: buoyancy must be true or false, got {buoyancy!r}")
         self.buoyancy = bool(buoyancy)
@@ -226,9 +226,9 @@ class Fluid(Effect):
                 rows["drag_n"][j] = 0.5 * rho * self.drag[0] * d
                 rows["drag_t"][j] = 0.5 * rho * self.drag[1] * math.pi * d
             vol = math.pi * d * d / 4.0     # displaced area per length
-            rows["added_n"][j], rows["added_t"][j] = rho * vol * self.added_mass
+            rows["added_n"][j], rows["added_t"][j] = rho * vol * self.added_coefficients
             if self.waves[0].size or self.time_table[0].size:
-                rows["inertia_n"][j], rows["inertia_t"][j] = rho * vol * (1.0 + self.added_mass)
+                rows["inertia_n"][j], rows["inertia_t"][j] = rho * vol * (1.0 + self.added_coefficients)
             if self.buoyancy:
                 rows["buoyancy"][j] = rho * g * vol
         skip = np.zeros(nn)
@@ -291,6 +291,24 @@ class Fluid(Effect):
             e0, e1 = on.model.line_element_offsets[l], on.model.line_element_offsets[l + 1]
             total += p.buoyancy[j] * float(np.sum(on.model.element_rest_length[e0:e1]))
         return total * size
+
+    def added_mass(self, p, on: Binding):
+        """The least added mass, min(C_an, C_at) rho A l, of each vertex below the free
+        surface by more than the waves' height as built (and of the free nodes' such line
+        ends): a line that rises out of the water meets its dry step, which the watch
+        guards."""
+        m, x = on.model, on.state.x
+        vertex, node = np.zeros(m.vertex_mass.shape[0]), np.zeros(m.node_mass.shape[0])
+        deep = x[:, 2] < p.surface - float(np.sum(p.wave_a))
+        for j, l in enumerate(p.lines):
+            lo, hi = m.line_vertex_offsets[l], m.line_vertex_offsets[l + 1]
+            a = min(p.added_n[j], p.added_t[j]) * m.voronoi_rest_length[lo:hi] * deep[lo:hi]
+            vertex[lo + 1:hi - 1] += a[1:-1]
+            for end, i in ((0, 0), (1, -1)):
+                nd = m.attach_node[2 * l + end]
+                if m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0:
+                    node[nd] += a[i]
+        return (vertex, node) if np.any(vertex) or np.any(node) else None
 
     def dissipated(self, sim) -> float:
         """Energy drag has taken so far (J), measured in the frame of the medium."""

@@ -128,6 +128,12 @@ class Effect:
         effect adds no stiffness."""
         return 0.0
 
+    def added_mass(self, p, on: Binding):
+        """(vertex, node) arrays (nv,), (nn,): the least mass record ``p`` adds to each vertex
+        and node in every direction (a fluid's added mass), which lowers the frequencies and
+        lengthens the stable step; None when it adds none."""
+        return None
+
     def dissipated(self, sim) -> float:
         """Energy (J) this effect has taken out of the net so far, part of sim.dissipated()
         (0 for effects that keep no such account)."""

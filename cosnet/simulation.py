@@ -168,15 +168,27 @@ class Simulation:
         """Estimated largest stable step: safety * (scheme interval) / omega_max, with omega_max
         bounded from above by Gershgorin's theorem on the linearised net plus the stiffness the
         declared effects add (penalty joints, contact)."""
-        w2, _, _ = measure.bound_max_omega2(self.model)
+        w2, _, _ = measure.bound_max_omega2(self._inertial_model())
         w2 += sum(e.max_omega2(self) for e in self.effects)
         if w2 <= 0:
             return math.inf
         return self.safety * stability_interval(self.stepper) / math.sqrt(w2)
 
+    def _inertial_model(self) -> Model:
+        """The model with the masses the kick divides by: each vertex's and node's own plus
+        the least added mass the effects give it (a submerged line's)."""
+        on = Binding(self.net, self.model, self.state, tuple(self.effects))
+        extra = [a for a in (e.added_mass(p, on) for e, p in zip(self.effects, self._params)) if a is not None]
+        if not extra:
+            return self.model
+        m = self.model
+        vm = m.vertex_mass + sum(v for v, _ in extra)
+        nm = m.node_mass + sum(n for _, n in extra)
+        return m._replace(vertex_mass=vm, node_mass=nm)
+
     def stiffest(self) -> str:
         """Where the highest frequency sits (for messages)."""
-        w2, kind, idx = measure.bound_max_omega2(self.model)
+        w2, kind, idx = measure.bound_max_omega2(self._inertial_model())
         if self.effects:
             w2_effect, stiff = max(((e.max_omega2(self), i) for i, e in enumerate(self.effects)))
             if w2_effect > w2:

@@ -279,3 +279,29 @@ def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():
     assert n[0][0] == pytest.approx(info["HA"], rel=0.01)
     grounded = line.length - held[2] / w          # the suspended part's weight is the fairlead's pull
     assert grounded == pytest.approx(info["LBot"], rel=0.01)
+
+
+def test_the_stable_step_counts_the_added_mass():
+    # a light rod (400 kg/m^3) whose heavier rotary inertia leaves its translation setting the
+    # step: in water with C_a = 1 across and along, every translational mass grows by 2.5
+    def simulation(coefficients, dt=None):
+        mat = cosnet.Material(E=1e8, G=4e7, density=400.0)
+        net = cosnet.Net()
+        a, b = net.add_node((0.0, 0.0, -1.0)), net.add_node((1.0, 0.0, -1.0))
+        net.add_line(a, b, material=mat, section=cosnet.Circle(0.01), elements=10, rotary_inertia_scale=1000.0)
+        sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0)), cosnet.Fluid(RHO, added_mass=coefficients)],
+                                dt=dt, force_dt=dt is not None)
+        sim.state.v[:] = 1e-3 * np.random.default_rng(1).standard_normal(sim.state.v.shape)
+        return sim
+
+    def stable(sim):
+        try:
+            sim.run(steps=4000)
+            return True
+        except cosnet.InstabilityError:
+            return False
+
+    dry, wet = simulation((0.0, 0.0)).dt, simulation((1.0, 1.0)).dt
+    assert wet > 1.5 * dry
+    assert stable(simulation((1.0, 1.0), wet)) and not stable(simulation((0.0, 0.0), wet))
+    assert not stable(simulation((1.0, 1.0), 2 * wet))
