@@ -247,7 +247,8 @@ class Fluid(Effect):
                            current=self.velocity.copy(), profile_z=zp.copy(), profile_f=fp.copy(),
                            power=np.array(self.power), times=tt.copy(), values=tv.copy(), wave_a=a.copy(),
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
-                           wave_phase=ph.copy(), node_skip=skip, turn=np.zeros(1, dtype=np.int64),
+                           wave_phase=ph.copy(), node_skip=skip,
+                           sample=np.zeros((13, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1))
 
     # ------------------------------------------------------------------ energy

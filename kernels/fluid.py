@@ -31,6 +31,7 @@ from .backend import STEP
 from .compose import flow_kernel, inertia_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
+from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
@@ -63,6 +64,9 @@ class FluidParams(NamedTuple):
     wave_sin: np.ndarray     # (nw,)
     wave_phase: np.ndarray   # (nw,)
     node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves to their drive
+    sample: np.ndarray       # (13, nv) scratch: at each vertex of the lines in the medium, as the kick's
+                             # first half flow found it: wet (1 or 0), U, A, tangent, then the force of
+                             # position and time on interior vertices (upthrust plus inertia force)
     turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
@@ -151,6 +155,84 @@ def line_tangent(x, i, lo, hi):
 
 
 @njit(**CACHED, inline="always")
+def still_medium(p):
+    """Whether the medium is the same everywhere and always (a steady uniform current, no
+    waves): then only the free surface decides where it acts."""
+    return (p.wave_a.shape[0] == 0 and p.profile_z.shape[0] == 0 and p.power[0] == 0.0
+            and p.times.shape[0] == 0)
+
+
+@njit(**INNER)
+def sample_forces(p, model, z, S, j, l):
+    """Update rows 10-12 of the sample (S, its rows) at the interior vertices of line l (row
+    j) by the force of position and time (vertex_force), given the heights z and rows 0-9."""
+    vlen, elen = model.voronoi_rest_length, model.element_rest_length
+    first = uint(model.line_vertex_offsets[l] + 1)
+    e0 = uint(model.line_element_offsets[l])
+    up, cn, ct, surface = p.buoyancy[j], p.inertia_n[j], p.inertia_t[j], p.surface
+    for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
+        i = first + uint(k)
+        lift = up * (elen[e0 + uint(k)] * wet_shares(z[i - uint(1)], z[i], surface)[1]
+                     + elen[e0 + uint(k + 1)] * wet_shares(z[i], z[i + uint(1)], surface)[0])
+        wl = S[0][i] * vlen[i]
+        tx, ty, tz = S[7][i], S[8][i], S[9][i]
+        ax, ay, az = S[4][i], S[5][i], S[6][i]
+        a_t = ax * tx + ay * ty + az * tz
+        S[10][i] = wl * (cn * (ax - a_t * tx) + ct * a_t * tx)
+        S[11][i] = wl * (cn * (ay - a_t * ty) + ct * a_t * ty)
+        S[12][i] = wl * (cn * (az - a_t * tz) + ct * a_t * tz) + lift
+
+
+@njit(**INNER)
+def sample_medium(p, model, state):
+    """Update p.sample at every vertex of the lines in the medium given the positions and the
+    clock: they hold still through a kick and the flows around it, so the medium is sampled
+    once per kick. (Loops over vertices without calls or branches, which LLVM vectorises.)"""
+    x = state.x
+    c, S = columns(x), sample_rows(p)
+    t = state.clock[0]
+    nl = model.line_vertex_offsets.shape[0] - 1
+    still = still_medium(p)
+    c0, c1, c2, surface = p.current[0], p.current[1], p.current[2], p.surface
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        for i in (lo, hi - 1):
+            tan = line_tangent(x, i, lo, hi)
+            S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
+        v0 = uint(lo)
+        for k in range(hi - lo - 2):   # interior tangents: the chord between the neighbours
+            a, i, b = v0 + uint(k), v0 + uint(k + 1), v0 + uint(k + 2)
+            tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
+            inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))   # coincident: no tangent
+            S[7][i], S[8][i], S[9][i] = tx * inv, ty * inv, tz * inv
+        if still:
+            for k in range(hi - lo):
+                i = v0 + uint(k)
+                S[0][i] = 1.0 if c[2][i] <= surface else 0.0
+                S[1][i], S[2][i], S[3][i] = c0, c1, c2
+                S[4][i], S[5][i], S[6][i] = 0.0, 0.0, 0.0
+        else:
+            for i in range(lo, hi):
+                wet, um, acc = medium_at(p, c[0][i], c[1][i], c[2][i], t)
+                S[0][i] = 1.0 if wet else 0.0
+                S[1][i], S[2][i], S[3][i] = um[0], um[1], um[2]
+                S[4][i], S[5][i], S[6][i] = acc[0], acc[1], acc[2]
+        if p.buoyancy[j] != 0.0 or p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0:
+            sample_forces(p, model, c[2], S, j, l)
+
+
+@njit(**CACHED, inline="always")
+def sampled(p, i):
+    """Return (wet, U, A, tangent) of vertex i as p.sample holds them."""
+    S = p.sample
+    return (S[0, i] != 0.0, (S[1, i], S[2, i], S[3, i]), (S[4, i], S[5, i], S[6, i]),
+            (S[7, i], S[8, i], S[9, i]))
+
+
+@njit(**CACHED, inline="always")
 def wet_shares(za, zb, s):
     """Return (w_a, w_b): the integrals of (1 - tau) and tau over the part of an element
     from height za (tau = 0) to zb (tau = 1) that lies below s: the shares of its upthrust
@@ -177,24 +259,6 @@ def solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
     inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)
     return ((c00 * b0 + c01 * b1 + c02 * b2) * inv, (c01 * b0 + c11 * b1 + c12 * b2) * inv,
             (c02 * b0 + c12 * b1 + c22 * b2) * inv)
-
-
-@njit(**CACHED, inline="always")
-def split_mass(m, an, at, t, fx, fy, fz):
-    """Return (m + an (1 - t t^T) + at t t^T)^-1 f for unit t."""
-    ft = fx * t[0] + fy * t[1] + fz * t[2]
-    nx, ny, nz = fx - ft * t[0], fy - ft * t[1], fz - ft * t[2]
-    gt, gn = ft / (m + at), 1.0 / (m + an)
-    return gn * nx + gt * t[0], gn * ny + gt * t[1], gn * nz + gt * t[2]
-
-
-@njit(**CACHED, inline="always")
-def decay(u, k, m, h, law):
-    """Return the size u >= 0 of a relative velocity after time h of m u' = -k u |u|
-    (MORISON) or m u' = -k u (LINEAR), exactly."""
-    if law == MORISON:
-        return u / (1.0 + k * u * h / m)
-    return u * math.exp(-k * h / m)
 
 
 @njit(**INNER)
@@ -225,66 +289,100 @@ def vertex_force(p, model, state, j, l, i, lo, hi, t, tan, wet, acc):
 @njit(**INNER)
 def push_vertices(p, model, state, h):
     """Update state.v of the interior vertices by the impulse h of the forces of position and
-    time, through the added mass; p.supplied by the inertia force's work."""
-    x, v = state.x, state.v
-    t = state.clock[0]
+    time (as sample_forces found them), through the added mass; p.supplied by the inertia
+    force's work. (Contiguous columns, unsigned indices: vectorised as drag_vertices.)"""
+    v, S = columns(state.v), sample_rows(p)
+    vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
-        if l < 0 or l >= nl:
+        if l < 0 or l >= nl or (p.buoyancy[j] == 0.0 and p.inertia_n[j] == 0.0 and p.inertia_t[j] == 0.0):
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-        for i in range(lo + 1, hi - 1):
-            tan = line_tangent(x, i, lo, hi)
-            wet, _, acc = medium_at(p, x[i, 0], x[i, 1], x[i, 2], t)
-            fb, fi = vertex_force(p, model, state, j, l, i, lo, hi, t, tan, wet, acc)
-            m = model.vertex_mass[i]
-            lv = model.voronoi_rest_length[i] if wet else 0.0
-            dv = split_mass(m, lv * p.added_n[j], lv * p.added_t[j], tan,
-                            h * (fb[0] + fi[0]), h * (fb[1] + fi[1]), h * (fb[2] + fi[2]))
-            for k in range(3):
-                supplied += h * fi[k] * (v[i, k] + 0.5 * dv[k])
-                v[i, k] += dv[k]
+        first = uint(model.line_vertex_offsets[l] + 1)
+        cn, ct, an, at = h * p.inertia_n[j], h * p.inertia_t[j], p.added_n[j], p.added_t[j]
+        for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
+            i = first + uint(k)
+            wl = S[0][i] * vlen[i]
+            tx, ty, tz = S[7][i], S[8][i], S[9][i]
+            jx, jy, jz = h * S[10][i], h * S[11][i], h * S[12][i]
+            m = vmass[i]
+            jt = jx * tx + jy * ty + jz * tz
+            gn, gt = 1.0 / (m + wl * an), jt / (m + wl * at)
+            dx, dy, dz = gn * (jx - jt * tx) + gt * tx, gn * (jy - jt * ty) + gt * ty, gn * (jz - jt * tz) + gt * tz
+            ax, ay, az = S[4][i], S[5][i], S[6][i]
+            a_t = ax * tx + ay * ty + az * tz
+            ix = wl * (cn * (ax - a_t * tx) + ct * a_t * tx)     # of it, the inertia force's
+            iy = wl * (cn * (ay - a_t * ty) + ct * a_t * ty)
+            iz = wl * (cn * (az - a_t * tz) + ct * a_t * tz)
+            supplied += ix * (v[0][i] + 0.5 * dx) + iy * (v[1][i] + 0.5 * dy) + iz * (v[2][i] + 0.5 * dz)
+            v[0][i] += dx
+            v[1][i] += dy
+            v[2][i] += dz
     p.supplied[0] += supplied
+
+
+@njit(**CACHED, inline="always")
+def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
+    """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
+    drag_vertices) given the sample rows S (10-tuple), the Voronoi lengths and vertex masses;
+    return the energy it dissipated and the work the medium supplied."""
+    lv, m = vlen[i], vmass[i]
+    mn, mt = m + lv * an, m + lv * at
+    wl = S[0][i] * lv                                  # 0 where the vertex is dry
+    Ux, Uy, Uz, tx, ty, tz = S[1][i], S[2][i], S[3][i], S[7][i], S[8][i], S[9][i]
+    ux, uy, uz = v[0][i] - Ux, v[1][i] - Uy, v[2][i] - Uz
+    ut = ux * tx + uy * ty + uz * tz
+    nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
+    sn = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if linear:
+        rt, rn = math.exp(-wl * kt / mt), math.exp(-wl * kn / mn)
+    else:
+        rt, rn = 1.0 / (1.0 + wl * kt * abs(ut) / mt), 1.0 / (1.0 + wl * kn * sn / mn)
+    jt, jn = mt * (rt - 1.0), mn * (rn - 1.0)          # impulse per relative velocity
+    v[0][i] = Ux + rt * ut * tx + rn * nx
+    v[1][i] = Uy + rt * ut * ty + rn * ny
+    v[2][i] = Uz + rt * ut * tz + rn * nz
+    return (-0.5 * (1.0 + rt) * jt * ut * ut - 0.5 * (1.0 + rn) * jn * sn * sn,
+            jt * ut * (tx * Ux + ty * Uy + tz * Uz) + jn * (nx * Ux + ny * Uy + nz * Uz))
+
+
+@njit(**CACHED, inline="always")
+def sample_rows(p):
+    """The rows of p.sample as contiguous 1-D views."""
+    S = p.sample
+    return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12]
 
 
 @njit(**INNER)
 def drag_vertices(p, model, state, h):
     """Update state.v of the interior vertices by the exact flow of drag for time h (the
-    tangential and normal parts of the relative velocity each decaying along their own
-    direction, through the added mass); p.dissipated and p.supplied by its work."""
-    x, v = state.x, state.v
-    t = state.clock[0]
+    tangential and normal parts of the relative velocity u each keep their direction, their
+    size s becoming s r with r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the
+    linear one, m with the added mass of that direction); p.dissipated and p.supplied by its
+    work. (A loop per law over contiguous columns with unsigned indices, branch-free, which
+    LLVM vectorises; see layout.columns.)"""
+    v, S = columns(state.v), sample_rows(p)
+    vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0):
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-        for i in range(lo + 1, hi - 1):
-            wet, um, _ = medium_at(p, x[i, 0], x[i, 1], x[i, 2], t)
-            if not wet:
-                continue
-            tan = line_tangent(x, i, lo, hi)
-            lv = model.voronoi_rest_length[i]
-            m = model.vertex_mass[i]
-            mn, mt = m + lv * p.added_n[j], m + lv * p.added_t[j]
-            u0 = (v[i, 0] - um[0], v[i, 1] - um[1], v[i, 2] - um[2])
-            ut = u0[0] * tan[0] + u0[1] * tan[1] + u0[2] * tan[2]
-            un = (u0[0] - ut * tan[0], u0[1] - ut * tan[1], u0[2] - ut * tan[2])
-            sn = math.sqrt(un[0] * un[0] + un[1] * un[1] + un[2] * un[2])
-            rt = decay(abs(ut), lv * p.drag_t[j], mt, h, p.law) / abs(ut) if ut != 0.0 else 1.0
-            rn = decay(sn, lv * p.drag_n[j], mn, h, p.law) / sn if sn != 0.0 else 1.0
-            jt = mt * (rt - 1.0) * ut                      # impulse along t
-            dissipated -= jt * 0.5 * (1.0 + rt) * ut
-            for k in range(3):
-                jn = mn * (rn - 1.0) * un[k]
-                dissipated -= jn * 0.5 * (1.0 + rn) * un[k]
-                jk = jn + jt * tan[k]
-                supplied += jk * um[k]
-                v[i, k] = um[k] + rt * ut * tan[k] + rn * un[k]
+        first = uint(model.line_vertex_offsets[l] + 1)
+        n = model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2
+        kn, kt, an, at = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j]
+        if p.law == LINEAR:
+            for k in range(n):
+                d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True)
+                dissipated += d
+                supplied += g
+        else:
+            for k in range(n):
+                d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False)
+                dissipated += d
+                supplied += g
     p.dissipated[0] += dissipated
     p.supplied[0] += supplied
 
@@ -300,10 +398,7 @@ def node_end(p, model, state, a, t):
     nd = model.attach_node[a]
     q, o = state.node_q[nd], model.attach_offset[a]
     r = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
-    lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-    tan = line_tangent(state.x, vt, lo, hi)
-    x = state.x[vt]
-    wet, um, acc = medium_at(p, x[0], x[1], x[2], t)
+    wet, um, acc, tan = sampled(p, vt)
     return j, wet and j >= 0, r, tan, model.voronoi_rest_length[vt], um, acc
 
 
@@ -483,6 +578,7 @@ def flow_fluid(p, model, state, h):
     p.dissipated and p.supplied by their work (the medium's own kinetic energy through the
     added mass counted as the line's)."""
     if p.turn[0] == 0:
+        sample_medium(p, model, state)
         drag_vertices(p, model, state, h)
         drag_nodes(p, model, state, h)
         push_vertices(p, model, state, h)
@@ -502,23 +598,26 @@ def add_fluid_mass(p, model, state, loads):
     """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
     so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
     parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
-    x = state.x
     t = state.clock[0]
+    f, S = columns(loads.f), sample_rows(p)
+    vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-        for i in range(lo + 1, hi - 1):
-            wet, _, _ = medium_at(p, x[i, 0], x[i, 1], x[i, 2], t)
-            if not wet:
-                continue
-            tan = line_tangent(x, i, lo, hi)
-            m, lv = model.vertex_mass[i], model.voronoi_rest_length[i]
-            f = loads.f[i]
-            g = split_mass(m, lv * p.added_n[j], lv * p.added_t[j], tan, f[0], f[1], f[2])
-            f[0], f[1], f[2] = m * g[0], m * g[1], m * g[2]
+        first = uint(model.line_vertex_offsets[l] + 1)
+        an, at = p.added_n[j], p.added_t[j]
+        for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
+            i = first + uint(k)   # branch-free: a dry vertex keeps m
+            m, wl = vmass[i], S[0][i] * vlen[i]
+            tx, ty, tz = S[7][i], S[8][i], S[9][i]
+            fx, fy, fz = f[0][i], f[1][i], f[2][i]
+            ft = fx * tx + fy * ty + fz * tz
+            gn, gt = m / (m + wl * an), m / (m + wl * at) * ft
+            f[0][i] = gn * (fx - ft * tx) + gt * tx
+            f[1][i] = gn * (fy - ft * ty) + gt * ty
+            f[2][i] = gn * (fz - ft * tz) + gt * tz
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
@@ -526,6 +625,6 @@ def add_fluid_mass(p, model, state, loads):
         m = model.node_mass[nd]
         if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
             continue
-        f = loads.node_f[nd]
-        g = solve_sym3(a00, a01, a02, a11, a12, a22, f[0], f[1], f[2])
-        f[0], f[1], f[2] = m * g[0], m * g[1], m * g[2]
+        fn = loads.node_f[nd]
+        g = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0], fn[1], fn[2])
+        fn[0], fn[1], fn[2] = m * g[0], m * g[1], m * g[2]

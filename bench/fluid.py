@@ -1,0 +1,66 @@
+"""Cost of the fluid medium per step: the same submerged line stepped dry (gravity alone) and
+in water with each set of the fluid's terms, side by side in one process (interleaved rounds),
+per step and per element-step.
+
+Scene: a steel wire (r = 20 mm) of N elements, 1 m each, pinned at both ends 2 m under the
+surface, under gravity; every step is taken at the dry line's stable step. Run:
+python bench/fluid.py [--quick]; writes bench/fluid.json (docs/fluid.md shows its table).
+"""
+
+import sys
+
+import numpy as np
+
+import cosnet
+from harness import best_interleaved, table, write_json
+
+SEA = 1025.0
+WIRE = cosnet.Material(E=1e11, poisson=0.3, density=7850.0)
+
+
+def wire(n):
+    """A straight wire of n elements between two pins, 2 m under the surface."""
+    net = cosnet.Net()
+    a = net.add_node((0.0, 0.0, -2.0), mass=np.inf, inertia=(1.0, 1.0, 1.0))
+    b = net.add_node((float(n), 0.0, -2.0), mass=np.inf, inertia=(1.0, 1.0, 1.0))
+    net.add_line(a, b, material=WIRE, section=cosnet.Circle(0.02), elements=n)
+    return net
+
+
+FLUIDS = {
+    "drag": dict(drag=(1.2, 0.008)),
+    "drag + added mass + buoyancy": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True),
+    "the same in a current": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
+                                  velocity=(0.0, 0.5, 0.0)),
+    "the same in two wave components": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
+                                            depth=50.0, wave_amplitudes=[1.0, 0.3], wave_periods=[8.0, 5.0],
+                                            wave_headings=[0.0, 30.0]),
+    "Stokes resistance": dict(resistance=(2.0, 1.0)),
+}
+
+
+def main():
+    quick = "--quick" in sys.argv
+    sizes, rounds = ((100,), 3) if quick else ((100, 1000), 9)
+    rows, results = [], []
+    for n in sizes:
+        steps = max(200, 200_000 // n)
+        dry = cosnet.Simulation(wire(n), [cosnet.Gravity()], threads=1, fast_modes="rotary")
+        sims = {"dry (gravity)": dry}
+        for name, kw in FLUIDS.items():
+            sims[name] = cosnet.Simulation(wire(n), [cosnet.Gravity(), cosnet.Fluid(SEA, surface=0.0, **kw)],
+                                           dt=dry.dt, force_dt=True, threads=1, fast_modes="rotary")
+        times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims.values()], rounds)
+        base = times[0] / steps
+        for (name, _), t in zip(sims.items(), times):
+            per = t / steps
+            results.append({"elements": n, "case": name, "us_per_step": 1e6 * per,
+                            "ns_per_element_step": 1e9 * per / n, "over_dry_percent": 100.0 * (per / base - 1)})
+            rows.append([n, name, 1e6 * per, 1e9 * per / n, 100.0 * (per / base - 1)])
+    table("fluid: cost per step of a submerged wire (one thread, the dry line's step)",
+          ["elements", "case", "us/step", "ns/element-step", "over dry %"], rows)
+    write_json(__file__, {"command": " ".join(["python", "bench/fluid.py", *sys.argv[1:]]), "runs": results})
+
+
+if __name__ == "__main__":
+    main()
