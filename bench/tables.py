@@ -1,4 +1,4 @@
-"""The tables of docs/performance.md, docs/accuracy.md and docs/faults.md, made from the
+"""The tables of docs/performance.md, docs/accuracy.md, docs/faults.md and docs/fluid.md, made from the
 benchmarks' JSON.
 
 A page holds each table between two markers:
@@ -23,7 +23,7 @@ from pathlib import Path
 
 BENCH = Path(__file__).resolve().parent
 DOCS = BENCH.parent / "docs"
-PAGES = ("performance.md", "accuracy.md", "faults.md")
+PAGES = ("performance.md", "accuracy.md", "faults.md", "fluid.md")
 BLOCK = re.compile(r"(<!-- bench table (\w+) -->\n)(.*?)(<!-- end bench table -->)", re.S)
 
 
@@ -244,7 +244,15 @@ def startup() -> str:
         d["machine"], f" (load {d['load_before']:.1f} before), `{d['command'].strip()}`, {d['wall_s'] / 60:.0f} min")
 
 
-TABLES = {"soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
+def fluid_cost() -> str:
+    d = _json("fluid.json")
+    rows = [[str(r["elements"]), r["case"], f"{r['us_per_step']:.3g}", f"{r['ns_per_element_step']:.3g}",
+             "–" if r["case"].startswith("dry") else f"+{r['over_dry_percent']:.0f} %"] for r in d["runs"]]
+    return _table(["elements", "the wire", "µs per step", "ns per element-step", "over the dry step"],
+                  rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
+
+
+TABLES = {"fluid_cost": fluid_cost, "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
           "cosseratbench": cosseratbench}
