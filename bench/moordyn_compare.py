@@ -1,0 +1,158 @@
+"""A catenary mooring line under a surging fairlead, in cosnet and in MoorDyn, side by side in
+one process: the fairlead's pull (mean, first-harmonic amplitude and phase over the last two
+periods) and the wall time per simulated second, each at its own step, at two resolutions.
+
+The line: 47 m of steel wire (r = 20 mm, EA = 1.26e8 N, EI = 1.26e4 N m^2) from an anchor on a
+frictionless seabed 20 m down to a fairlead at the surface 40 m away, in still water
+(rho = 1025, C_dn = 1.2, C_dt = 0.008, C_an = 1, C_at = 0). The fairlead surges 1 m at an 8 s
+period, ramped in over the first period. cosnet starts from its own static equilibrium
+(settled from MoorPy's catenary), MoorDyn from its own (its dynamic relaxation); MoorDyn's
+segments carry the internal damping it needs (BA = -1, critical), cosnet's line none.
+Run: python bench/moordyn_compare.py; writes bench/moordyn_compare.json (needs the extras
+peers and bench: moorpy, moordyn).
+"""
+
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import cosnet
+from harness import table, write_json
+
+SEA, DEPTH, SPAN, R, RHO_S, E = 1025.0, 20.0, 40.0, 0.02, 7850.0, 1e11
+AMPLITUDE, PERIOD, T_END = 1.0, 8.0, 48.0
+OMEGA = 2 * math.pi / PERIOD
+AREA = math.pi * R * R
+DRAG, ADDED = (1.2, 0.008), (1.0, 0.0)
+
+MOORDYN_INPUT = """--------------------- MoorDyn Input File ------------------------------------
+catenary wire under a surging fairlead
+----------------------- LINE TYPES ------------------------------------------
+TypeName   Diam    Mass/m     EA         BA/-zeta   EI        Cd     Ca    CdAx    CaAx
+(name)     (m)     (kg/m)     (N)        (N-s/-)    (N-m^2)   (-)    (-)   (-)     (-)
+wire       {d}    {mass}     {ea}   -1.0       {ei}  {cd}    {ca}   {cdax}   {caax}
+---------------------- POINTS --------------------------------
+ID    Attachment  X       Y     Z      Mass   Volume  CdA    Ca
+(#)   (-)         (m)     (m)   (m)    (kg)   (m^3)   (m^2)  (-)
+1     Fixed       0       0     -{depth}    0      0       0      0
+2     Coupled     {span}      0     0      0      0       0      0
+---------------------- LINES --------------------------------------
+ID   LineType   AttachA  AttachB  UnstrLen  NumSegs  Outputs
+(#)  (name)     (#)      (#)      (m)       (-)      (-)
+1    wire       1        2        {length}      {segs}       -
+---------------------- OPTIONS -----------------------------------------
+{dt}     dtM
+3.0e6    kbot
+3.0e5    cbot
+{depth}     WtrDpth
+{rho}     WtrDnsty
+9.81     g
+5.0      dtIC
+60.0     TmaxIC
+4.0      CdScaleIC
+0.001    threshIC
+------------------------- need this line --------------------------------------
+"""
+
+
+def surge(t):
+    """The fairlead's surge (m), ramped in smoothly over the first period."""
+    ramp = np.clip(t / PERIOD, 0.0, 1.0)
+    return AMPLITUDE * np.sin(OMEGA * t) * ramp * ramp * (3 - 2 * ramp)
+
+
+def harmonic(t, y) -> dict:
+    """Mean, first-harmonic amplitude and phase (rad) of y(t) over the last two periods."""
+    keep = t > T_END - 2 * PERIOD
+    fit = np.column_stack([np.ones(keep.sum()), np.cos(OMEGA * t[keep]), np.sin(OMEGA * t[keep])])
+    c = np.linalg.lstsq(fit, y[keep], rcond=None)[0]
+    return {"mean": float(c[0]), "amplitude": float(math.hypot(c[1], c[2])), "phase": float(math.atan2(c[2], c[1]))}
+
+
+def run_cosnet(n: int) -> dict:
+    from moorpy.Catenary import catenary
+    w = (RHO_S - SEA) * 9.81 * AREA
+    guess = catenary(SPAN, DEPTH, 47.0, E * AREA, w, CB=0.0, nNodes=n + 1, plots=1)[4]
+    net = cosnet.Net()
+    net.add_node((0.0, 0.0, -DEPTH), fixed=True)
+    fair = net.add_node((SPAN, 0.0, 0.0), mass=1.0, inertia=(0.1, 0.1, 0.1))
+    points = np.column_stack([guess["X"], np.zeros(n + 1), guess["Z"] - DEPTH])
+    line = net.add_line(net.nodes[0], fair, material=cosnet.Material(E=E, G=E / 2.6, density=RHO_S),
+                        section=cosnet.Circle(R), elements=n, points=points, rest_curvature=(0.0, 0.0, 0.0))
+
+    def seabed():
+        return cosnet.Obstacle("plane", point=(0.0, 0.0, -DEPTH - R), normal=(0.0, 0.0, 1.0),
+                               k=3e6 * 2 * R * line.length / n)
+    still = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(SEA, resistance=(40.0, 40.0), buoyancy=True,
+                                                                   surface=0.0),
+                                    seabed(), cosnet.Drive(fair, position={"rate": [0.0, 0.0, 0.0]})],
+                              fast_modes="auto")
+    still.run(until=8.0)
+    ts = np.arange(0.0, T_END + 1e-9, 0.05)
+    path = {"times": ts.tolist(), "values": [[float(surge(t)), 0.0, 0.0] for t in ts]}
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(SEA, drag=DRAG, added_mass=ADDED, buoyancy=True,
+                                                                 surface=0.0),
+                                  seabed(), cosnet.Drive(fair, position=path)], fast_modes="auto")
+    for mine, settled in zip(sim.state, still.state):
+        mine[...] = settled
+    sim.state.clock[0] = 0.0
+    out, wall = [], 0.0
+    while sim.time < T_END - 1e-9:
+        t0 = time.perf_counter()
+        sim.run(until=min(T_END, sim.time + 0.1))
+        wall += time.perf_counter() - t0
+        out.append([sim.time, *(-sim.reaction(fair)[0])])
+    o = np.array(out)
+    return {"code": "cosnet", "elements": n, "dt": sim.dt, "wall_per_simulated_s": wall / sim.time,
+            "H": harmonic(o[:, 0], o[:, 1]), "V": harmonic(o[:, 0], o[:, 3])}
+
+
+def run_moordyn(n: int, dt: float) -> dict:
+    import moordyn
+    text = MOORDYN_INPUT.format(d=2 * R, mass=RHO_S * AREA, ea=E * AREA, ei=E * math.pi * R ** 4 / 4,
+                                cd=DRAG[0], ca=ADDED[0], cdax=DRAG[1], caax=ADDED[1], depth=DEPTH, span=SPAN,
+                                length=47.0, segs=n, dt=dt, rho=SEA)
+    folder = Path(tempfile.mkdtemp())
+    (folder / "line.txt").write_text(text)
+    saved = os.dup(1)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)   # MoorDyn prints every step
+    try:
+        system = moordyn.Create(str(folder / "line.txt"))
+        moordyn.Init(system, np.array([SPAN, 0.0, 0.0]), np.zeros(3))
+        out, t, h = [], 0.0, 0.01
+        t0 = time.perf_counter()
+        while t < T_END - 1e-9:
+            x = np.array([SPAN + surge(t + h), 0.0, 0.0])
+            v = np.array([(surge(t + h + 1e-6) - surge(t + h - 1e-6)) / 2e-6, 0.0, 0.0])
+            f = moordyn.Step(system, x, v, t, h)
+            t += h
+            out.append([t, *(-np.asarray(f))])
+        wall = time.perf_counter() - t0
+        moordyn.Close(system)
+    finally:
+        os.dup2(saved, 1)
+    o = np.array(out)
+    return {"code": "MoorDyn", "elements": n, "dt": dt, "wall_per_simulated_s": wall / t,
+            "H": harmonic(o[:, 0], o[:, 1]), "V": harmonic(o[:, 0], o[:, 3])}
+
+
+def main():
+    runs = []
+    for n in (24, 48):
+        runs.append(run_cosnet(n))
+        runs.append(run_moordyn(n, 1e-4 * 24 / n))
+    rows = [[r["code"], r["elements"], r["dt"], r["wall_per_simulated_s"], r["H"]["mean"], r["H"]["amplitude"],
+             r["H"]["phase"], r["V"]["mean"], r["V"]["amplitude"], r["V"]["phase"]] for r in runs]
+    table("fairlead pull under a 1 m, 8 s surge", ["code", "elements", "dt (s)", "wall s per simulated s",
+                                                   "H mean (N)", "H amplitude (N)", "H phase", "V mean (N)",
+                                                   "V amplitude (N)", "V phase"], rows)
+    write_json(__file__, {"command": " ".join(["python", "bench/moordyn_compare.py", *sys.argv[1:]]), "runs": runs})
+
+
+if __name__ == "__main__":
+    main()
