@@ -106,7 +106,7 @@ def run_cosnet(n: int) -> dict:
         t0 = time.perf_counter()
         sim.run(until=min(T_END, sim.time + 0.1))
         wall += time.perf_counter() - t0
-        out.append([sim.time, *(-sim.reaction(fair)[0])])
+        out.append([sim.time, *sim.reaction(fair)[0]])   # what holds the fairlead: the line's pull on it, reversed
     o = np.array(out)
     return {"code": "cosnet", "elements": n, "dt": sim.dt, "wall_per_simulated_s": wall / sim.time,
             "H": harmonic(o[:, 0], o[:, 1]), "V": harmonic(o[:, 0], o[:, 3])}

@@ -252,7 +252,8 @@ def fluid_cost() -> str:
                   rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
 
-TABLES = {"fluid_cost": fluid_cost, "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
+TABLES = {"fluid_cost": fluid_cost,
+          "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
           "cosseratbench": cosseratbench}
