@@ -252,7 +252,17 @@ def fluid_cost() -> str:
                   rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
 
-TABLES = {"fluid_cost": fluid_cost,
+def moordyn() -> str:
+    d = _json("moordyn_compare.json")
+    rows = [[r["code"], str(r["elements"]), _g(r["dt"]), f"{r['wall_per_simulated_s']:.3g}",
+             f"{r['H']['mean']:.0f}", f"{r['H']['amplitude']:.0f}", f"{r['H']['phase']:.3f}",
+             f"{r['V']['mean']:.0f}", f"{r['V']['amplitude']:.0f}", f"{r['V']['phase']:.3f}"] for r in d["runs"]]
+    return _table(["code", "elements", "dt (s)", "wall s per simulated s", "H mean (N)", "H amplitude (N)",
+                   "H phase (rad)", "V mean (N)", "V amplitude (N)", "V phase (rad)"], rows) + measured_on(
+        d["machine"], f", one thread each, `{d['command']}`")
+
+
+TABLES = {"fluid_cost": fluid_cost, "moordyn": moordyn,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
