@@ -28,15 +28,24 @@ AMPLITUDE = (Key("times", floats, TIME, doc="abscissae of the amplitude table (i
              Key("phase", number, doc="phase of the harmonic factor (rad)"))
 
 
+def checked_table(owner, x, y, names=("times", "values")):
+    """(x, y) as float arrays of a table interpolated linearly over x (both empty when neither
+    is given), refused in one line naming ``owner`` unless both or neither are given, both
+    are 1-D, finite and of one length, and x increases strictly."""
+    xn, yn = names
+    if (x is None) != (y is None):
+        raise ValueError(f"{owner}: give both {xn} and {yn}")
+    a = np.zeros(0) if x is None else np.array(x, dtype=float)
+    b = np.zeros(0) if y is None else np.array(y, dtype=float)
+    if a.ndim != 1 or a.shape != b.shape or not np.all(np.isfinite(a)) or not np.all(np.isfinite(b)):
+        raise ValueError(f"{owner}: {xn} and {yn} must be 1-D finite arrays of equal length")
+    if a.size and np.any(np.diff(a) <= 0):
+        raise ValueError(f"{owner}: {xn} must increase strictly")
+    return a, b
+
+
 def _amplitude(owner, times, values, omega, phase):
-    if (times is None) != (values is None):
-        raise ValueError(f"{owner}: give both times and values for a tabulated amplitude")
-    t = np.zeros(0) if times is None else np.array(times, dtype=float)
-    v = np.zeros(0) if values is None else np.array(values, dtype=float)
-    if t.ndim != 1 or t.shape != v.shape or not np.all(np.isfinite(t)) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{owner}: times and values must be 1-D finite arrays of equal length")
-    if t.size and np.any(np.diff(t) <= 0):
-        raise ValueError(f"{owner}: times must increase strictly")
+    t, v = checked_table(owner, times, values)
     for name, x in (("omega", omega), ("phase", phase)):
         if not math.isfinite(float(x)):
             raise ValueError(f"{owner}: {name} must be finite, got {x}")

@@ -11,7 +11,7 @@ import numpy as np
 from . import checks
 from .contact import chosen_lines
 from .drives import Drive
-from .effects import Gravity
+from .effects import Gravity, checked_table
 from .kernels.fluid import LINEAR, MORISON, FluidParams
 from .registry import Binding, Effect, Key
 from .scene_values import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number, pair,
@@ -152,16 +152,9 @@ class Fluid(Effect):
 
     @staticmethod
     def _table(x, y, xname, yname):
-        if (x is None) != (y is None):
-            raise ValueError(f"Fluid: give both {xname} and {yname}")
-        if x is None:
-            return np.zeros(0), np.zeros(0)
-        a, b = np.array(x, dtype=float), np.array(y, dtype=float)
-        if a.ndim != 1 or a.shape != b.shape or not a.size or not np.all(np.isfinite(a)) \
-                or not np.all(np.isfinite(b)):
-            raise ValueError(f"Fluid: {xname} and {yname} must be finite lists of equal length")
-        if np.any(np.diff(a) <= 0):
-            raise ValueError(f"Fluid: {xname} must increase strictly, got {a.tolist()}")
+        a, b = checked_table("Fluid", x, y, (xname, yname))
+        if x is not None and not a.size:
+            raise ValueError(f"Fluid: {xname} and {yname} must not be empty")
         return a, b
 
     @staticmethod
@@ -248,7 +241,7 @@ class Fluid(Effect):
                            power=np.array(self.power), times=tt.copy(), values=tv.copy(), wave_a=a.copy(),
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
                            wave_phase=ph.copy(), node_skip=skip,
-                           sample=np.zeros((13, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
+                           sample=np.zeros((14, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1))
 
     # ------------------------------------------------------------------ energy
@@ -266,21 +259,19 @@ class Fluid(Effect):
                 e -= p.buoyancy[j] * float(np.sum(m.element_rest_length[e0:e0 + hi - lo - 1]
                                                   * _mean_min(za, zb, p.surface)))
             if p.added_n[j] or p.added_t[j]:
-                for i in range(lo, hi):
-                    vel = v[i] if 0 < i - lo < hi - lo - 1 else None
-                    if vel is None:
-                        nd = m.attach_node[2 * l + (0 if i == lo else 1)]
-                        if not (m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0):
-                            continue
-                        vel = v[i]   # the line end moves with its node (placed)
-                    if x[i, 2] > p.surface + _eta(p, x[i], on.time):
-                        continue
-                    a, b = max(i - 1, lo), min(i + 1, hi - 1)
-                    t = (x[b] - x[a]) / max(float(np.linalg.norm(x[b] - x[a])), 1e-300)
-                    vt = float(vel @ t)
-                    vn2 = float(vel @ vel) - vt * vt
-                    lv = m.voronoi_rest_length[i]
-                    e += 0.5 * lv * (p.added_n[j] * vn2 + p.added_t[j] * vt * vt)
+                xs, vs = x[lo:hi], v[lo:hi]     # line ends placed on their nodes
+                k = np.arange(hi - lo)
+                chord = xs[np.minimum(k + 1, hi - lo - 1)] - xs[np.maximum(k - 1, 0)]
+                t = chord / np.maximum(np.linalg.norm(chord, axis=1), 1e-300)[:, None]
+                # einsum, not BLAS (see Gravity.potential)
+                vt = np.einsum("ij,ij->i", vs, t)
+                vn2 = np.einsum("ij,ij->i", vs, vs) - vt * vt
+                wet = xs[:, 2] <= p.surface + _eta(p, xs, on.time)
+                for i, end in ((0, 0), (-1, 1)):   # a line end counts with a node the medium moves
+                    nd = m.attach_node[2 * l + end]
+                    wet[i] &= bool(m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0)
+                e += 0.5 * float(np.sum(m.voronoi_rest_length[lo:hi] * wet
+                                        * (p.added_n[j] * vn2 + p.added_t[j] * vt * vt)))
         return e
 
     def exchange(self, p, on: Binding) -> float:
@@ -342,7 +333,7 @@ def _mean_min(za, zb, s):
     return np.where(cut, wet_mean, out)
 
 
-def _eta(p, x, t) -> float:
-    """The free surface's elevation above its still level at x, time t."""
-    th = p.wave_k * (x[0] * p.wave_cos + x[1] * p.wave_sin) - p.wave_w * t + p.wave_phase
-    return float(np.sum(p.wave_a * np.cos(th)))
+def _eta(p, x, t) -> np.ndarray:
+    """The free surface's elevation above its still level at the points x (n, 3), time t."""
+    th = p.wave_k * (x[:, :1] * p.wave_cos + x[:, 1:2] * p.wave_sin) - p.wave_w * t + p.wave_phase
+    return np.sum(p.wave_a * np.cos(th), axis=1)

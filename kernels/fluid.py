@@ -64,9 +64,9 @@ class FluidParams(NamedTuple):
     wave_sin: np.ndarray     # (nw,)
     wave_phase: np.ndarray   # (nw,)
     node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves to their drive
-    sample: np.ndarray       # (13, nv) scratch: at each vertex of the lines in the medium, as the kick's
-                             # first half flow found it: wet (1 or 0), U, A, tangent, then the force of
-                             # position and time on interior vertices (upthrust plus inertia force)
+    sample: np.ndarray       # (14, nv) scratch: at each vertex of the lines in the medium, as the kick's
+                             # first half flow found it: wet (1 or 0), U, A, tangent, then at interior
+                             # vertices the medium's inertia force (3) and the upthrust
     turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
@@ -155,6 +155,22 @@ def line_tangent(x, i, lo, hi):
 
 
 @njit(**CACHED, inline="always")
+def split(gn, gt, x, y, z, tx, ty, tz):
+    """Return gn (1 - t t^T) w + gt t t^T w for w = (x, y, z) and the unit tangent t: a vector
+    scaled by gn across the line and by gt along it (a drag, a mass, a force split by the
+    line's direction)."""
+    wt = x * tx + y * ty + z * tz
+    return gn * (x - wt * tx) + gt * wt * tx, gn * (y - wt * ty) + gt * wt * ty, gn * (z - wt * tz) + gt * wt * tz
+
+
+@njit(**CACHED, inline="always")
+def add_split(a, cn, dc, t):
+    """Return the symmetric matrix a (a00, a01, a02, a11, a12, a22) plus cn 1 + dc t t^T."""
+    return (a[0] + cn + dc * t[0] * t[0], a[1] + dc * t[0] * t[1], a[2] + dc * t[0] * t[2],
+            a[3] + cn + dc * t[1] * t[1], a[4] + dc * t[1] * t[2], a[5] + cn + dc * t[2] * t[2])
+
+
+@njit(**CACHED, inline="always")
 def still_medium(p):
     """Whether the medium is the same everywhere and always (a steady uniform current, no
     waves): then only the free surface decides where it acts."""
@@ -164,23 +180,19 @@ def still_medium(p):
 
 @njit(**INNER)
 def sample_forces(p, model, z, S, j, l):
-    """Update rows 10-12 of the sample (S, its rows) at the interior vertices of line l (row
-    j) by the force of position and time (vertex_force), given the heights z and rows 0-9."""
+    """Update rows 10-13 of the sample (S, its rows) at the interior vertices of line l (row
+    j) by the forces of position and time (vertex_force): the medium's inertia force and the
+    upthrust, given the heights z and rows 0-9."""
     vlen, elen = model.voronoi_rest_length, model.element_rest_length
     first = uint(model.line_vertex_offsets[l] + 1)
     e0 = uint(model.line_element_offsets[l])
     up, cn, ct, surface = p.buoyancy[j], p.inertia_n[j], p.inertia_t[j], p.surface
     for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
         i = first + uint(k)
-        lift = up * (elen[e0 + uint(k)] * wet_shares(z[i - uint(1)], z[i], surface)[1]
-                     + elen[e0 + uint(k + 1)] * wet_shares(z[i], z[i + uint(1)], surface)[0])
+        S[13][i] = up * (elen[e0 + uint(k)] * wet_shares(z[i - uint(1)], z[i], surface)[1]
+                         + elen[e0 + uint(k + 1)] * wet_shares(z[i], z[i + uint(1)], surface)[0])
         wl = S[0][i] * vlen[i]
-        tx, ty, tz = S[7][i], S[8][i], S[9][i]
-        ax, ay, az = S[4][i], S[5][i], S[6][i]
-        a_t = ax * tx + ay * ty + az * tz
-        S[10][i] = wl * (cn * (ax - a_t * tx) + ct * a_t * tx)
-        S[11][i] = wl * (cn * (ay - a_t * ty) + ct * a_t * ty)
-        S[12][i] = wl * (cn * (az - a_t * tz) + ct * a_t * tz) + lift
+        S[10][i], S[11][i], S[12][i] = split(wl * cn, wl * ct, S[4][i], S[5][i], S[6][i], S[7][i], S[8][i], S[9][i])
 
 
 @njit(**INNER)
@@ -262,7 +274,7 @@ def solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
 
 
 @njit(**INNER)
-def vertex_force(p, model, state, j, l, i, lo, hi, t, tan, wet, acc):
+def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
     """Return the force of position and time on vertex i (line l, row j): its share of the
     upthrust of the elements beside it, and the medium's inertia force l_i (rho A (1 + C_a))
     A split along the tangent (the latter where the vertex is wet), each a 3-tuple."""
@@ -275,15 +287,9 @@ def vertex_force(p, model, state, j, l, i, lo, hi, t, tan, wet, acc):
         if i < hi - 1:
             up += model.element_rest_length[e0] * wet_shares(x[i, 2], x[i + 1, 2], p.surface)[0]
         up *= p.buoyancy[j]
-    fx = fy = fz = 0.0
-    if wet and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):
-        lv = model.voronoi_rest_length[i]
-        at = acc[0] * tan[0] + acc[1] * tan[1] + acc[2] * tan[2]
-        cn, ct = lv * p.inertia_n[j], lv * p.inertia_t[j]
-        fx = cn * (acc[0] - at * tan[0]) + ct * at * tan[0]
-        fy = cn * (acc[1] - at * tan[1]) + ct * at * tan[1]
-        fz = cn * (acc[2] - at * tan[2]) + ct * at * tan[2]
-    return (0.0, 0.0, up), (fx, fy, fz)
+    wl = model.voronoi_rest_length[i] if wet else 0.0
+    return (0.0, 0.0, up), split(wl * p.inertia_n[j], wl * p.inertia_t[j], acc[0], acc[1], acc[2], tan[0], tan[1],
+                                 tan[2])
 
 
 @njit(**INNER)
@@ -300,21 +306,13 @@ def push_vertices(p, model, state, h):
         if l < 0 or l >= nl or (p.buoyancy[j] == 0.0 and p.inertia_n[j] == 0.0 and p.inertia_t[j] == 0.0):
             continue
         first = uint(model.line_vertex_offsets[l] + 1)
-        cn, ct, an, at = h * p.inertia_n[j], h * p.inertia_t[j], p.added_n[j], p.added_t[j]
+        an, at = p.added_n[j], p.added_t[j]
         for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
             i = first + uint(k)
-            wl = S[0][i] * vlen[i]
-            tx, ty, tz = S[7][i], S[8][i], S[9][i]
-            jx, jy, jz = h * S[10][i], h * S[11][i], h * S[12][i]
-            m = vmass[i]
-            jt = jx * tx + jy * ty + jz * tz
-            gn, gt = 1.0 / (m + wl * an), jt / (m + wl * at)
-            dx, dy, dz = gn * (jx - jt * tx) + gt * tx, gn * (jy - jt * ty) + gt * ty, gn * (jz - jt * tz) + gt * tz
-            ax, ay, az = S[4][i], S[5][i], S[6][i]
-            a_t = ax * tx + ay * ty + az * tz
-            ix = wl * (cn * (ax - a_t * tx) + ct * a_t * tx)     # of it, the inertia force's
-            iy = wl * (cn * (ay - a_t * ty) + ct * a_t * ty)
-            iz = wl * (cn * (az - a_t * tz) + ct * a_t * tz)
+            wl, m = S[0][i] * vlen[i], vmass[i]
+            ix, iy, iz = h * S[10][i], h * S[11][i], h * S[12][i]     # the inertia force's impulse
+            dx, dy, dz = split(1.0 / (m + wl * an), 1.0 / (m + wl * at), ix, iy, iz + h * S[13][i],
+                               S[7][i], S[8][i], S[9][i])
             supplied += ix * (v[0][i] + 0.5 * dx) + iy * (v[1][i] + 0.5 * dy) + iz * (v[2][i] + 0.5 * dz)
             v[0][i] += dx
             v[1][i] += dy
@@ -325,7 +323,7 @@ def push_vertices(p, model, state, h):
 @njit(**CACHED, inline="always")
 def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
     """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
-    drag_vertices) given the sample rows S (10-tuple), the Voronoi lengths and vertex masses;
+    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses;
     return the energy it dissipated and the work the medium supplied."""
     lv, m = vlen[i], vmass[i]
     mn, mt = m + lv * an, m + lv * at
@@ -351,7 +349,7 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
 def sample_rows(p):
     """The rows of p.sample as contiguous 1-D views."""
     S = p.sample
-    return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12]
+    return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12], S[13]
 
 
 @njit(**INNER)
@@ -388,7 +386,7 @@ def drag_vertices(p, model, state, h):
 
 
 @njit(**INNER)
-def node_end(p, model, state, a, t):
+def node_end(p, model, state, a):
     """Return (row, wet, r, tan, lv, U, A) of line end a of a node: the row of its line (-1:
     not in the medium), whether it is wet, its lab offset r from the node's centre of mass,
     its tangent, Voronoi length, and the medium's velocity and acceleration there."""
@@ -403,23 +401,16 @@ def node_end(p, model, state, a, t):
 
 
 @njit(**INNER)
-def node_mass_matrix(p, model, state, nd, t):
+def node_mass_matrix(p, model, state, nd):
     """Return the symmetric node mass matrix (a00, a01, a02, a11, a12, a22): its composite
     mass plus the added mass of its wet line ends."""
     m = model.node_mass[nd]
-    a00, a01, a02, a11, a12, a22 = m, 0.0, 0.0, m, 0.0, m
+    a = (m, 0.0, 0.0, m, 0.0, m)
     for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-        j, wet, _, tan, lv, _, _ = node_end(p, model, state, model.node_attach_list[s], t)
-        if not wet:
-            continue
-        an, d = lv * p.added_n[j], lv * (p.added_t[j] - p.added_n[j])
-        a00 += an + d * tan[0] * tan[0]
-        a01 += d * tan[0] * tan[1]
-        a02 += d * tan[0] * tan[2]
-        a11 += an + d * tan[1] * tan[1]
-        a12 += d * tan[1] * tan[2]
-        a22 += an + d * tan[2] * tan[2]
-    return a00, a01, a02, a11, a12, a22
+        j, wet, _, tan, lv, _, _ = node_end(p, model, state, model.node_attach_list[s])
+        if wet:
+            a = add_split(a, lv * p.added_n[j], lv * (p.added_t[j] - p.added_n[j]), tan)
+    return a
 
 
 @njit(**CACHED, inline="always")
@@ -455,7 +446,6 @@ def push_nodes(p, model, state, h):
     """Update the free nodes' velocities and angular velocities by the impulse h of the forces
     of position and time on their line ends (through the added mass; the torque about the
     centre of mass); p.supplied by the inertia force's work."""
-    t = state.clock[0]
     supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
@@ -463,12 +453,12 @@ def push_nodes(p, model, state, h):
         fx = fy = fz = ix = iy = iz = tx = ty = tz = 0.0
         for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
             a = model.node_attach_list[s]
-            j, wet, r, tan, _, _, acc = node_end(p, model, state, a, t)
+            j, wet, r, tan, _, _, acc = node_end(p, model, state, a)
             if j < 0:
                 continue
             l = a // 2
             lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-            fb, fi = vertex_force(p, model, state, j, l, model.attach_vertex[a], lo, hi, t, tan, wet, acc)
+            fb, fi = vertex_force(p, model, state, j, l, model.attach_vertex[a], lo, hi, tan, wet, acc)
             gx, gy, gz = fb[0] + fi[0], fb[1] + fi[1], fb[2] + fi[2]
             fx, fy, fz = fx + gx, fy + gy, fz + gz
             ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
@@ -476,7 +466,7 @@ def push_nodes(p, model, state, h):
             tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
         if fx == 0.0 and fy == 0.0 and fz == 0.0 and tx == 0.0 and ty == 0.0 and tz == 0.0:
             continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd, t)
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
         dv = solve_sym3(a00, a01, a02, a11, a12, a22, h * fx, h * fy, h * fz)
         vn = state.node_v[nd]
         supplied += h * (ix * (vn[0] + 0.5 * dv[0]) + iy * (vn[1] + 0.5 * dv[1]) + iz * (vn[2] + 0.5 * dv[2]))
@@ -505,17 +495,17 @@ def drag_nodes(p, model, state, h):
     wet line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
     step's start, M the mass with the added mass), and their angular velocities by the drag's
     torque about the centre of mass at v'; p.dissipated and p.supplied by its work."""
-    t = state.clock[0]
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
         w = node_spin(state, nd)
         vn = state.node_v[nd]
-        d00 = d01 = d02 = d11 = d12 = d22 = b0 = b1 = b2 = 0.0
+        d = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        b0 = b1 = b2 = 0.0
         touched = False
         for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s], t)
+            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s])
             if not wet:
                 continue
             spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
@@ -524,36 +514,28 @@ def drag_nodes(p, model, state, h):
             if cn == 0.0 and dc == 0.0:
                 continue
             touched = True
-            gt = gx * tan[0] + gy * tan[1] + gz * tan[2]
-            d00 += cn + dc * tan[0] * tan[0]
-            d01 += dc * tan[0] * tan[1]
-            d02 += dc * tan[0] * tan[2]
-            d11 += cn + dc * tan[1] * tan[1]
-            d12 += dc * tan[1] * tan[2]
-            d22 += cn + dc * tan[2] * tan[2]
-            b0 += cn * gx + dc * gt * tan[0]
-            b1 += cn * gy + dc * gt * tan[1]
-            b2 += cn * gz + dc * gt * tan[2]
+            d = add_split(d, cn, dc, tan)
+            g = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
+            b0, b1, b2 = b0 + g[0], b1 + g[1], b2 + g[2]
         if not touched:
             continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd, t)
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
         r0 = a00 * vn[0] + a01 * vn[1] + a02 * vn[2] + h * b0
         r1 = a01 * vn[0] + a11 * vn[1] + a12 * vn[2] + h * b1
         r2 = a02 * vn[0] + a12 * vn[1] + a22 * vn[2] + h * b2
-        v1 = solve_sym3(a00 + h * d00, a01 + h * d01, a02 + h * d02, a11 + h * d11, a12 + h * d12,
-                        a22 + h * d22, r0, r1, r2)
+        v1 = solve_sym3(a00 + h * d[0], a01 + h * d[1], a02 + h * d[2], a11 + h * d[3], a12 + h * d[4],
+                        a22 + h * d[5], r0, r1, r2)
         # the drag's torque and the medium's work, at the new velocity
         tx = ty = tz = given = 0.0
         for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s], t)
+            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s])
             if not wet:
                 continue
             spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
             ux, uy, uz = v1[0] + spin[0] - um[0], v1[1] + spin[1] - um[1], v1[2] + spin[2] - um[2]
             cn, dc = end_drag(p, j, tan, lv, vn[0] + spin[0] - um[0], vn[1] + spin[1] - um[1],
                               vn[2] + spin[2] - um[2])
-            ut = ux * tan[0] + uy * tan[1] + uz * tan[2]
-            fx, fy, fz = -(cn * ux + dc * ut * tan[0]), -(cn * uy + dc * ut * tan[1]), -(cn * uz + dc * ut * tan[2])
+            fx, fy, fz = split(-cn, -cn - dc, ux, uy, uz, tan[0], tan[1], tan[2])
             given += h * (fx * um[0] + fy * um[1] + fz * um[2])
             c = cross(r[0], r[1], r[2], fx, fy, fz)
             tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
@@ -598,7 +580,6 @@ def add_fluid_mass(p, model, state, loads):
     """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
     so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
     parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
-    t = state.clock[0]
     f, S = columns(loads.f), sample_rows(p)
     vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
@@ -611,17 +592,12 @@ def add_fluid_mass(p, model, state, loads):
         for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
             i = first + uint(k)   # branch-free: a dry vertex keeps m
             m, wl = vmass[i], S[0][i] * vlen[i]
-            tx, ty, tz = S[7][i], S[8][i], S[9][i]
-            fx, fy, fz = f[0][i], f[1][i], f[2][i]
-            ft = fx * tx + fy * ty + fz * tz
-            gn, gt = m / (m + wl * an), m / (m + wl * at) * ft
-            f[0][i] = gn * (fx - ft * tx) + gt * tx
-            f[1][i] = gn * (fy - ft * ty) + gt * ty
-            f[2][i] = gn * (fz - ft * tz) + gt * tz
+            f[0][i], f[1][i], f[2][i] = split(m / (m + wl * an), m / (m + wl * at), f[0][i], f[1][i], f[2][i],
+                                              S[7][i], S[8][i], S[9][i])
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd, t)
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
         m = model.node_mass[nd]
         if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
             continue
