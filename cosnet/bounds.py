@@ -22,6 +22,7 @@ from .kernels.effects import GravityParams, LineLoadParams, NodeLoadParams
 from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
 from .kernels.obstacles import ObstacleParams
 from .kernels.active import MuscleTorqueParams
+from .kernels.fluid import FluidParams
 
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
@@ -198,6 +199,17 @@ def _muscle_error(p, nl):
                                                                               p.amplitude.shape[0])
 
 
+def _fluid_error(p, model):
+    nl, nn, nv = model.line_vertex_offsets.shape[0] - 1, model.node_mass.shape[0], model.vertex_mass.shape[0]
+    k = p.lines.shape[0]
+    rows = ("drag_n", "drag_t", "added_n", "added_t", "inertia_n", "inertia_t", "buoyancy")
+    if any(getattr(p, name).shape != (k,) for name in rows):
+        return f"fluid: {', '.join(rows)} need one entry per line of fluid.lines"
+    if p.line_row.shape != (nl,) or p.node_skip.shape != (nn,) or p.sample.shape != (14, nv):
+        return "fluid: line_row needs one entry per line, node_skip one per node, sample 14 rows of one per vertex"
+    return _index_error("fluid.lines", p.lines, nl) or _index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
+
+
 def params_error(params, model):
     """Return what is wrong with the tables of the built-in effects' records, or None
     (records of other effects are their own kernels' business)."""
@@ -220,6 +232,8 @@ def params_error(params, model):
             problem = _body_error(p, model)
         elif isinstance(p, MuscleTorqueParams):
             problem = _muscle_error(p, nl)
+        elif isinstance(p, FluidParams):
+            problem = _fluid_error(p, model)
         if problem:
             return problem
     return None

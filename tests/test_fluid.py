@@ -195,6 +195,20 @@ def test_bad_values_are_refused_in_one_line(kwargs, words):
     assert words in str(e.value) and "\n" not in str(e.value)
 
 
+@pytest.mark.parametrize("spoil, message", [
+    (lambda p: p.lines.__setitem__(0, 7), "fluid.lines holds 7"),
+    (lambda p: p.line_row.__setitem__(0, 3), "fluid.line_row holds 3"),
+])
+def test_spoilt_fluid_tables_are_refused_before_a_run(spoil, message):
+    net, _, _ = rod(((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)), 2000.0, elements=2)
+    fluid = cosnet.Fluid(RHO, drag=(1.2, 0.1))
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    spoil(fluid.params(sim))
+    with pytest.raises(ValueError, match="^Simulation.run: " + message):
+        sim.run(steps=1)
+    assert sim.steps == 0
+
+
 def test_buoyancy_needs_gravity_pointing_down():
     net, _, _ = rod(((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)), 2000.0, elements=2)
     with pytest.raises(ValueError, match="along -z"):
