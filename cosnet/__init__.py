@@ -23,6 +23,8 @@ from .scene import RunSettings, Scene, build_scene, load_scene
 from .sweep import sweep
 from .drives import Path
 from .fluid import resistive_coefficients, wave_number
+from .articulation import Ball, Hinge, Universal
+from .articulations import joint_state
 
 # every effect cosnet declares is exported under its class name (cosnet.Gravity, ...)
 _EFFECTS = {cls.__name__: cls for cls in builtin_effects().values()}
@@ -35,5 +37,5 @@ __all__ = [
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",
-    "sweep", "Path", "resistive_coefficients", "wave_number",
+    "sweep", "Path", "resistive_coefficients", "wave_number", "Ball", "Hinge", "Universal", "joint_state",
 ]

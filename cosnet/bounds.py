@@ -23,6 +23,7 @@ from .kernels.joints import FixedJointParams, HingeJointParams, SphericalJointPa
 from .kernels.obstacles import ObstacleParams
 from .kernels.active import MuscleTorqueParams
 from .kernels.fluid import FluidParams
+from .kernels.articulation import ArticulationParams
 
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
@@ -210,6 +211,15 @@ def _fluid_error(p, model):
     return _index_error("fluid.lines", p.lines, nl) or _index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
 
 
+def _articulation_error(p, model):
+    k, na = p.attach.shape[0], model.attach_node.shape[0]
+    if any(a.shape[0] != k for a in p[1:-2]) or p.last.shape != (1,) or p.dissipated.shape != (1,):
+        return "joints: every table needs one row per articulated line end"
+    if np.any((p.dofs < 1) | (p.dofs > 3)):
+        return "joints: dofs must be 1 (hinge), 2 (universal) or 3 (ball)"
+    return _index_error("joints.attach", p.attach, na)
+
+
 def params_error(params, model):
     """Return what is wrong with the tables of the built-in effects' records, or None
     (records of other effects are their own kernels' business)."""
@@ -234,6 +244,8 @@ def params_error(params, model):
             problem = _muscle_error(p, nl)
         elif isinstance(p, FluidParams):
             problem = _fluid_error(p, model)
+        elif isinstance(p, ArticulationParams):
+            problem = _articulation_error(p, model)
         if problem:
             return problem
     return None

@@ -46,6 +46,7 @@ class LineGrid:
     end_frames: tuple      # (D_start, D_end): line-end director frames in the lab (principal)
     element_mass: np.ndarray  # (n,) rho A l
     factors: Factors = field(default_factory=Factors)  # the line's fast-modes treatment
+    held_bend: np.ndarray | None = None  # (2, 3) B at the boundary points of a jointed line (see flatten)
 
 
 def _sections_at(line: Line, s: np.ndarray) -> tuple[list, np.ndarray]:
@@ -220,6 +221,12 @@ def flatten(net: Net, fast_modes: str = "resolve", load: float = 0.0,
     for line, g in zip(net.lines, grids):
         g.factors = line_factors(line, g, fast_modes, load)
         apply_factors(g, g.factors)
+        # a jointed end's boundary point bends between the joint's frame and the end element:
+        # the model holds no stiffness there, the joints' effect holds it (cosnet.articulations)
+        g.held_bend = g.bend[[0, -1]].copy()
+        for k, joint in ((0, line.start_joint), (-1, line.end_joint)):
+            if joint is not None:
+                g.bend[k] = 0.0
     nl, nn = len(net.lines), len(net.nodes)
     nverts = np.array([g.x.shape[0] for g in grids], dtype=np.int64)
     vo = np.concatenate([[0], np.cumsum(nverts)]).astype(np.int64)

@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 from collections.abc import Callable
 
 import numpy as np
 
+from .articulation import joint_value
 from .fast_modes import fast_modes_value
 from .materials import Material, Section, rotary_inertia_scale_value, rotary_inertia_triple
 from .rotmath import frame_from_tangent as frame_from_tangent  # kept importable from cosnet.net
@@ -89,6 +91,8 @@ class Line:
     rotary_inertia: tuple | None = None     # per length (kg m), principal axes; None: the section's
     rotary_inertia_scale: float | str = 1.0  # >= 1 or "auto"
     fast_modes: str | None = None           # None: the simulation's setting
+    start_joint: Any = None                 # a cosnet.articulation.Joint; None: welded to the node
+    end_joint: Any = None
 
     def section_at(self, s: float) -> Section:
         """The cross-section at the fraction s in [0, 1] of the line's arc length."""
@@ -205,7 +209,8 @@ class Net:
                  elements: int, start_offset=(0.0, 0.0, 0.0), end_offset=(0.0, 0.0, 0.0),
                  start_frame=None, end_frame=None, rest_curvature=None, points=None,
                  d1=None, name: str | None = None, rotary_inertia=None,
-                 rotary_inertia_scale=1.0, fast_modes: str | None = None) -> Line:
+                 rotary_inertia_scale=1.0, fast_modes: str | None = None, start_joint=None,
+                 end_joint=None) -> Line:
         """Add a line from ``start`` to ``end`` (Omega = -1 at start, +1 at end).
 
         material, section: a Material and a Section (or a callable s -> Section, s in [0, 1],
@@ -228,8 +233,11 @@ class Net:
             (see docs/fast_modes.md).
         fast_modes: this line's treatment of its fast modes, overriding the simulation's
             (one of cosnet.fast_modes.FAST_MODES; None: the simulation's).
+        start_joint, end_joint: how the line's end turns at its node: None (welded, the
+            default), or a cosnet.Hinge, Universal or Ball (cosnet.articulation, §8).
         """
         idx, name, who, names = self._new_name(self.lines, "line", name)
+        joints = [joint_value(f"{who}: {role}_joint", j) for role, j in (("start", start_joint), ("end", end_joint))]
         for role, node in (("start", start), ("end", end)):
             if not isinstance(node, Node) or node.index >= len(self.nodes) or self.nodes[node.index] is not node:
                 raise ValueError(f"{who}: unknown {role} node {node!r} (not a node of this net)")
@@ -263,7 +271,7 @@ class Net:
         else:
             pts = self._polyline(who, points, p0, p1, elements)
         line = Line(idx, start, end, material, section, elements, xs, xe, Xs, Xe,
-                    rest_curvature, pts, d1v, name, rot, rot_scale, fast)
+                    rest_curvature, pts, d1v, name, rot, rot_scale, fast, *joints)
         self._check_sections(line)
         for k in range(elements):
             t = pts[k + 1] - pts[k]

@@ -134,6 +134,12 @@ class Effect:
         lengthens the stable step; None when it adds none."""
         return None
 
+    def held_stiffness(self, p, on: Binding):
+        """(points, B): Voronoi points whose bending and twisting stiffness B (k, 3) record
+        ``p`` holds in place of the model (an articulated line end's), which the stable step
+        then counts as the model's; None when it holds none."""
+        return None
+
     def dissipated(self, sim) -> float:
         """Energy (J) this effect has taken out of the net so far, part of sim.dissipated()
         (0 for effects that keep no such account)."""

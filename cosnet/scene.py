@@ -47,6 +47,7 @@ import numpy as np
 from . import materials as M
 from .fast_modes import FAST_MODES
 from .limits import check_elements
+from .articulation import JOINTS
 from .net import Net
 from .rotmath import frame_from_tangent
 from .record import Probe, parse_probe
@@ -134,7 +135,7 @@ def _inertia(v):
 def _line(t: Table, net: Net, name: str, materials, sections):
     t.expect("start", "end", "material", "section", "elements", "start_offset", "end_offset",
              "rest_curvature", "d1", "start_frame", "end_frame", "points", "rotary_inertia",
-             "rotary_inertia_scale", "fast_modes")
+             "rotary_inertia_scale", "fast_modes", "start_joint", "end_joint")
     ends = []
     for role in ("start", "end"):
         ref = t.get(role, string)
@@ -163,12 +164,32 @@ def _line(t: Table, net: Net, name: str, materials, sections):
     kw["rotary_inertia"] = t.get("rotary_inertia", vec3, default=None)
     kw["rotary_inertia_scale"] = t.get("rotary_inertia_scale", _auto_or_number, default=1.0)
     kw["fast_modes"] = t.get("fast_modes", choice(*FAST_MODES), default=None)
+    for key in ("start_joint", "end_joint"):
+        kw[key] = _joint(t, key)
     t.done()
     for key in ("start_offset", "end_offset"):
         if kw[key] is None:
             kw[key] = (0.0, 0.0, 0.0)
     line = _wrap(t, "points", lambda: net.add_line(*ends, name=name, **kw))
     _check_first_frame(t, line)
+
+
+JOINT_KEYS = {"hinge": ("axis",), "universal": ("axes",), "ball": ()}
+
+
+def _joint(t: Table, key):
+    """The joint of an inline table ``{ kind = "hinge", axis = [...], ... }`` (None: welded);
+    its numbers are checked by the joint's constructor (cosnet.articulation)."""
+    sub = t.sub(key, optional=True)
+    if sub is None:
+        return None
+    kind = sub.get("kind", choice(*JOINTS))
+    own = JOINT_KEYS[kind]
+    common = ("stiffness", "rest", "damping", "friction") + (("limits",) if kind != "ball" else ())
+    sub.expect("kind", *own, *common)
+    kw = {k: sub.get(k, lambda v: v, default=None) for k in own + common}
+    sub.done()
+    return _wrap(sub, "kind", lambda: JOINTS[kind](**{k: v for k, v in kw.items() if v is not None}))
 
 
 def _check_first_frame(t: Table, line):

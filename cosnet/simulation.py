@@ -15,6 +15,7 @@ from . import checkpoint, measure
 from . import fast_modes as _fast
 from .checkpoint import fingerprint
 from .active import ActiveCurvature, MuscleTorque
+from .articulations import articulations
 from .drives import Drive
 from .registry import Binding, Effect
 from .flatten import flatten
@@ -126,6 +127,9 @@ class Simulation:
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
+        joints = articulations(net, self.grids)
+        if joints is not None:
+            self.effects.append(joints)
         on = Binding(net, self.model, self.state, tuple(self.effects))
         self._params, kernel_records = joined_records(self.effects, [e.bind(on) for e in self.effects])
         self._kernel_params = [p for _, p in kernel_records]   # what the kernels read
@@ -175,16 +179,23 @@ class Simulation:
         return self.safety * stability_interval(self.stepper) / math.sqrt(w2)
 
     def _inertial_model(self) -> Model:
-        """The model with the masses the kick divides by: each vertex's and node's own plus
-        the least added mass the effects give it (a submerged line's)."""
+        """The model the stable step is bounded on: with the masses the kick divides by (each
+        vertex's and node's own plus the least added mass the effects give it, a submerged
+        line's) and the bending stiffness effects hold in its place (an articulated end's)."""
         on = Binding(self.net, self.model, self.state, tuple(self.effects))
-        extra = [a for a in (e.added_mass(p, on) for e, p in zip(self.effects, self._params)) if a is not None]
-        if not extra:
-            return self.model
+        pairs = list(zip(self.effects, self._params))
+        extra = [a for a in (e.added_mass(p, on) for e, p in pairs) if a is not None]
+        held = [h for h in (e.held_stiffness(p, on) for e, p in pairs) if h is not None]
         m = self.model
-        vm = m.vertex_mass + sum(v for v, _ in extra)
-        nm = m.node_mass + sum(n for _, n in extra)
-        return m._replace(vertex_mass=vm, node_mass=nm)
+        if extra:
+            m = m._replace(vertex_mass=m.vertex_mass + sum(v for v, _ in extra),
+                           node_mass=m.node_mass + sum(n for _, n in extra))
+        if held:
+            bend = m.voronoi_stiffness.copy()
+            for points, b in held:
+                bend[points] = b
+            m = m._replace(voronoi_stiffness=bend)
+        return m
 
     def stiffest(self) -> str:
         """Where the highest frequency sits (for messages)."""

@@ -32,7 +32,7 @@ from .compose import flow_kernel, inertia_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
 from .layout import columns, uint
-from .rotations import cross, quat_rotate, quat_rotate_inv
+from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 
@@ -257,20 +257,6 @@ def wet_shares(za, zb, s):
     if za <= s:
         return tc - 0.5 * tc * tc, 0.5 * tc * tc
     return 0.5 * (1.0 - tc) * (1.0 - tc), 0.5 * (1.0 - tc * tc)
-
-
-@njit(**CACHED, inline="always")
-def solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
-    """Return x with A x = b for the symmetric positive definite A (Cramer's rule)."""
-    c00 = a11 * a22 - a12 * a12
-    c01 = a02 * a12 - a01 * a22
-    c02 = a01 * a12 - a02 * a11
-    c11 = a00 * a22 - a02 * a02
-    c12 = a01 * a02 - a00 * a12
-    c22 = a00 * a11 - a01 * a01
-    inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)
-    return ((c00 * b0 + c01 * b1 + c02 * b2) * inv, (c01 * b0 + c11 * b1 + c12 * b2) * inv,
-            (c02 * b0 + c12 * b1 + c22 * b2) * inv)
 
 
 @njit(**INNER)

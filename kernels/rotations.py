@@ -1,4 +1,4 @@
-"""Unit-quaternion algebra on scalars (no allocation).
+"""Unit-quaternion algebra, and the small linear algebra beside it, on scalars (no allocation).
 
 Convention: q = (w, x, y, z) maps body components to lab components, D = R(q) with columns
 d1 d2 d3 (2.16)-(2.19). A body-frame rotation vector phi updates q <- q * exp(phi), so the
@@ -174,3 +174,17 @@ def exp_rates(rx, ry, rz, dx, dy, dz, ex, ey, ez):
              ey + fa * uy + a * wy + fb * vy + b * (zy + yy),
              ez + fa * uz + a * wz + fb * vz + b * (zz + yz))
     return omega, alpha
+
+
+@njit(**OPTS, inline="always")
+def solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
+    """Return x with A x = b for the symmetric positive definite A (Cramer's rule)."""
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)
+    return ((c00 * b0 + c01 * b1 + c02 * b2) * inv, (c01 * b0 + c11 * b1 + c12 * b2) * inv,
+            (c02 * b0 + c12 * b1 + c22 * b2) * inv)

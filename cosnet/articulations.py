@@ -1,0 +1,107 @@
+"""The joints of a net in motion: the effect a Simulation adds when a line declares a joint.
+
+Its energy (the joints' springs and the bending of the articulated ends) is part of
+``sim.energy()``, what dampers and friction take part of ``sim.dissipated()``, and
+``joint_state(sim, line, end)`` reads a joint's angles, rates and reaction torque (the
+kernels: kernels/articulation.py; the joints: cosnet.articulation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kernels.articulation import ArticulationParams, articulation_energy
+from .registry import Binding, Effect
+from .rotmath import matrix_from_quat
+
+ENDS = ("start", "end")
+
+
+class Articulations(Effect):
+    """The articulated line ends of a net: each joint's coordinates settle where its loads
+    balance at every evaluation (kernels/articulation.py). ``ends``: (attachment, Joint,
+    bend) per articulated end, bend the (3,) bending and twisting stiffness of its boundary
+    Voronoi point, which the model no longer holds (cosnet.flatten)."""
+
+    record = ArticulationParams
+    adds_energy = False
+
+    def __init__(self, ends):
+        self.ends = list(ends)
+
+    def bind(self, on: Binding):
+        k = len(self.ends)
+        z = lambda: np.zeros((k, 3))
+        p = ArticulationParams(
+            attach=np.array([a for a, _, _ in self.ends], dtype=np.int64),
+            dofs=np.array([j.dofs for _, j, _ in self.ends], dtype=np.int64),
+            axis_a=z(), axis_b=z(), bend=np.array([b for _, _, b in self.ends], dtype=float).reshape(k, 3),
+            stiffness=z(), rest=z(), damping=z(), static=z(), kinetic=z(), lower=z(), upper=z(),
+            phi=z(), rate=z(), sliding=z(), reaction=z(), last=on.state.clock.copy(), dissipated=np.zeros(1))
+        m = on.model
+        for i, (a, joint, _) in enumerate(self.ends):
+            nd = m.attach_node[a]
+            # node body components -> principal -> the line end's frame X
+            to_end = matrix_from_quat(m.attach_frame[a]).T @ matrix_from_quat(m.node_principal[nd]).T
+            p.axis_a[i], p.axis_b[i] = joint.axes_in(to_end)
+            for name in ("stiffness", "rest", "damping", "static", "kinetic", "lower", "upper"):
+                getattr(p, name)[i] = getattr(joint, name)
+            p.phi[i] = np.clip(0.0, joint.lower, joint.upper)
+        return p
+
+    def potential(self, p, on: Binding) -> float:
+        """The joints' springs and the bending of the articulated ends' boundary points."""
+        return float(articulation_energy(p, on.model, on.state))
+
+    def exchange(self, p, on: Binding) -> float:
+        return abs(self.potential(p, on))
+
+    def held_stiffness(self, p, on: Binding):
+        return on.model.attach_vertex[p.attach], p.bend
+
+    def dissipated(self, sim) -> float:
+        """Energy the joints' dampers and friction have taken so far (J)."""
+        return float(self.params(sim).dissipated[0])
+
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"phi": p.phi, "rate": p.rate, "sliding": p.sliding, "reaction": p.reaction,
+                "last": p.last, "dissipated": p.dissipated}
+
+    def describe(self) -> str:
+        return f"Articulations({len(self.ends)} joints)"
+
+    def index(self, attach: int) -> int:
+        for i, (a, _, _) in enumerate(self.ends):
+            if a == attach:
+                return i
+        raise ValueError(f"line end {attach} has no joint")
+
+
+def articulations(net, grids) -> Articulations | None:
+    """The Articulations effect of the net's jointed line ends (None when every end is
+    welded), with each end's boundary stiffness as flatten found it (grid.held_bend)."""
+    ends = []
+    for line, g in zip(net.lines, grids):
+        for side, joint in enumerate((line.start_joint, line.end_joint)):
+            if joint is not None:
+                ends.append((2 * line.index + side, joint, g.held_bend[side]))
+    return Articulations(ends) if ends else None
+
+
+def joint_state(sim, line, end: str = "start") -> dict:
+    """The joint at ``end`` of ``line`` in ``sim`` as of the last evaluation of the loads:
+    "angle" and "rate" (per coordinate, rad and rad/s), "reaction" (the torque the line
+    exerts on the node through it, lab, N m) and "sliding" (per coordinate, bool)."""
+    sim.check_line(line, "joint_state")
+    if end not in ENDS:
+        raise ValueError(f"joint_state: end must be 'start' or 'end', got {end!r}")
+    joint = line.start_joint if end == "start" else line.end_joint
+    art = next((e for e in sim.effects if isinstance(e, Articulations)), None)
+    if joint is None or art is None:
+        raise ValueError(f"joint_state: the {end} of line {line.name!r} is welded (it declares no joint)")
+    p = art.params(sim)
+    i = art.index(2 * line.index + ENDS.index(end))
+    n = joint.dofs
+    return {"angle": p.phi[i, :n].copy(), "rate": p.rate[i, :n].copy(), "reaction": p.reaction[i].copy(),
+            "sliding": p.sliding[i, :n] != 0.0}

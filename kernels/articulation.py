@@ -1,0 +1,270 @@
+"""Articulated line ends: hinges, universal joints and ball joints at a node, exact (§8).
+
+A welded line end carries the node's frame D X (1.3). An articulated end carries the joint
+frame G = D X R(phi), whose rotation R relative to the node is restricted by the joint's kind
+to a subset of SO(3), given by its coordinates phi (rad):
+    hinge      R = exp(phi_0 a)                  a fixed in X
+    universal  R = exp(phi_0 a) exp(phi_1 b)     a fixed in X, b fixed in the joint frame
+    ball       R = exp(phi)                      phi a rotation vector, X's components
+so the constrained relative rotations hold to round-off whatever phi is. The boundary Voronoi
+point of the end (half an element, kernels/elastic.py) joins G, not D X, to the end element; the
+model holds no bending stiffness there (cosnet.flatten) and this effect carries it.
+
+The joint frame has no inertia of its own (the rotary inertia about the end belongs to the end
+element and the node, as at a weld), so at every evaluation of the loads phi is where the
+loads on it balance. With c_i the joint frame's body axis of coordinate i and tau_G the
+bending torque of the boundary point on G (3.22), the generalised torque
+    Q_i(phi) = c_i . tau_G - k_i (phi_i - phi0_i) - d_i (phi_i - phi_i^-) / dt
+(springs k, dampers d, phi^- the coordinates at the previous evaluation, dt before it) equals
+the friction torque: zero without friction, the kinetic torque against the motion while a
+coordinate slides; a coordinate sticks (phi_i = phi_i^-) while |Q_i(phi^-)| stays within the
+static torque (the kinetic one once sliding), and a limit holds phi_i in [lower_i, upper_i].
+Without dampers and friction phi minimises the boundary bending energy plus the springs', so
+the loads are the exact gradient of that energy minimised over the joint (the envelope
+theorem): the step stays variational, and a free axis adds no stiffness to it. The node
+receives the whole torque on G (the joint frame is in balance between the line and the node).
+
+phi is found by Newton's method with the Jacobian's leading term, c_i^T B c_k / L + (k_i +
+d_i / dt) delta_ik (B in G's components, L the boundary point's length), to round-off.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compiler import CACHED, INLINE
+from .compose import load_kernel
+from .elastic import bend_torques, end_frame
+from .rotations import cross, quat_exp, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, relative_rotation, \
+    solve_sym3
+
+HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
+NEWTON_STEPS = 40                  # at most; a balance converges in a few
+NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
+
+
+class ArticulationParams(NamedTuple):
+    """The articulated line ends of a net (k of them), their joints and their state."""
+
+    attach: np.ndarray      # (k,) int64 attachment (line end) of each joint
+    dofs: np.ndarray        # (k,) int64 HINGE, UNIVERSAL or BALL
+    axis_a: np.ndarray      # (k, 3) unit axis a in X (hinge, universal)
+    axis_b: np.ndarray      # (k, 3) unit axis b in the joint frame (universal)
+    bend: np.ndarray        # (k, 3) B = (E I1, E I2, G J) of the end's boundary Voronoi point (3.23)
+    stiffness: np.ndarray   # (k, 3) spring per coordinate (N m / rad)
+    rest: np.ndarray        # (k, 3) phi0 (rad)
+    damping: np.ndarray     # (k, 3) damper per coordinate (N m s / rad)
+    static: np.ndarray      # (k, 3) static friction torque (N m)
+    kinetic: np.ndarray     # (k, 3) kinetic friction torque (N m)
+    lower: np.ndarray       # (k, 3) limits (rad; -inf, +inf: none)
+    upper: np.ndarray       # (k, 3)
+    phi: np.ndarray         # (k, 3) coordinates at the last evaluation
+    rate: np.ndarray        # (k, 3) their rate over the last interval between evaluations (rad/s)
+    sliding: np.ndarray     # (k, 3) 1.0 while a coordinate slides against its friction
+    reaction: np.ndarray    # (k, 3) torque of the line on the node through the joint, lab
+    last: np.ndarray        # (1,) clock of the last evaluation
+    dissipated: np.ndarray  # (1,) energy the dampers and friction took (J)
+
+
+@njit(**INLINE)
+def ball_axis(p0, p1, p2, i):
+    """Return column i of the right Jacobian J_r(phi) = 1 - a [phi]x + b [phi]x^2 of exp
+    (a = (1 - cos t)/t^2, b = (t - sin t)/t^3, t = |phi|): the body axis turned by d phi_i."""
+    t2 = p0 * p0 + p1 * p1 + p2 * p2
+    if t2 < 0.01:
+        a = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 / 40320.0))
+        b = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
+    else:
+        t = math.sqrt(t2)
+        a = (1.0 - math.cos(t)) / t2
+        b = (t - math.sin(t)) / (t2 * t)
+    e0, e1, e2 = (1.0 if i == 0 else 0.0), (1.0 if i == 1 else 0.0), (1.0 if i == 2 else 0.0)
+    cx, cy, cz = cross(p0, p1, p2, e0, e1, e2)
+    dx, dy, dz = cross(p0, p1, p2, cx, cy, cz)
+    return e0 - a * cx + b * dx, e1 - a * cy + b * dy, e2 - a * cz + b * dz
+
+
+@njit(**INLINE)
+def joint_turn(p, j, phi):
+    """Return (R, c0, c1, c2): joint j's rotation relative to X (quaternion) at coordinates
+    phi (3-tuple) and the body axes of its coordinates in the joint frame ((0, 0, 0) for those
+    its kind lacks)."""
+    a, b, n = p.axis_a[j], p.axis_b[j], p.dofs[j]
+    zero = (0.0, 0.0, 0.0)
+    if n == HINGE:
+        return quat_exp(phi[0] * a[0], phi[0] * a[1], phi[0] * a[2]), (a[0], a[1], a[2]), zero, zero
+    if n == UNIVERSAL:
+        ra = quat_exp(phi[0] * a[0], phi[0] * a[1], phi[0] * a[2])
+        rb = quat_exp(phi[1] * b[0], phi[1] * b[1], phi[1] * b[2])
+        r = quat_mul(ra[0], ra[1], ra[2], ra[3], rb[0], rb[1], rb[2], rb[3])
+        return r, quat_rotate_inv(rb[0], rb[1], rb[2], rb[3], a[0], a[1], a[2]), (b[0], b[1], b[2]), zero
+    return (quat_exp(phi[0], phi[1], phi[2]), ball_axis(phi[0], phi[1], phi[2], 0),
+            ball_axis(phi[0], phi[1], phi[2], 1), ball_axis(phi[0], phi[1], phi[2], 2))
+
+
+@njit(**INLINE)
+def boundary_torques(p, j, model, state, r):
+    """Return (tau_G, tau_E, kappa, m, rel): the body torques of joint j's boundary Voronoi
+    point on the joint frame G = D X R and on the end element, its strain kappa = theta/L - u0,
+    its moment m = B kappa (3.22), and rel = G^T E (quaternion), given R (quaternion)."""
+    a = p.attach[j]
+    k, e = model.attach_vertex[a], model.attach_element[a]
+    f = end_frame(model, state, a)
+    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
+    q = state.q[e]
+    start = a % 2 == 0
+    if start:
+        tx, ty, tz, c = relative_rotation(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
+    else:
+        tx, ty, tz, c = relative_rotation(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
+    rel = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])[:4]
+    il, u0, bend = model.voronoi_inv_rest_length[k], model.voronoi_rest_curvature[k], p.bend[j]
+    kx, ky, kz = tx * il - u0[0], ty * il - u0[1], tz * il - u0[2]
+    mx, my, mz = bend[0] * kx, bend[1] * ky, bend[2] * kz
+    lx, ly, lz, rx, ry, rz = bend_torques(tx, ty, tz, c, mx, my, mz)
+    if start:
+        return (lx, ly, lz), (rx, ry, rz), (kx, ky, kz), (mx, my, mz), rel
+    return (rx, ry, rz), (lx, ly, lz), (kx, ky, kz), (mx, my, mz), rel
+
+
+@njit(**INLINE)
+def axis_stiffness(p, j, model, rel, ci, ck):
+    """Return c_i^T B c_k / L at joint j's boundary point, B taken in the element's principal
+    axes, c_i and c_k in the joint frame's (rel: G^T E, quaternion)."""
+    k = model.attach_vertex[p.attach[j]]
+    bend, il = p.bend[j], model.voronoi_inv_rest_length[k]
+    ui = quat_rotate_inv(rel[0], rel[1], rel[2], rel[3], ci[0], ci[1], ci[2])
+    uk = quat_rotate_inv(rel[0], rel[1], rel[2], rel[3], ck[0], ck[1], ck[2])
+    return il * (bend[0] * ui[0] * uk[0] + bend[1] * ui[1] * uk[1] + bend[2] * ui[2] * uk[2])
+
+
+@njit(**INLINE)
+def dot3(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(**INLINE)
+def start_motion(p, j, i, torque, prev, dt):
+    """Return (moves, friction) of coordinate i of joint j given the torque on its axis at
+    phi^- = prev (3-tuple): whether it may move in this evaluation, and the friction torque it
+    then meets (module docstring)."""
+    if i >= p.dofs[j]:
+        return False, 0.0
+    q0 = torque - p.stiffness[j, i] * (prev[i] - p.rest[j, i])
+    limit = p.kinetic[j, i] if p.sliding[j, i] != 0.0 else p.static[j, i]
+    held = p.damping[j, i] > 0.0 and not dt > 0.0   # a damper gives way only over time
+    if abs(q0) <= limit or held:
+        return False, 0.0
+    return True, math.copysign(p.kinetic[j, i], q0)
+
+
+@njit(**INLINE)
+def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, model):
+    """Return (Q_i - f_i, the Newton diagonal) of coordinate i of joint j (module docstring);
+    (0, 1) for a coordinate that does not move."""
+    if not moves:
+        return 0.0, 1.0
+    d = p.damping[j, i] * inv_dt
+    g = dot3(col, tau) - p.stiffness[j, i] * (phi - p.rest[j, i]) - d * (phi - prev) - fric
+    return g, axis_stiffness(p, j, model, rel, col, col) + p.stiffness[j, i] + d
+
+
+@njit(**INLINE)
+def coupling(p, j, model, rel, both, ci, ck):
+    """Return the Newton off-diagonal of two coordinates that both move (else 0)."""
+    return axis_stiffness(p, j, model, rel, ci, ck) if both else 0.0
+
+
+@njit(**INLINE)
+def clamp_step(p, j, i, moves, phi, step):
+    """Return coordinate i of joint j after a Newton step, within its limits (unchanged if it
+    does not move)."""
+    return min(max(phi + step, p.lower[j, i]), p.upper[j, i]) if moves else phi
+
+
+@njit(**INLINE)
+def settle_joint(p, j, model, state, dt):
+    """Return (phi, friction, moves) of joint j: its coordinates where its loads balance (the
+    module's equation) from phi^- = p.phi[j] after dt, the friction torque on each and whether
+    each moves (3-tuples)."""
+    prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
+    r, c0, c1, c2 = joint_turn(p, j, prev)
+    tau = boundary_torques(p, j, model, state, r)[0]
+    m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
+    m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
+    m2, f2 = start_motion(p, j, 2, dot3(c2, tau), prev, dt)
+    inv_dt = 1.0 / dt if dt > 0.0 else 0.0
+    phi = prev
+    for _ in range(NEWTON_STEPS):
+        r, c0, c1, c2 = joint_turn(p, j, phi)
+        tau, _, _, _, rel = boundary_torques(p, j, model, state, r)
+        g0, a00 = coordinate_balance(p, j, 0, m0, c0, tau, rel, phi[0], prev[0], f0, inv_dt, model)
+        g1, a11 = coordinate_balance(p, j, 1, m1, c1, tau, rel, phi[1], prev[1], f1, inv_dt, model)
+        g2, a22 = coordinate_balance(p, j, 2, m2, c2, tau, rel, phi[2], prev[2], f2, inv_dt, model)
+        a01 = coupling(p, j, model, rel, m0 and m1, c0, c1)
+        a02 = coupling(p, j, model, rel, m0 and m2, c0, c2)
+        a12 = coupling(p, j, model, rel, m1 and m2, c1, c2)
+        s = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
+        new = (clamp_step(p, j, 0, m0, phi[0], s[0]), clamp_step(p, j, 1, m1, phi[1], s[1]),
+               clamp_step(p, j, 2, m2, phi[2], s[2]))
+        size = max(abs(new[0] - phi[0]), abs(new[1] - phi[1]), abs(new[2] - phi[2]))
+        phi = new
+        if not size > NEWTON_TOL:   # (a NaN ends it too; the watch then reports it)
+            break
+    return phi, (f0, f1, f2), (m0, m1, m2)
+
+
+@load_kernel(ArticulationParams)
+@njit(**CACHED)
+def add_articulations(p, model, state, loads):
+    """Update loads.tau at the end elements and loads.end_tau at the articulated line ends
+    given the state: each joint settles where its loads balance (module docstring), then its
+    boundary Voronoi point bends between the joint frame and the end element (3.22)/(3.24);
+    p.phi, rate, sliding, reaction, last and dissipated follow."""
+    dt = state.clock[0] - p.last[0]
+    p.last[0] = state.clock[0]
+    spent = 0.0
+    for j in range(p.attach.shape[0]):
+        phi, fric, moves = settle_joint(p, j, model, state, dt)
+        r = joint_turn(p, j, phi)[0]
+        tau, te, _, _, _ = boundary_torques(p, j, model, state, r)
+        a = p.attach[j]
+        e = model.attach_element[a]
+        loads.tau[e, 0] += te[0]
+        loads.tau[e, 1] += te[1]
+        loads.tau[e, 2] += te[2]
+        tx, ty, tz = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
+        loads.end_tau[a, 0] += tx
+        loads.end_tau[a, 1] += ty
+        loads.end_tau[a, 2] += tz
+        f = end_frame(model, state, a)
+        p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = quat_rotate(f[0], f[1], f[2], f[3], tx, ty, tz)
+        for i in range(3):
+            turned = phi[i] - p.phi[j, i]
+            if moves[i] and dt > 0.0:
+                spent += p.damping[j, i] * turned * turned / dt
+            spent += abs(fric[i] * turned)
+            p.rate[j, i] = turned / dt if dt > 0.0 else 0.0
+            p.phi[j, i] = phi[i]
+            p.sliding[j, i] = 1.0 if moves[i] and fric[i] != 0.0 else 0.0
+    p.dissipated[0] += spent
+
+
+@njit(**CACHED)
+def articulation_energy(p, model, state):
+    """Return the bending energy of the articulated ends' boundary Voronoi points, L/2 kappa^T
+    B kappa, plus the joints' springs, k (phi - phi0)^2 / 2, with each joint settled as the
+    next evaluation of the loads will settle it (nothing is stored)."""
+    dt = state.clock[0] - p.last[0]
+    total = 0.0
+    for j in range(p.attach.shape[0]):
+        phi = settle_joint(p, j, model, state, dt)[0]
+        r = joint_turn(p, j, phi)[0]
+        _, _, kappa, m, _ = boundary_torques(p, j, model, state, r)
+        k = model.attach_vertex[p.attach[j]]
+        total += 0.5 * dot3(kappa, m) / model.voronoi_inv_rest_length[k]
+        for i in range(3):
+            total += 0.5 * p.stiffness[j, i] * (phi[i] - p.rest[j, i]) ** 2
+    return total

@@ -1,0 +1,323 @@
+"""Articulated line ends (§8): hinges, universal and ball joints, exact.
+
+A stiff arm on a free hinge swings as the compound pendulum of its masses (small amplitude and
+the elliptic-integral period at 90 degrees) and its hinge carries no moment about its axis; the
+energy error is Verlet's order 2 and the stable step is the welded arm's; a torsion spring's
+period, a friction hinge that holds below its static torque and turns above it with the
+energy it takes equal to the kinetic torque times the angle turned, a damper's energy, a
+Cardan joint's output angle tan(theta_2) = cos(beta) tan(theta_1), a ball joint that keeps
+the angular momentum about the vertical, checkpoints and bad input."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+import cosnet
+from cosnet.rotmath import matrix_from_quat
+
+G = 9.81
+STIFF = cosnet.Material(E=1e10, G=4e9, density=1000.0)
+SOFT = cosnet.Material(E=1e8, G=4e7, density=1000.0)
+SECTION = cosnet.Circle(0.02)
+Y = (0.0, 1.0, 0.0)
+
+
+def hanging_arm(alpha, joint, material=STIFF, n=10, g=G):
+    """A 1 m arm from a fixed pivot at the origin, at angle alpha from the downward vertical in
+    the x-z plane, its start on ``joint``, under gravity g. Returns (sim, line, tip node)."""
+    net = cosnet.Net()
+    pivot = net.add_node((0.0, 0.0, 0.0), fixed=True, name="pivot")
+    tip = net.add_node((math.sin(alpha), 0.0, -math.cos(alpha)), name="tip")
+    arm = net.add_line(pivot, tip, material=material, section=SECTION, elements=n, start_joint=joint, name="arm")
+    return cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, -g))]), arm, tip
+
+
+def pendulum_constants(sim):
+    """(I, m d): the moment of inertia about the pivot and the first moment of mass of the
+    arm as built (its vertex masses and rotary inertias: the rigid-body limit of the discrete
+    arm), pivot at the origin."""
+    m = sim.model
+    r = np.linalg.norm(sim.state.x, axis=1)
+    inertia = (m.vertex_mass * r ** 2).sum() + m.element_inertia[:, 0].sum() + m.node_inertia[1].min()
+    return inertia, (m.vertex_mass * r).sum()
+
+
+def record(sim, line, until, every=100, end="start"):
+    """(times, joint angles, reactions) sampled every ``every`` steps up to ``until``."""
+    t, phi, reaction = [sim.time], [0.0], [np.zeros(3)]
+    while sim.time < until:
+        sim.run(steps=every)
+        s = cosnet.joint_state(sim, line, end)
+        t.append(sim.time)
+        phi.append(s["angle"][0])
+        reaction.append(s["reaction"])
+    return np.array(t), np.array(phi), np.array(reaction)
+
+
+def crossings(t, y, level):
+    """Times where y crosses level, by linear interpolation between samples."""
+    d = y - level
+    i = np.flatnonzero(np.sign(d[1:]) != np.sign(d[:-1]))
+    i = i[d[i] != 0.0]
+    return t[i] - d[i] * (t[i + 1] - t[i]) / (d[i + 1] - d[i])
+
+
+@pytest.mark.parametrize("alpha", [0.05, math.pi / 2])
+def test_free_hinge_swings_as_a_compound_pendulum(alpha):
+    sim, arm, _ = hanging_arm(alpha, cosnet.Hinge(axis=Y))
+    inertia, md = pendulum_constants(sim)
+    small = 2.0 * math.pi * math.sqrt(inertia / (md * G))
+    expected = small if alpha < 0.1 else small * 2.0 / math.pi * ellipk(math.sin(alpha / 2.0) ** 2)
+    t, phi, reaction = record(sim, arm, 1.35 * expected)
+    down = crossings(t, phi, alpha)   # the arm passes the vertical at phi = alpha
+    assert down.size >= 3
+    assert abs((down[2] - down[0]) / expected - 1.0) < 5e-3
+    # a free hinge carries no moment about its axis: to the Newton tolerance of its balance
+    assert np.abs(reaction[:, 1]).max() < 1e-8 * md * G
+
+
+def test_hinge_energy_error_is_second_order():
+    errs = []
+    for refine in (1, 2):
+        sim, arm, _ = hanging_arm(math.pi / 2, cosnet.Hinge(axis=Y), material=SOFT)
+        dt = 0.5 * sim.dt / refine
+        sim = cosnet.Simulation(sim.net, [cosnet.Gravity((0.0, 0.0, -G))], dt=dt)
+        e0, worst = sim.energy(), 0.0
+        for _ in range(20):
+            sim.run(steps=200 * refine)
+            worst = max(worst, abs(sim.energy() - e0))
+        errs.append(worst)
+    assert 3.2 < errs[0] / errs[1] < 4.8, errs
+
+
+def test_free_hinge_keeps_the_welded_stable_step():
+    hinged, arm, _ = hanging_arm(0.3, cosnet.Hinge(axis=Y), material=SOFT)
+    welded = hanging_arm(0.3, None, material=SOFT)[0]
+    assert abs(hinged.stable_dt() / welded.stable_dt() - 1.0) < 0.05
+    # and the hinged arm is stable at that step (the watch raises on a blow-up)
+    free = cosnet.Simulation(hinged.net, [cosnet.Gravity((0.0, 0.0, -G))], safety=1.0)
+    e0 = free.energy()
+    free.run(steps=20000)
+    assert abs(free.energy() - e0) < 1e-3 * abs(e0)
+
+
+def test_torsion_spring_period():
+    k, disk, length, omega0 = 0.5, 0.01, 0.5, 0.1
+    net = cosnet.Net()
+    base = net.add_node((0.0, 0.0, 0.0), fixed=True)
+    top = net.add_node((0.0, 0.0, length), mass=2.0, inertia=(disk / 2, disk / 2, disk))
+    rod = net.add_line(base, top, material=STIFF, section=cosnet.Circle(0.01), elements=10,
+                       start_joint=cosnet.Hinge(axis=(0.0, 0.0, 1.0), stiffness=k))
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0))])
+    sim.line_angular_velocities(rod)[:] = (0.0, 0.0, omega0)   # body d3 is the rod's axis
+    sim.node_angular_velocity(top)[:] = matrix_from_quat(sim.state.node_q[top.index]).T @ [0.0, 0.0, omega0]
+    m = sim.model
+    turning = m.element_inertia[:, 2].sum() + sim.model.node_inertia[top.index].max()
+    gj = STIFF.G * cosnet.Circle(0.01).J
+    k_eff = 1.0 / (1.0 / k + length / gj)   # the spring in series with the rod's twist
+    expected = 2.0 * math.pi * math.sqrt(turning / k_eff)
+    t, phi, _ = record(sim, rod, 1.1 * expected)
+    zeros = crossings(t[1:], phi[1:], 0.0)
+    assert abs(zeros[1] / expected - 1.0) < 5e-3
+    assert abs(phi.max() / (omega0 * expected / (2 * math.pi)) - 1.0) < 1e-2
+
+
+def horizontal_arm(**joint):
+    sim, arm, tip = hanging_arm(math.pi / 2, cosnet.Hinge(axis=Y, **joint))
+    moment = G * (sim.model.vertex_mass * sim.state.x[:, 0]).sum()
+    return sim, arm, moment
+
+
+def test_friction_hinge_holds_below_its_static_torque():
+    sim, arm, moment = horizontal_arm()
+    # the arm released at rest bends and rings: its root moment reaches twice the static one
+    sim, arm, _ = horizontal_arm(friction=(2.5 * moment, 2.0 * moment))
+    t, phi, reaction = record(sim, arm, 0.1)
+    assert np.all(phi == 0.0)
+    assert not cosnet.joint_state(sim, arm)["sliding"][0]
+    assert sim.dissipated() == 0.0
+    assert np.abs(reaction[:, 1]).max() > moment   # the hinge carried the load
+
+
+def test_friction_hinge_turns_above_it_and_takes_kinetic_torque_times_angle():
+    _, _, moment = horizontal_arm()
+    kinetic = 0.4 * moment
+    sim, arm, _ = horizontal_arm(friction=(0.5 * moment, kinetic))
+    e0 = sim.energy()
+    t, phi, _ = record(sim, arm, 0.15)
+    turned = np.abs(np.diff(phi)).sum()
+    assert turned > 0.02 and np.all(np.diff(phi) >= 0.0)   # it falls, one way
+    assert abs(sim.dissipated() / (kinetic * turned) - 1.0) < 1e-2
+    assert abs(sim.energy() + sim.dissipated() - e0) < 1e-2 * sim.dissipated()
+
+
+def test_damped_hinge_energy_balance():
+    sim, arm, moment = horizontal_arm(damping=2.0)
+    e0 = sim.energy()
+    record(sim, arm, 0.15)
+    assert sim.dissipated() > 0.01 * moment   # the arm's weight times a tenth of its half length
+    assert abs(sim.energy() + sim.dissipated() - e0) < 1e-2 * sim.dissipated()
+
+
+def test_cardan_joint_output_angle():
+    beta, omega, length = 0.5, 2.0 * math.pi, 0.6
+    s = np.array([math.cos(beta), math.sin(beta), 0.0])
+    along_x = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])   # body z -> lab x
+    along_s = np.column_stack([np.cross([0.0, 0.0, 1.0], s), [0.0, 0.0, 1.0], s])
+    net = cosnet.Net()
+    # input on a flywheel; output on a bearing at its far end (both turn about their shaft only)
+    fly = net.add_node((-length, 0.0, 0.0), frame=along_x, mass=math.inf, inertia=(math.inf, math.inf, 1e4))
+    cross = net.add_node((0.0, 0.0, 0.0), frame=along_x, mass=math.inf, inertia=(math.inf, math.inf, 0.0))
+    out = net.add_node(length * s, frame=along_s, mass=math.inf, inertia=(math.inf, math.inf, 1e-4))
+    steel = cosnet.Material(E=2e11, G=8e10, density=7850.0)
+    shaft = cosnet.Circle(0.01)
+    net.add_line(fly, cross, material=steel, section=shaft, elements=6)
+    # the cross: one pin across both shafts' plane (the input's yoke), one across the output
+    yoke_a, yoke_b = np.array([0.0, 0.0, 1.0]), np.array([-math.sin(beta), math.cos(beta), 0.0])
+    net.add_line(cross, out, material=steel, section=shaft, elements=6, name="output",
+                 start_joint=cosnet.Universal(axes=(along_x.T @ yoke_a, along_x.T @ yoke_b)))   # node's frame
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0))])
+    # start on the kinematics: input at omega, output at omega cos(beta) (theta_1 = 0)
+    for line, rate in ((net.lines[0], omega), (net.lines[1], omega * math.cos(beta))):
+        sim.line_angular_velocities(line)[:] = (0.0, 0.0, rate)
+    for node, rate in ((fly, omega), (cross, omega), (out, omega * math.cos(beta))):
+        sim.node_angular_velocity(node)[:] = (0.0, 0.0, rate)
+
+    def turned(node, axis):
+        """Rotation angle of the node about its shaft axis since built."""
+        d = sim.node_rotation(node)
+        x0 = net.nodes[node.index].frame[:, 0]
+        return math.atan2(np.cross(x0, d[:, 0]) @ axis, x0 @ d[:, 0])
+
+    worst_angle, worst_rate = 0.0, 0.0
+    while sim.time < 0.2:
+        sim.run(steps=500)
+        t1, t2 = turned(fly, np.array([1.0, 0.0, 0.0])), turned(out, s)
+        worst_angle = max(worst_angle, abs(t2 - math.atan2(math.cos(beta) * math.sin(t1), math.cos(t1))))
+        ratio = sim.node_angular_velocity(out)[2] / sim.node_angular_velocity(fly)[2]
+        expected = math.cos(beta) / (1.0 - math.sin(beta) ** 2 * math.sin(t1) ** 2)
+        worst_rate = max(worst_rate, abs(ratio / expected - 1.0))
+    assert sim.time > 0.2 and turned(fly, np.array([1.0, 0.0, 0.0])) > 1.0
+    assert worst_angle < 1e-4       # rad: the shafts' twist under the output's small inertia
+    assert worst_rate < 1e-3
+
+
+def test_ball_joint_keeps_angular_momentum_about_the_vertical():
+    sim, arm, tip = hanging_arm(0.6, cosnet.Ball())
+    # set it turning about the vertical: a conical swing
+    spin = np.array([0.0, 0.0, 2.0])
+    sim.line_velocities(arm)[:] = np.cross(spin, sim.state.x[sim._vrange(arm)])
+    sim.node_velocity(tip)[:] = np.cross(spin, sim.state.node_x[tip.index])
+    for i, d in enumerate(sim.line_directors(arm)):
+        sim.line_angular_velocities(arm)[i] = d.T @ spin
+    lz0 = sim.angular_momentum()[2]
+    _, _, reaction = record(sim, arm, 0.3)
+    assert abs(sim.angular_momentum()[2] / lz0 - 1.0) < 1e-9
+    scale = pendulum_constants(sim)[1] * G
+    assert np.abs(reaction).max() < 1e-8 * scale    # a free ball joint passes no moment
+
+
+def test_checkpoint_carries_the_joint_state(tmp_path):
+    def sliding():
+        _, _, moment = horizontal_arm()
+        return horizontal_arm(friction=(0.5 * moment, 0.4 * moment), damping=0.5)
+    a, arm_a, _ = sliding()
+    a.run(steps=3000)
+    a.save_checkpoint(tmp_path / "c.npz")
+    a.run(steps=2000)
+    b, arm_b, _ = sliding()
+    b.load_checkpoint(tmp_path / "c.npz")
+    b.run(steps=2000)
+    assert np.array_equal(a.state.x, b.state.x)
+    assert cosnet.joint_state(a, arm_a)["angle"] == cosnet.joint_state(b, arm_b)["angle"]
+    assert a.dissipated() == b.dissipated()
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: cosnet.Hinge(axis=(0.0, 0.0, 0.0)), "Hinge: axis must be a nonzero 3-vector"),
+    (lambda: cosnet.Hinge(limits=(0.5, -0.5)), "Hinge: limits must have lower < upper"),
+    (lambda: cosnet.Hinge(limits=(0.2, 0.5)), "must hold the angle as built, 0"),
+    (lambda: cosnet.Hinge(friction=(-1.0, 0.0)), "Hinge: friction (static) must be a finite number >= 0"),
+    (lambda: cosnet.Hinge(friction=(1.0, 2.0)), "must not exceed the static one"),
+    (lambda: cosnet.Universal(axes=((1, 0, 0), (2, 0, 0))), "the two axes must not be parallel"),
+    (lambda: cosnet.Universal(stiffness=[1.0, 2.0, 3.0]), "stiffness must be a number or 2 numbers"),
+    (lambda: cosnet.Ball(limits=(-1, 1)), "limits are not offered for a ball joint"),
+])
+def test_bad_joints_are_refused_in_one_line(make, message):
+    with pytest.raises(ValueError, match=None) as err:
+        make()
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_line_end_takes_only_a_joint():
+    net = cosnet.Net()
+    a, b = net.add_node((0, 0, 0)), net.add_node((1, 0, 0))
+    with pytest.raises(ValueError, match="start_joint: must be a cosnet joint"):
+        net.add_line(a, b, material=STIFF, section=SECTION, elements=2, start_joint="hinge")
+
+
+def test_welded_end_has_no_joint_state():
+    sim, arm, _ = hanging_arm(0.2, None)
+    with pytest.raises(ValueError, match="is welded"):
+        cosnet.joint_state(sim, arm)
+
+
+def test_spoilt_joint_table_is_refused_in_one_line():
+    sim, arm, _ = hanging_arm(0.2, cosnet.Hinge(axis=Y))
+    sim.effect_params(sim.effects[-1]).attach[0] = 7
+    with pytest.raises(ValueError, match=r"joints.attach holds 7, outside \[0, 2\)"):
+        sim.run(steps=1)
+
+
+SCENE = """
+[materials.steel]
+E = 1e10
+G = 4e9
+density = 1000.0
+[sections.rod]
+kind = "circle"
+radius = 0.02
+[nodes.pivot]
+position = [0.0, 0.0, 0.0]
+fixed = true
+[nodes.tip]
+position = [1.0, 0.0, 0.0]
+[lines.arm]
+start = "pivot"
+end = "tip"
+material = "steel"
+section = "rod"
+elements = 10
+start_joint = { kind = "hinge", axis = [0.0, 1.0, 0.0], friction = [%s, 1.0] }
+[[effects]]
+kind = "gravity"
+[run]
+until = 0.01
+"""
+
+
+def test_scene_declares_a_joint_as_the_python_call(tmp_path):
+    path = tmp_path / "hinged.toml"
+    path.write_text(SCENE % "2.0")
+    scene = cosnet.load_scene(path)
+    arm = scene.net.lines[0]
+    assert isinstance(arm.start_joint, cosnet.Hinge) and arm.end_joint is None
+    assert arm.start_joint.axis.tolist() == [0.0, 1.0, 0.0] and arm.start_joint.static[0] == 2.0
+    sim = scene.simulation()
+    sim.run(steps=2000)
+    # the moment of the arm's weight (about 6 N m) is above the static torque: it turns
+    assert cosnet.joint_state(sim, arm)["angle"][0] > 0.0
+
+
+@pytest.mark.parametrize("friction, message", [
+    ("0.5", "[lines.arm.start_joint] friction: Hinge: the kinetic friction torque must not exceed the static one"),
+    ('"a"', "[lines.arm.start_joint] friction: Hinge: friction (static) must be a number"),
+])
+def test_scene_joint_errors_name_the_table_and_key(tmp_path, friction, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(SCENE % friction)
+    with pytest.raises(ValueError) as err:
+        cosnet.load_scene(path)
+    assert message in str(err.value) and "\n" not in str(err.value)
