@@ -89,6 +89,29 @@ def articulations(net, grids) -> Articulations | None:
     return Articulations(ends) if ends else None
 
 
+def condensed_bending(net, model, state, grids) -> list:
+    """[(point, S)]: at each articulated end's boundary Voronoi point, the 3x3 bending and
+    twisting stiffness (N m/rad, its strain theta's components) left when the joint's free
+    coordinates settle, S = B/L - (B/L) C (C^T (B/L) C + k)^-1 C^T (B/L), C the coordinates'
+    axes as built, k their springs (the linearisation of kernels/articulation.py about rest).
+    A coordinate held by static friction counts as welded (small motions do not slide it)."""
+    joints = articulations(net, grids)
+    if joints is None:
+        return []
+    p = joints.bind(Binding(net, model, state))
+    out = []
+    for j, a in enumerate(p.attach):
+        point = int(model.attach_vertex[a])
+        bend = np.diag(p.bend[j]) * model.voronoi_inv_rest_length[point]
+        n = int(p.dofs[j])
+        cols = np.eye(3) if n == 3 else np.column_stack([p.axis_a[j], p.axis_b[j]])[:, :n]
+        free = p.static[j, :n] == 0.0
+        c, k = cols[:, free], np.diag(p.stiffness[j, :n][free])
+        s = bend - bend @ c @ np.linalg.solve(c.T @ bend @ c + k, c.T @ bend) if c.size else bend
+        out.append((point, 0.5 * (s + s.T)))
+    return out
+
+
 def joint_state(sim, line, end: str = "start") -> dict:
     """The joint at ``end`` of ``line`` in ``sim`` as of the last evaluation of the loads:
     "angle" and "rate" (per coordinate, rad and rad/s), "reaction" (the torque the line

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .articulations import condensed_bending
 from .flatten import flatten
 from .lincos import allowed_rigid_motions
 from .measure import block_of, line_strains
@@ -172,9 +173,12 @@ def check_stress_free(model, geo: _Geometry, net: Net, hint: str):
                              f"free ({qty} = {np.abs(arr[i]).max():.3g}{unit}); {hint}")
 
 
-def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisation:
+def linearise(model, state: State, net: Net, hint: str = REST_HINT, joints=()) -> Linearisation:
     """Exact stiffness K and mass M of the net linearised about ``state`` (stress free, else
-    ValueError ending with ``hint``)."""
+    ValueError ending with ``hint``). ``joints``: [(point, S)], the condensed 3x3 bending
+    stiffness of each articulated end's boundary point (cosnet.articulations.condensed_bending),
+    which the model does not hold; each enters factored, S = U diag(s) U^T, as three strain rows
+    U^T d theta of weights s."""
     import scipy.sparse as sp
 
     geo = _geometry(model, state)
@@ -223,6 +227,15 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT) -> Linearisa
     T = sp.coo_matrix((np.concatenate([np.ones(reduced.size), ev[keep]]), (t_rows, t_cols)),
                       shape=(raw_n, reduced.size)).tocsr()
     A = (G @ T).tocsr()
+    if joints:
+        turn = sp.lil_matrix((A.shape[0], A.shape[0]))
+        turn.setdiag(1.0)
+        for point, stiff in joints:
+            s, u = np.linalg.eigh(stiff)
+            rows = 3 * (ne + point) + np.arange(3)
+            turn[np.ix_(rows, rows)] = u.T
+            W[rows] = np.maximum(s, 0.0)
+        A = (turn.tocsr() @ A).tocsr()
     K = (A.T @ sp.diags(W) @ A).tocsr()
     K = (0.5 * (K + K.T)).tocsr()
     mass = np.concatenate([np.repeat(model.vertex_mass, 3), model.element_inertia.ravel(),
@@ -361,8 +374,9 @@ def _solve(lin: Linearisation, rigid: np.ndarray, count: int, sigma: float):
     K, M = lin.K, lin.M
     n, r = K.shape[0], rigid.shape[1]
     m = M.diagonal()
-    # rigid modes make K singular: shift below zero by a tiny fraction of the stiffest omega^2
-    shift = sigma * sigma - (1e-9 * float(np.max(K.diagonal() / m)) if r else 0.0)
+    # rigid modes and free joints' mechanisms make K singular: shift below zero by a tiny
+    # fraction of the stiffest omega^2
+    shift = sigma * sigma - 1e-9 * float(np.max(K.diagonal() / m))
     want = min(count + r, n)
     if n <= DENSE_LIMIT or want >= n - 1:
         vals, vecs = scipy.linalg.eigh(K.toarray(), np.diag(m))
@@ -406,11 +420,11 @@ def modes(net_or_sim, count: int = 6, sigma: float = 0.0, method: str = "discret
     if method != "discrete":
         raise ValueError(f"modes: method must be 'discrete' or 'analytic', got {method!r}")
     if isinstance(net_or_sim, Simulation):
-        net, model, state = net_or_sim.net, net_or_sim.model, net_or_sim.state
+        net, model, state, grids = net_or_sim.net, net_or_sim.model, net_or_sim.state, net_or_sim.grids
         hint = "a Simulation must be at its rest state (not yet run); " + REST_HINT
     elif isinstance(net_or_sim, Net):
         net = net_or_sim
-        model, state, _ = flatten(net)
+        model, state, grids = flatten(net)
         hint = REST_HINT
     else:
         raise ValueError(f"modes: expected a cosnet.Net or Simulation, got {net_or_sim!r}")
@@ -418,7 +432,7 @@ def modes(net_or_sim, count: int = 6, sigma: float = 0.0, method: str = "discret
         raise ValueError(f"modes: count must be a positive integer, got {count!r}")
     if not math.isfinite(sigma) or sigma < 0:
         raise ValueError(f"modes: sigma must be a frequency >= 0 (rad/s), got {sigma!r}")
-    lin = linearise(model, state, net, hint)
+    lin = linearise(model, state, net, hint, condensed_bending(net, model, state, grids))
     n = lin.K.shape[0]
     rigid = rigid_basis(lin, net)
     if count > n - rigid.shape[1]:

@@ -321,3 +321,38 @@ def test_scene_joint_errors_name_the_table_and_key(tmp_path, friction, message):
     with pytest.raises(ValueError) as err:
         cosnet.load_scene(path)
     assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def hinged_cantilever(stiffness, n=20, joint=True):
+    net = cosnet.Net()
+    pivot, tip = net.add_node((0.0, 0.0, 0.0), fixed=True), net.add_node((1.0, 0.0, 0.0))
+    net.add_line(pivot, tip, material=STIFF, section=SECTION, elements=n,
+                 start_joint=cosnet.Hinge(axis=Y, stiffness=stiffness) if joint else None)
+    return net
+
+
+def test_modes_see_the_hinge():
+    k = 1e-3 * STIFF.E * SECTION.I11  # soft against the arm's bending, EI / L
+    welded = cosnet.modes(hinged_cantilever(0.0, joint=False), count=2).omega
+    free = cosnet.modes(hinged_cantilever(0.0), count=3).omega
+    sprung = cosnet.modes(hinged_cantilever(k), count=3).omega
+    sim = cosnet.Simulation(hinged_cantilever(k), [])
+    inertia, _ = pendulum_constants(sim)
+    # a free hinge: its mechanism at zero frequency; the other plane keeps the welded mode
+    assert free[0] < 1e-6 * free[1]
+    assert abs(free[1] / welded[0] - 1.0) < 1e-9
+    # a torsion spring: the rigid arm on it, sqrt(k / I), less the arm's bending in series
+    assert abs(sprung[0] / math.sqrt(k / inertia) - 1.0) < 5e-3
+    # the hinged plane's first elastic mode: pinned-free over clamped-free, (3.9266 / 1.8751)^2
+    assert abs(free[2] / free[1] / (3.9266 / 1.8751) ** 2 - 1.0) < 1e-2
+
+
+def test_cosnet_modes_on_a_hinged_scene(tmp_path, capsys):
+    from cosnet import cli
+    path = tmp_path / "hinged.toml"
+    path.write_text(SCENE.replace(", friction = [%s, 1.0]", ""))
+    assert cli.main(["modes", str(path), "--count", "3", "--no-output"]) == 0
+    table = capsys.readouterr().out
+    omega = cosnet.modes(cosnet.load_scene(path).net, count=3).omega
+    # the hinge's mechanism first, at zero frequency, then the arm's two lowest bending modes
+    assert omega[0] < 1e-6 * omega[1] and f"{omega[1] / (2 * math.pi):.4g}" in table
