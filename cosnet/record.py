@@ -14,9 +14,12 @@ Each interval is stepped in chunks of CHUNK_STEPS counted from its start, so a r
 checkpoint of frame k (``resume=True``) reproduces an uninterrupted one bit for bit.
 
 Probes (``[run] probes``, ``probes=[...]``) are "NODE", "LINE@s" (the vertex nearest the arc
-fraction s; "LINE" is its midpoint) and either followed by ":FIELD" to record a field other
-than the position; probes.csv holds one row per frame: frame, time, then the columns
-PROBE_x, PROBE_y, PROBE_z of each probe (PROBE as written, e.g. ``rod@0.5:force_x``).
+fraction s; "LINE" is its midpoint; "LINE@start", "LINE@end" its ends) and either followed by
+":FIELD" to record a field other than the position; probes.csv holds one row per frame:
+frame, time, then the columns PROBE_x, PROBE_y, PROBE_z of each probe (PROBE as written, e.g.
+``rod@0.5:force_x``). A jointed end also has the fields joint_angle and joint_rate (its
+coordinates in the columns _x, _y, _z; zero past the joint's own) and joint_reaction (the
+torque the line exerts on the node through the joint, lab).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from . import checks
+from .articulations import joint_state
 from .io import (LINE_FIELDS, NODE_FIELDS, PVD, SeriesWriter, node_point_fields, read_pvd,
                  replace_atomically)
 from .kernels.stepping import CHUNK_STEPS, steps_to
@@ -37,6 +41,7 @@ CHECKPOINT = "checkpoint.npz"
 PROBES = "probes.csv"
 PROBE_LINE_FIELDS = ("position",) + LINE_FIELDS
 PROBE_NODE_FIELDS = ("position",) + NODE_FIELDS
+JOINT_FIELDS = {"joint_angle": "angle", "joint_rate": "rate", "joint_reaction": "reaction"}
 
 
 @dataclass
@@ -50,6 +55,7 @@ class Probe:
     line: object = None
     vertex: int = 0
     field: str = "position"
+    end: str = ""       # "start" or "end" for a probe of a line's end ("LINE@start")
 
     def position(self, sim) -> np.ndarray:
         if self.node is not None:
@@ -62,6 +68,11 @@ class Probe:
             return self.position(sim)
         if self.node is not None:
             return node_point_fields(sim, self.node)[self.field]
+        if self.field in JOINT_FIELDS:
+            value = np.zeros(3)
+            got = joint_state(sim, self.line, self.end)[JOINT_FIELDS[self.field]]
+            value[:got.shape[0]] = got
+            return value
         return np.asarray(sim.line_fields(self.line)[self.field][self.vertex], dtype=float)
 
     def columns(self) -> list[str]:
@@ -86,13 +97,17 @@ def parse_probe(text: str, net) -> Probe:
             raise ValueError(f"{text!r} names no node or line (use NODE, LINE or LINE@s, "
                              f"then optionally :FIELD)") from None
         try:
-            s = float(frac) if frac else 0.5
+            s = {"start": 0.0, "end": 1.0}[frac] if frac in ("start", "end") else float(frac) if frac else 0.5
         except ValueError:
             s = -1.0
         if not 0.0 <= s <= 1.0:
-            raise ValueError(f"{text!r}: the fraction after @ must be a number in [0, 1]")
+            raise ValueError(f"{text!r}: after @ comes a number in [0, 1], start or end")
         probe = Probe(text, line=line, vertex=int(round(s * line.elements)))
         valid = PROBE_LINE_FIELDS
+        if frac in ("start", "end"):
+            probe.end = frac
+            if getattr(line, f"{frac}_joint") is not None:
+                valid += tuple(JOINT_FIELDS)
     if colon:
         if field not in valid:
             kind = "node" if probe.node is not None else "line point"

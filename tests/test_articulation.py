@@ -356,3 +356,16 @@ def test_cosnet_modes_on_a_hinged_scene(tmp_path, capsys):
     omega = cosnet.modes(cosnet.load_scene(path).net, count=3).omega
     # the hinge's mechanism first, at zero frequency, then the arm's two lowest bending modes
     assert omega[0] < 1e-6 * omega[1] and f"{omega[1] / (2 * math.pi):.4g}" in table
+
+
+def test_run_writes_joint_probes(tmp_path):
+    sim, arm, _ = hanging_arm(0.3, cosnet.Hinge(axis=Y))
+    sim.run(until=0.05, out=tmp_path / "run", every=0.01,
+            probes=["arm@start:joint_angle", "arm@start:joint_rate", "arm@start:joint_reaction"])
+    rows = np.genfromtxt(tmp_path / "run" / "probes.csv", delimiter=",", names=True)
+    now = cosnet.joint_state(sim, arm)
+    assert rows["armstartjoint_angle_x"][-1] == now["angle"][0] > 0.0
+    assert rows["armstartjoint_rate_x"][-1] == now["rate"][0] > 0.0
+    assert np.all(rows["armstartjoint_angle_y"] == 0.0)      # a hinge has one coordinate
+    with pytest.raises(ValueError, match="unknown field 'joint_angle'"):
+        sim.run(until=0.06, probes=["arm@end:joint_angle"], out=tmp_path / "other")
