@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels.articulation import ArticulationParams, articulation_energy
+from .kernels.articulation import ArticulationParams, articulation_energy, articulation_fields
 from .registry import Binding, Effect
 from .rotmath import matrix_from_quat
 
@@ -58,6 +58,15 @@ class Articulations(Effect):
 
     def held_stiffness(self, p, on: Binding):
         return on.model.attach_vertex[p.attach], p.bend
+
+    def end_fields(self, p, on: Binding):
+        """(vertices, frames, torque, curvature) at the articulated ends' boundary points, in
+        place of what the model gives there (it holds no stiffness at them): the joint frame
+        (quaternion), the internal torque m (lab) and u - u0 (its frame) (3.22)."""
+        k = p.attach.shape[0]
+        frames, torque, curvature = np.zeros((k, 4)), np.zeros((k, 3)), np.zeros((k, 3))
+        articulation_fields(p, on.model, on.state, frames, torque, curvature)
+        return on.model.attach_vertex[p.attach], frames, torque, curvature
 
     def dissipated(self, sim) -> float:
         """Energy the joints' dampers and friction have taken so far (J)."""

@@ -140,6 +140,12 @@ class Effect:
         then counts as the model's; None when it holds none."""
         return None
 
+    def end_fields(self, p, on: Binding):
+        """(vertices, frames, torque, curvature): the director frame (quaternion), internal
+        torque (lab) and u - u0 at line-end vertices where record ``p`` holds what the model
+        does not (an articulated end's), for sim.line_fields; None when it holds nothing."""
+        return None
+
     def dissipated(self, sim) -> float:
         """Energy (J) this effect has taken out of the net so far, part of sim.dissipated()
         (0 for effects that keep no such account)."""

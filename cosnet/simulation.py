@@ -428,9 +428,18 @@ class Simulation:
     def _fields(self, l0: int, l1: int) -> dict:
         st = self._placed()
         f = measure.vertex_fields(self.model, st, l0, l1)
-        d = matrix_from_quat(f.pop("frames"))
         o = self.model.line_vertex_offsets
         sl = slice(o[l0], o[l1])
+        on = Binding(self.net, self.model, st, tuple(self.effects))
+        for e, p in zip(self.effects, self._params):
+            held = e.end_fields(p, on)
+            if held is not None:
+                vertices, frames, torque, curvature = held
+                inside = (vertices >= sl.start) & (vertices < sl.stop)
+                at = vertices[inside] - sl.start
+                f["frames"][at], f["torque"][at], f["curvature"][at] = (frames[inside], torque[inside],
+                                                                        curvature[inside])
+        d = matrix_from_quat(f.pop("frames"))
         return {"position": st.x[sl].copy(), "velocity": st.v[sl].copy(),
                 "d1": d[:, :, 0], "d2": d[:, :, 1], "d3": d[:, :, 2], **f}
 

@@ -268,3 +268,20 @@ def articulation_energy(p, model, state):
         for i in range(3):
             total += 0.5 * p.stiffness[j, i] * (phi[i] - p.rest[j, i]) ** 2
     return total
+
+
+@njit(**CACHED)
+def articulation_fields(p, model, state, frames, moments, strains):
+    """Update frames (k, 4), moments (k, 3) and strains (k, 3) with each articulated end's
+    joint frame G, the internal torque m = G B kappa at its boundary point (lab) and kappa =
+    theta/L - u0 (3.22), each joint settled as articulation_energy settles it."""
+    dt = state.clock[0] - p.last[0]
+    for j in range(p.attach.shape[0]):
+        phi = settle_joint(p, j, model, state, dt)[0]
+        r = joint_turn(p, j, phi)[0]
+        _, _, kappa, m, _ = boundary_torques(p, j, model, state, r)
+        f = end_frame(model, state, p.attach[j])
+        g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
+        frames[j, 0], frames[j, 1], frames[j, 2], frames[j, 3] = g
+        moments[j, 0], moments[j, 1], moments[j, 2] = quat_rotate(g[0], g[1], g[2], g[3], m[0], m[1], m[2])
+        strains[j, 0], strains[j, 1], strains[j, 2] = kappa

@@ -369,3 +369,16 @@ def test_run_writes_joint_probes(tmp_path):
     assert np.all(rows["armstartjoint_angle_y"] == 0.0)      # a hinge has one coordinate
     with pytest.raises(ValueError, match="unknown field 'joint_angle'"):
         sim.run(until=0.06, probes=["arm@end:joint_angle"], out=tmp_path / "other")
+
+
+def test_line_fields_at_a_joint_show_the_moment_it_passes():
+    k = 50.0
+    sim, arm, _ = hanging_arm(0.4, cosnet.Hinge(axis=Y, stiffness=k))
+    sim.run(steps=3000)
+    state = cosnet.joint_state(sim, arm)
+    torque = sim.line_fields(arm)["torque"][0]
+    # at a sprung hinge the moment about its axis is the spring's, k phi (the joint state is that
+    # of the last evaluation, half a step before the fields: 1e-3)
+    assert abs(torque[1] / (k * state["angle"][0]) - 1.0) < 1e-3
+    # and the internal torque at the start is what the line passes to the node through the joint
+    assert np.allclose(torque, state["reaction"], rtol=1e-3, atol=1e-6 * abs(torque[1]))

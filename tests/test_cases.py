@@ -362,3 +362,20 @@ def test_rope_pile_settles_into_a_pile_held_by_friction():
     assert contact.active_contacts(sim) >= 5 and contact.sliding(sim) == 0
     assert ground.active_contacts(sim) > 0 and ground.sliding(sim) == 0
     assert contact.dissipated(sim) > 0 and ground.dissipated(sim) > 0
+
+
+def test_hinged_chain_conserves_energy_and_its_hinges_turn_freely():
+    """Four arms on free hinges, released from the horizontal: nothing dissipates, so the energy
+    stays within Verlet's error; a free hinge passes no moment about its axis (y)."""
+    scene = case("hinged_chain")
+    sim = scene.simulation()
+    e0 = sim.energy()
+    scale = free_weight(sim) * 2.0    # the weight falling through the chain's length
+    worst = 0.0
+    for _ in range(10):
+        sim.run(steps=5000)
+        worst = max(worst, abs(sim.energy() - e0))
+        for line in scene.net.lines:
+            assert abs(cosnet.joint_state(sim, line)["reaction"][1]) < 1e-8 * scale
+    assert worst < 1e-6 * scale
+    assert sim.node_position(scene.net.node("hand"))[2] < -0.1   # it fell (in 0.18 s)
