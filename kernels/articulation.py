@@ -161,6 +161,15 @@ def start_motion(p, j, i, torque, prev, dt):
 
 
 @njit(**INLINE)
+def free_joint(p, j):
+    """Return whether joint j has neither friction nor dampers on any of its coordinates."""
+    held = 0.0
+    for i in range(p.dofs[j]):
+        held += p.static[j, i] + p.kinetic[j, i] + p.damping[j, i]
+    return held == 0.0
+
+
+@njit(**INLINE)
 def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, model):
     """Return (Q_i - f_i, the Newton diagonal) of coordinate i of joint j (module docstring);
     (0, 1) for a coordinate that does not move."""
@@ -186,20 +195,29 @@ def clamp_step(p, j, i, moves, phi, step):
 
 @njit(**INLINE)
 def settle_joint(p, j, model, state, dt):
-    """Return (phi, friction, moves) of joint j: its coordinates where its loads balance (the
-    module's equation) from phi^- = p.phi[j] after dt, the friction torque on each and whether
-    each moves (3-tuples)."""
+    """Return (phi, friction, moves, R, tau_G, tau_E) of joint j: its coordinates where its
+    loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque
+    on each and whether each moves (3-tuples), and at phi the joint's rotation and the boundary
+    point's torques on the joint frame and on the end element (boundary_torques)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
-    r, c0, c1, c2 = joint_turn(p, j, prev)
-    tau = boundary_torques(p, j, model, state, r)[0]
-    m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
-    m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
-    m2, f2 = start_motion(p, j, 2, dot3(c2, tau), prev, dt)
+    n = p.dofs[j]
+    if free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
+        m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
+    else:
+        r, c0, c1, c2 = joint_turn(p, j, prev)
+        tau = boundary_torques(p, j, model, state, r)[0]
+        m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
+        m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
+        m2, f2 = start_motion(p, j, 2, dot3(c2, tau), prev, dt)
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
-    phi = prev
-    for _ in range(NEWTON_STEPS):
+    # start from the coordinates carried on at their last rate: Newton then needs a step or two
+    ahead = dt if dt > 0.0 else 0.0
+    phi = (clamp_step(p, j, 0, m0, prev[0], ahead * p.rate[j, 0]),
+           clamp_step(p, j, 1, m1, prev[1], ahead * p.rate[j, 1]),
+           clamp_step(p, j, 2, m2, prev[2], ahead * p.rate[j, 2]))
+    for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
-        tau, _, _, _, rel = boundary_torques(p, j, model, state, r)
+        tau, te, _, _, rel = boundary_torques(p, j, model, state, r)
         g0, a00 = coordinate_balance(p, j, 0, m0, c0, tau, rel, phi[0], prev[0], f0, inv_dt, model)
         g1, a11 = coordinate_balance(p, j, 1, m1, c1, tau, rel, phi[1], prev[1], f1, inv_dt, model)
         g2, a22 = coordinate_balance(p, j, 2, m2, c2, tau, rel, phi[2], prev[2], f2, inv_dt, model)
@@ -210,10 +228,12 @@ def settle_joint(p, j, model, state, dt):
         new = (clamp_step(p, j, 0, m0, phi[0], s[0]), clamp_step(p, j, 1, m1, phi[1], s[1]),
                clamp_step(p, j, 2, m2, phi[2], s[2]))
         size = max(abs(new[0] - phi[0]), abs(new[1] - phi[1]), abs(new[2] - phi[2]))
-        phi = new
-        if not size > NEWTON_TOL:   # (a NaN ends it too; the watch then reports it)
+        # balanced where evaluated (a NaN ends it too: the watch reports it); the result is
+        # always the point evaluated, so R and the torques belong to it
+        if not size > NEWTON_TOL or it == NEWTON_STEPS - 1:
             break
-    return phi, (f0, f1, f2), (m0, m1, m2)
+        phi = new
+    return phi, (f0, f1, f2), (m0, m1, m2), r, tau, te
 
 
 @load_kernel(ArticulationParams)
@@ -227,9 +247,7 @@ def add_articulations(p, model, state, loads):
     p.last[0] = state.clock[0]
     spent = 0.0
     for j in range(p.attach.shape[0]):
-        phi, fric, moves = settle_joint(p, j, model, state, dt)
-        r = joint_turn(p, j, phi)[0]
-        tau, te, _, _, _ = boundary_torques(p, j, model, state, r)
+        phi, fric, moves, r, tau, te = settle_joint(p, j, model, state, dt)
         a = p.attach[j]
         e = model.attach_element[a]
         loads.tau[e, 0] += te[0]
