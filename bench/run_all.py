@@ -40,6 +40,9 @@ SCRIPTS = [
     ("long_run", ["200000"], [], 60),
     ("modes_convergence", ["20", "40", "80", "160", "320"], [], 120),
     ("cosseratbench_run", None, [], None),        # about 6 minutes: full runs only
+    ("fluid", ["--quick"], [], 180),
+    ("moordyn_compare", None, [], None),          # needs moordyn (the bench extra)
+    ("joints", ["--quick"], [], 180),
 ]
 
 

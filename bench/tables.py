@@ -262,7 +262,25 @@ def moordyn() -> str:
         d["machine"], f", one thread each, `{d['command']}`")
 
 
-TABLES = {"fluid_cost": fluid_cost, "moordyn": moordyn,
+def joints_cost() -> str:
+    d = _json("joints.json")
+    rows = [[str(r["links"]), r["junctions"], f"{r['us_per_step']:.3g}",
+             "–" if r["junctions"] == "welded" else f"+{r['over_weld_percent']:.0f} %",
+             "–" if r["junctions"] == "welded" else f"{r['us_per_joint']:.2g}", f"{r['stable_dt_over_weld']:.3g}"]
+            for r in d["cost"]]
+    return _table(["links", "junctions", "µs per step", "over the welded chain", "µs per joint",
+                   "stable step / the welded one's"], rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
+
+
+def joints_accuracy() -> str:
+    d = _json("joints.json")
+    rows = [[r["middle"], _g(r["dt"], 3), f"{r['steps']:,}", _g(r["error_over_length"]), f"{r['wall_s']:.2g}"]
+            for r in d["accuracy"]]
+    return _table(["middle junction", "stable dt (s)", "steps", "largest end distance / length", "wall (s)"],
+                  rows) + measured_on(d["machine"], f", one thread, over {d['until']} s, `{d['command']}`")
+
+
+TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy, "moordyn": moordyn,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
