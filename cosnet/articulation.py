@@ -24,6 +24,7 @@ when a line declares a joint.
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -92,6 +93,14 @@ class Joint:
             if not lo <= 0.0 <= hi:
                 raise ValueError(f"{who}: limits {list(pair)!r} must hold the angle as built, 0")
             self.lower[i], self.upper[i] = lo, hi
+
+    def scaled(self, torque: float, rotary_damping: float) -> Joint:
+        """A copy with its torques times ``torque`` and its dampers times ``rotary_damping``
+        (units of a [scale]: angles and axes do not change)."""
+        out = copy.copy(self)
+        out.stiffness, out.static, out.kinetic = self.stiffness * torque, self.static * torque, self.kinetic * torque
+        out.damping = self.damping * rotary_damping
+        return out
 
     def axes_in(self, to_end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(a, b): the joint's axes in the line end's frame X (3-vectors), given the rotation

@@ -78,6 +78,8 @@ def _convert(net: Net, L: float, M: float, T: float, inverse: bool) -> Net:
     length, mass, inertia = u(1, 0, 0), u(0, 1, 0), u(2, 1, 0)
     modulus, density = u(-1, 1, -2), u(-3, 1, 0)
     rotary = u(1, 1, 0)   # rotary inertia per length
+    torque, rotary_damping = u(2, 1, -2), u(2, 1, -1)
+    joint = lambda j: None if j is None else j.scaled(torque, rotary_damping)
     per_length = lambda r: None if r is None else tuple(x * rotary for x in r)
 
     def section(s: Section) -> Section:
@@ -106,5 +108,6 @@ def _convert(net: Net, L: float, M: float, T: float, inverse: bool) -> Net:
                      end_offset=l.end_offset * length, start_frame=l.start_frame,
                      end_frame=l.end_frame, rest_curvature=u0, points=l.points * length,
                      d1=l.d1, name=l.name, rotary_inertia=per_length(l.rotary_inertia),
-                     rotary_inertia_scale=l.rotary_inertia_scale, fast_modes=l.fast_modes)
+                     rotary_inertia_scale=l.rotary_inertia_scale, fast_modes=l.fast_modes,
+                     start_joint=joint(l.start_joint), end_joint=joint(l.end_joint))
     return out

@@ -382,3 +382,15 @@ def test_line_fields_at_a_joint_show_the_moment_it_passes():
     assert abs(torque[1] / (k * state["angle"][0]) - 1.0) < 1e-3
     # and the internal torque at the start is what the line passes to the node through the joint
     assert np.allclose(torque, state["reaction"], rtol=1e-3, atol=1e-6 * abs(torque[1]))
+
+
+def test_scaled_scene_converts_joint_torques(tmp_path):
+    path = tmp_path / "scaled.toml"
+    text = (SCENE % "2.0").replace('friction = [2.0, 1.0] }', 'friction = [2.0, 1.0], stiffness = 3.0, damping = 0.5 }')
+    path.write_text("[scale]\ntime = 0.01\nlength = 0.1\narea = 1e-4\ndensity = 1000.0\n" + text)
+    scene = cosnet.load_scene(path)
+    joint, scale = scene.net.lines[0].start_joint, scene.scale
+    torque = scale.force * scale.length
+    assert math.isclose(joint.stiffness[0], 3.0 * torque) and math.isclose(joint.static[0], 2.0 * torque)
+    assert math.isclose(joint.kinetic[0], 1.0 * torque) and math.isclose(joint.damping[0], 0.5 * torque * scale.time)
+    assert joint.axis.tolist() == [0.0, 1.0, 0.0]
