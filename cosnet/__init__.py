@@ -25,6 +25,7 @@ from .drives import Path
 from .fluid import resistive_coefficients, wave_number
 from .articulation import Ball, Hinge, Universal
 from .articulations import joint_state
+from .mobile import slider_state
 
 # every effect cosnet declares is exported under its class name (cosnet.Gravity, ...)
 _EFFECTS = {cls.__name__: cls for cls in builtin_effects().values()}
@@ -37,5 +38,6 @@ __all__ = [
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",
-    "sweep", "Path", "resistive_coefficients", "wave_number", "Ball", "Hinge", "Universal", "joint_state",
+    "sweep", "Path", "resistive_coefficients", "wave_number",
+    "Ball", "Hinge", "Universal", "joint_state", "slider_state",
 ]

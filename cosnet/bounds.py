@@ -24,6 +24,7 @@ from .kernels.obstacles import ObstacleParams
 from .kernels.active import MuscleTorqueParams
 from .kernels.fluid import FluidParams
 from .kernels.articulation import ArticulationParams
+from .kernels.sliding import SlidingParams
 
 QUATERNIONS = {"q", "node_q", "attach_frame", "node_principal", "rest_rotation"}
 # what the rows of a model, state or loads array run over (by name or name prefix):
@@ -220,6 +221,22 @@ def _articulation_error(p, model):
     return _index_error("joints.attach", p.attach, na)
 
 
+def _sliding_error(p, model):
+    k, nv, nn = p.node.shape[0], model.vertex_mass.shape[0], model.node_mass.shape[0]
+    vo = model.line_vertex_offsets
+    if any(a.shape[0] != k for a in (p.line, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding)):
+        return "sliders: every table needs one row per ring or eyelet"
+    if p.arc.shape != (nv,) or p.node_weight.shape != (nn,) or p.dissipated.shape != (1,):
+        return "sliders: arc needs one entry per vertex, node_weight one per node"
+    problem = _index_error("sliders.node", p.node, nn) or _index_error("sliders.line", p.line, vo.shape[0] - 1)
+    if problem:
+        return problem
+    bad = (p.at < vo[p.line]) | (p.at > vo[p.line + 1] - 2)
+    if np.any(bad):
+        return f"sliders.at holds {p.at[bad][0]}, outside the elements of its line"
+    return None
+
+
 def params_error(params, model):
     """Return what is wrong with the tables of the built-in effects' records, or None
     (records of other effects are their own kernels' business)."""
@@ -246,6 +263,8 @@ def params_error(params, model):
             problem = _fluid_error(p, model)
         elif isinstance(p, ArticulationParams):
             problem = _articulation_error(p, model)
+        elif isinstance(p, SlidingParams):
+            problem = _sliding_error(p, model)
         if problem:
             return problem
     return None

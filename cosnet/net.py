@@ -20,6 +20,7 @@ import numpy as np
 
 from .articulation import joint_value
 from .fast_modes import fast_modes_value
+from .sliding import add_eyelet, add_ring
 from .materials import Material, Section, rotary_inertia_scale_value, rotary_inertia_triple
 from .rotmath import frame_from_tangent as frame_from_tangent  # kept importable from cosnet.net
 
@@ -120,6 +121,7 @@ class Net:
 
     nodes: list[Node] = field(default_factory=list)
     lines: list[Line] = field(default_factory=list)
+    sliders: list = field(default_factory=list)   # rings and eyelets (cosnet.sliding)
     # name -> item, rebuilt whenever it lags behind the lists (building a net of 10^5 nodes
     # by name searches would cost O(N^2))
     _by_name: dict = field(default_factory=dict, init=False, repr=False)
@@ -318,6 +320,19 @@ class Net:
             line.curvature_at(float(s))
 
     # ------------------------------------------------------------------ queries
+    def add_ring(self, line: Line, *, s: float, mass: float, inertia=None, mu_s: float = 0.0,
+                 mu_k: float = 0.0, damping: float = 0.0, name: str | None = None) -> Node:
+        """A ring of ``mass`` on ``line`` at s (m of unstretched length from its start), sliding
+        with Coulomb friction mu_s / mu_k and a damper (N s/m): its new node (cosnet.sliding)."""
+        return add_ring(self, line, s, mass, inertia, mu_s, mu_k, damping, name)
+
+    def add_eyelet(self, line: Line, *, s: float, at=None, mu: float = 0.0, damping: float = 0.0,
+                   name: str | None = None) -> Node:
+        """An eyelet ``line`` slides through, at s (m of unstretched length from its start): a
+        fixed node made there (at=None) or at a point, or an existing node on the line; its
+        node (cosnet.sliding)."""
+        return add_eyelet(self, line, s, at, mu, damping, name)
+
     def node(self, name: str) -> Node:
         try:
             return self._named(self.nodes, "node")[name]

@@ -67,8 +67,8 @@ def _why(e) -> str:
     return str(e)
 
 
-TOP_KEYS = ("title", "description", "scale", "materials", "sections", "nodes", "lines",
-            "effects", "initial", "run")
+TOP_KEYS = ("title", "description", "scale", "materials", "sections", "nodes", "lines", "rings",
+            "eyelets", "effects", "initial", "run")
 
 
 # ---------------------------------------------------------------------- net tables
@@ -190,6 +190,34 @@ def _joint(t: Table, key):
     kw = {k: sub.get(k, lambda v: v, default=None) for k in own + common}
     sub.done()
     return _wrap(sub, "kind", lambda: JOINTS[kind](**{k: v for k, v in kw.items() if v is not None}))
+
+
+def _slider(t: Table, net: Net, name: str, ring: bool):
+    """[rings.NAME] (line, s, mass, inertia, mu_s, mu_k, damping) or [eyelets.NAME] (line, s,
+    at: a node's name or a point, mu, damping): Net.add_ring / add_eyelet."""
+    own = ("mass", "inertia", "mu_s", "mu_k") if ring else ("at", "mu")
+    t.expect("line", "s", "damping", *own)
+    lname = t.get("line", string)
+    try:
+        line = net.line(lname)
+    except KeyError:
+        raise t.err("line", f"unknown line {lname!r}; lines are {[x.name for x in net.lines]}") from None
+    kw = dict(s=t.get("s", number), damping=t.get("damping", nonnegative, default=0.0))
+    if ring:
+        kw.update(mass=t.get("mass", positive), inertia=t.get("inertia", _inertia, default=None),
+                  mu_s=t.get("mu_s", nonnegative, default=0.0), mu_k=t.get("mu_k", nonnegative, default=0.0))
+    else:
+        at = t.get("at", lambda v: v, default=None)
+        if isinstance(at, str):
+            try:
+                at = net.node(at)
+            except KeyError:
+                raise t.err("at", f"unknown node {at!r}; nodes are {[x.name for x in net.nodes]}") from None
+        elif at is not None:
+            at = t.get("at", vec3)
+        kw.update(at=at, mu=t.get("mu", nonnegative, default=0.0))
+    t.done()
+    _wrap(t, "s", lambda: (net.add_ring if ring else net.add_eyelet)(line, name=name, **kw))
 
 
 def _check_first_frame(t: Table, line):
@@ -576,6 +604,10 @@ def _build_scene(data: dict, path: Path, limits: bool) -> Scene:
         _node(t, net, name)
     for name, t in top.tables("lines"):
         _line(t, net, name, materials, sections)
+    for name, t in top.tables("rings"):
+        _slider(t, net, name, ring=True)
+    for name, t in top.tables("eyelets"):
+        _slider(t, net, name, ring=False)
     if not net.nodes:
         raise top.err("nodes", "the scene needs at least one [nodes.NAME] table")
     try:

@@ -16,6 +16,7 @@ from . import fast_modes as _fast
 from .checkpoint import fingerprint
 from .active import ActiveCurvature, MuscleTorque
 from .articulations import articulations
+from .mobile import sliders
 from .drives import Drive
 from .registry import Binding, Effect
 from .flatten import flatten
@@ -127,9 +128,9 @@ class Simulation:
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
-        joints = articulations(net, self.grids)
-        if joints is not None:
-            self.effects.append(joints)
+        for implied in (articulations(net, self.grids), sliders(net)):
+            if implied is not None:
+                self.effects.append(implied)
         on = Binding(net, self.model, self.state, tuple(self.effects))
         self._params, kernel_records = joined_records(self.effects, [e.bind(on) for e in self.effects])
         self._kernel_params = [p for _, p in kernel_records]   # what the kernels read

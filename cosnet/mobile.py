@@ -1,0 +1,73 @@
+"""The sliders of a net in motion: the effect a Simulation adds when a net has rings or
+eyelets (cosnet.sliding); its kernels keep each node on its line (kernels/sliding.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .drives import Drive
+from .kernels.sliding import SlidingParams
+from .registry import Binding, Effect
+
+
+class Sliders(Effect):
+    """The rings and eyelets of a net (cosnet.sliding.Slider each)."""
+
+    record = SlidingParams
+
+    def __init__(self, sliders):
+        self.sliders = list(sliders)
+
+    def bind(self, on: Binding):
+        m = on.model
+        k = len(self.sliders)
+        vo, lengths = m.line_vertex_offsets, m.element_rest_length
+        arc = np.zeros(m.vertex_mass.shape[0])
+        for l in range(vo.shape[0] - 1):
+            e0 = m.line_element_offsets[l]
+            arc[vo[l] + 1:vo[l + 1]] = np.cumsum(lengths[e0:m.line_element_offsets[l + 1]])
+        weight = m.node_inv_mass.copy()
+        for e in on.effects:   # a driven node goes where its drive says, whatever pushes it
+            if isinstance(e, Drive):
+                weight[e.node.index] = 0.0
+        at = np.zeros(k, dtype=np.int64)
+        for j, sl in enumerate(self.sliders):
+            l = sl.line.index
+            local = np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s, side="right") - 1
+            at[j] = vo[l] + min(max(int(local), 0), vo[l + 1] - vo[l] - 2)
+        return SlidingParams(
+            node=np.array([sl.node.index for sl in self.sliders], dtype=np.int64),
+            line=np.array([sl.line.index for sl in self.sliders], dtype=np.int64), node_weight=weight, arc=arc,
+            mu_s=np.array([sl.mu_s for sl in self.sliders], dtype=float),
+            mu_k=np.array([sl.mu_k for sl in self.sliders], dtype=float),
+            damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
+            s=np.array([sl.s for sl in self.sliders], dtype=float), push=np.zeros((k, 3)), sliding=np.zeros(k),
+            dissipated=np.zeros(1))
+
+    def dissipated(self, sim) -> float:
+        """Energy the sliders' friction and dampers have taken so far (J)."""
+        return float(self.params(sim).dissipated[0])
+
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"at": p.at, "s": p.s, "push": p.push, "sliding": p.sliding, "dissipated": p.dissipated}
+
+    def describe(self) -> str:
+        return f"Sliders({len(self.sliders)} rings and eyelets)"
+
+
+def sliders(net) -> Sliders | None:
+    """The Sliders effect of the net's rings and eyelets (None when it has none)."""
+    return Sliders(net.sliders) if net.sliders else None
+
+
+def slider_state(sim, node) -> dict:
+    """The slider whose node is ``node`` in ``sim``: "s" (its material coordinate, m of
+    unstretched length from its line's start) and "sliding" (bool)."""
+    sim.check_node(node, "slider_state")
+    held = next((e for e in sim.effects if isinstance(e, Sliders)), None)
+    j = next((i for i, sl in enumerate(held.sliders) if sl.node is node), None) if held else None
+    if j is None:
+        raise ValueError(f"slider_state: node {node.name!r} is no ring or eyelet")
+    p = held.params(sim)
+    return {"s": float(p.s[j]), "sliding": bool(p.sliding[j] != 0.0)}

@@ -1,0 +1,220 @@
+"""Mobile nodes (§8): a node held on a line's centreline at a material coordinate that moves.
+
+A slider j keeps its node's centre of mass P on line l's centreline: P = (1 - t) x_i + t x_{i+1}
+on the element of vertices i, i+1, at the material coordinate s = S_i + t (S_{i+1} - S_i)
+(S: unstretched arc length from the line's start), which the constraint leaves free. A ring is
+a node of its own mass sliding on the line; an eyelet is a node (fixed, driven or free) through
+which the line slides. Both are the same constraint.
+
+The constraint is kept as RATTLE keeps one, by impulses equal and opposite on P and on the two
+vertices (weights 1 - t and t), each moving by its inverse mass (an end vertex by its node's):
+- after every drift of h, P is brought onto the segment (its distance to it removed along the
+  normal, a few passes to round-off) and the velocities take the impulse that displacement
+  means over h; the slider passes from element to element as t leaves [0, 1], and stops at the
+  line's ends (the projection then takes the tangential part too);
+- after every kick, the relative velocity of P across the line is removed; along the line, a
+  damper c and Coulomb friction act on it: the slider sticks while the tangential impulse that
+  would stop it stays within mu_s times the normal impulse of the step (the kick's and the
+  drifts'), else slides against mu_k times it. The kinetic energy of the relative motion they
+  take is counted as dissipated.
+The impulses are equal and opposite, so they keep the momentum of a free net exactly.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compiler import CACHED, INLINE
+from .compose import constraint_kernels
+from .motion import place_line_end
+
+PASSES = 8          # projections after a drift, at most (each leaves the square of the last misfit)
+TOLERANCE = 1e-14   # misfit relative to the element's length that ends them
+
+
+class SlidingParams(NamedTuple):
+    """k sliders: their nodes, lines and state."""
+
+    node: np.ndarray        # (k,) int64 node held on the line
+    line: np.ndarray        # (k,) int64
+    node_weight: np.ndarray  # (nn,) inverse mass that moves each node here (0: fixed or driven)
+    arc: np.ndarray         # (nv,) unstretched arc length of each vertex from its line's start
+    mu_s: np.ndarray        # (k,) static friction coefficient
+    mu_k: np.ndarray        # (k,) kinetic friction coefficient
+    damping: np.ndarray     # (k,) damper on the sliding velocity (N s/m)
+    at: np.ndarray          # (k,) int64 first vertex (global) of the element the node is on
+    s: np.ndarray           # (k,) material coordinate (m of unstretched length)
+    push: np.ndarray        # (k, 3) impulse on the node from the drifts since the last kick
+    sliding: np.ndarray     # (k,) 1.0 while sliding against friction
+    dissipated: np.ndarray  # (1,) energy friction and dampers took (J)
+
+
+@njit(**INLINE)
+def inverse_mass(p, model, l, v):
+    """Return the inverse mass that moves vertex v of line l (an end vertex: its node's)."""
+    off = model.line_vertex_offsets
+    if v == off[l]:
+        return p.node_weight[model.attach_node[2 * l]]
+    if v == off[l + 1] - 1:
+        return p.node_weight[model.attach_node[2 * l + 1]]
+    return model.vertex_inv_mass[v]
+
+
+@njit(**INLINE)
+def move_vertex(model, state, l, v, dx, dv):
+    """Update vertex v of line l by dx (3-tuple, position) and dv (velocity); an end vertex
+    moves its node, whose line ends then follow (1.1)."""
+    off = model.line_vertex_offsets
+    end = 0 if v == off[l] else 1 if v == off[l + 1] - 1 else -1
+    if end < 0:
+        for k in range(3):
+            state.x[v, k] += dx[k]
+            state.v[v, k] += dv[k]
+        return
+    nd = model.attach_node[2 * l + end]
+    for k in range(3):
+        state.node_x[nd, k] += dx[k]
+        state.node_v[nd, k] += dv[k]
+    for a in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        place_line_end(model.node_attach_list[a], model, state)
+
+
+@njit(**INLINE)
+def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
+    """Update the node of slider j and vertices i, i+1 by the impulse J on the node and -(1-t) J,
+    -t J on the vertices: velocities by J times inverse masses, positions by h times that
+    (h = 0: velocities only)."""
+    l, nd = p.line[j], p.node[j]
+    wp = p.node_weight[nd]
+    for k, c in enumerate((jx, jy, jz)):
+        state.node_v[nd, k] += wp * c
+        state.node_x[nd, k] += h * wp * c
+    for a in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        place_line_end(model.node_attach_list[a], model, state)
+    for v, share in ((i, 1.0 - t), (i + 1, t)):
+        w = -share * inverse_mass(p, model, l, v)
+        move_vertex(model, state, l, v, (h * w * jx, h * w * jy, h * w * jz), (w * jx, w * jy, w * jz))
+
+
+@njit(**INLINE)
+def nearest_on_line(p, j, model, state):
+    """Return (i, t): the element (first vertex i) and fraction t in [0, 1] of the point of line
+    p.line[j] nearest to the node, found by walking from p.at[j]; t stays in [0, 1] at the
+    line's ends (the stops)."""
+    l = p.line[j]
+    first, last = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1] - 2
+    i = min(max(p.at[j], first), last)
+    x, xp = state.x, state.node_x[p.node[j]]
+    t = 0.0
+    for _ in range(last - first + 2):
+        dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+        t = ((xp[0] - x[i, 0]) * dx + (xp[1] - x[i, 1]) * dy + (xp[2] - x[i, 2]) * dz) / (dx * dx + dy * dy + dz * dz)
+        if t < 0.0 and i > first:
+            i -= 1
+        elif t > 1.0 and i < last:
+            i += 1
+        else:
+            break
+    return i, min(max(t, 0.0), 1.0)
+
+
+@njit(**INLINE)
+def effective_inverse_mass(p, j, model, i, t):
+    l = p.line[j]
+    return (p.node_weight[p.node[j]] + (1.0 - t) ** 2 * inverse_mass(p, model, l, i)
+            + t * t * inverse_mass(p, model, l, i + 1))
+
+
+@njit(**CACHED)
+def slide_after_drift(p, model, state, h):
+    """Update the positions and velocities of every slider's node and line after a drift of h:
+    the node back on the line's centreline (module docstring); p.at, p.s and p.push follow."""
+    x = state.x
+    for j in range(p.node.shape[0]):
+        nd = p.node[j]
+        i, t = p.at[j], 0.0
+        for _ in range(PASSES):
+            i, t = nearest_on_line(p, j, model, state)
+            p.at[j] = i
+            xp = state.node_x[nd]
+            rx = xp[0] - (x[i, 0] + t * (x[i + 1, 0] - x[i, 0]))
+            ry = xp[1] - (x[i, 1] + t * (x[i + 1, 1] - x[i, 1]))
+            rz = xp[2] - (x[i, 2] + t * (x[i + 1, 2] - x[i, 2]))
+            size2 = (x[i + 1, 0] - x[i, 0]) ** 2 + (x[i + 1, 1] - x[i, 1]) ** 2 + (x[i + 1, 2] - x[i, 2]) ** 2
+            if rx * rx + ry * ry + rz * rz <= TOLERANCE * TOLERANCE * size2 or not h > 0.0:
+                break
+            w = effective_inverse_mass(p, j, model, i, t)
+            if not w > 0.0:
+                break
+            jx, jy, jz = -rx / (w * h), -ry / (w * h), -rz / (w * h)
+            apply_impulse(p, j, model, state, i, t, jx, jy, jz, h)
+            p.push[j, 0] += jx
+            p.push[j, 1] += jy
+            p.push[j, 2] += jz
+        p.s[j] = p.arc[i] + t * (p.arc[i + 1] - p.arc[i])
+
+
+@njit(**INLINE)
+def tangential_impulse(p, j, ut, w, normal, h):
+    """Return the impulse along the line (on the node) of slider j's damper and friction given
+    its relative sliding velocity ut after the normal impulse, the effective inverse mass w
+    and the normal impulse magnitude of the step; p.sliding follows."""
+    c = p.damping[j]
+    jd = -c * h * ut / (1.0 + c * h * w)
+    u1 = ut + w * jd
+    stop = -u1 / w
+    if p.mu_s[j] == 0.0 and p.mu_k[j] == 0.0:
+        p.sliding[j] = 1.0 if u1 != 0.0 else 0.0
+        return jd
+    limit = (p.mu_k[j] if p.sliding[j] != 0.0 else p.mu_s[j]) * normal
+    if abs(stop) <= limit:
+        p.sliding[j] = 0.0
+        return jd + stop
+    p.sliding[j] = 1.0
+    return jd + math.copysign(min(p.mu_k[j] * normal, abs(stop)), stop)
+
+
+@njit(**CACHED)
+def slide_after_kick(p, model, state, arg):
+    """Update the velocities of every slider's node and line after a kick of h (arg = (loads,
+    h)): the relative velocity across the line removed, the damper and friction along it
+    (module docstring); p.dissipated, p.sliding follow and p.push is spent."""
+    h = arg[1]
+    x, v = state.x, state.v
+    lost = 0.0
+    for j in range(p.node.shape[0]):
+        nd, i = p.node[j], p.at[j]
+        l = p.line[j]
+        span = p.arc[i + 1] - p.arc[i]
+        t = min(max((p.s[j] - p.arc[i]) / span, 0.0), 1.0) if span > 0.0 else 0.0
+        dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+        size = math.sqrt(dx * dx + dy * dy + dz * dz)
+        tx, ty, tz = dx / size, dy / size, dz / size
+        vp = state.node_v[nd]
+        ux = vp[0] - ((1.0 - t) * v[i, 0] + t * v[i + 1, 0])
+        uy = vp[1] - ((1.0 - t) * v[i, 1] + t * v[i + 1, 1])
+        uz = vp[2] - ((1.0 - t) * v[i, 2] + t * v[i + 1, 2])
+        ut = ux * tx + uy * ty + uz * tz
+        w = effective_inverse_mass(p, j, model, i, t)
+        if not w > 0.0:
+            continue
+        nx, ny, nz = -(ux - ut * tx) / w, -(uy - ut * ty) / w, -(uz - ut * tz) / w
+        pt = p.push[j, 0] * tx + p.push[j, 1] * ty + p.push[j, 2] * tz
+        px, py, pz = p.push[j, 0] - pt * tx, p.push[j, 1] - pt * ty, p.push[j, 2] - pt * tz
+        normal = math.sqrt((nx + px) ** 2 + (ny + py) ** 2 + (nz + pz) ** 2)
+        p.push[j, 0], p.push[j, 1], p.push[j, 2] = 0.0, 0.0, 0.0
+        at_start = t == 0.0 and i == model.line_vertex_offsets[l] and ut < 0.0
+        at_end = t == 1.0 and i == model.line_vertex_offsets[l + 1] - 2 and ut > 0.0
+        if at_start or at_end:   # a stop: the slider does not leave the line
+            jt = -ut / w
+        else:
+            jt = tangential_impulse(p, j, ut, w, normal, h)
+            after = ut + w * jt
+            lost += 0.5 * (ut * ut - after * after) / w
+        apply_impulse(p, j, model, state, i, t, nx + jt * tx, ny + jt * ty, nz + jt * tz, 0.0)
+    p.dissipated[0] += lost
+
+
+constraint_kernels(SlidingParams, slide_after_drift, slide_after_kick)
