@@ -44,7 +44,7 @@ def point_at(line, s: float) -> np.ndarray:
     """The point of the line as built at unstretched arc length s from its start."""
     seg = np.linalg.norm(np.diff(line.points, axis=0), axis=1)
     arc = np.concatenate([[0.0], np.cumsum(seg)])
-    i = int(min(np.searchsorted(arc, s, side="right") - 1, len(seg) - 1))
+    i = min(int(np.searchsorted(arc, s, side="right")) - 1, len(seg) - 1)
     t = (s - arc[i]) / seg[i]
     return line.points[i] + t * (line.points[i + 1] - line.points[i])
 

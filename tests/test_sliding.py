@@ -146,7 +146,8 @@ def bare_line():
 
 
 @pytest.mark.parametrize("make, message", [
-    (lambda net, l: net.add_ring(l, s=1.5, mass=1.0), "s must be in [0, 1] m (the unstretched length of 'line0'), got 1.5"),
+    (lambda net, l: net.add_ring(l, s=1.5, mass=1.0),
+     "s must be in [0, 1] m (the unstretched length of 'line0'), got 1.5"),
     (lambda net, l: net.add_ring(l, s=0.5, mass=0.0), "mass must be a finite number > 0"),
     (lambda net, l: net.add_ring(l, s=0.5, mass=1.0, mu_s=-0.1), "mu_s must be a finite number >= 0"),
     (lambda net, l: net.add_ring(l, s=0.5, mass=1.0, mu_s=0.1, mu_k=0.2), "mu_k must not exceed mu_s"),
