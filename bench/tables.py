@@ -268,7 +268,8 @@ def joints_cost() -> str:
              "–" if r["junctions"] == "welded" else f"+{r['over_weld_percent']:.0f} %",
              "–" if r["junctions"] == "welded" else f"{r['us_per_joint']:.2g}", f"{r['stable_dt_over_weld']:.3g}"]
             for r in d["cost"]]
-    head = ["links", "junctions", "µs per step", "over the welded chain", "µs per joint", "stable step / the welded one's"]
+    head = ["links", "junctions", "µs per step", "over the welded chain", "µs per joint",
+            "stable step / the welded one's"]
     return _table(head, rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
 

@@ -67,7 +67,7 @@ def slider_state(sim, node) -> dict:
     sim.check_node(node, "slider_state")
     held = next((e for e in sim.effects if isinstance(e, Sliders)), None)
     j = next((i for i, sl in enumerate(held.sliders) if sl.node is node), None) if held else None
-    if j is None:
+    if held is None or j is None:
         raise ValueError(f"slider_state: node {node.name!r} is no ring or eyelet")
     p = held.params(sim)
     return {"s": float(p.s[j]), "sliding": bool(p.sliding[j] != 0.0)}
