@@ -224,14 +224,22 @@ def _articulation_error(p, model):
 def _sliding_error(p, model):
     k, nv, nn = p.node.shape[0], model.vertex_mass.shape[0], model.node_mass.shape[0]
     vo = model.line_vertex_offsets
-    if any(a.shape[0] != k for a in (p.line, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding)):
+    if any(a.shape[0] != k for a in (p.link, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding)):
         return "sliders: every table needs one row per ring or eyelet"
     if p.arc.shape != (nv,) or p.node_weight.shape != (nn,) or p.dissipated.shape != (1,):
         return "sliders: arc needs one entry per vertex, node_weight one per node"
-    problem = _index_error("sliders.node", p.node, nn) or _index_error("sliders.line", p.line, vo.shape[0] - 1)
+    m = p.path_lines.shape[0]
+    if p.path_arc.shape != (m,) or p.path_offsets.shape != (k + 1,):
+        return "sliders: path_arc needs one entry per path line, path_offsets one per slider and one"
+    problem = (_index_error("sliders.node", p.node, nn) or _offsets_error("sliders.path_offsets", p.path_offsets, m)
+               or _index_error("sliders.path_lines", p.path_lines, vo.shape[0] - 1))
     if problem:
         return problem
-    bad = (p.at < vo[p.line]) | (p.at > vo[p.line + 1] - 2)
+    out = (p.link < p.path_offsets[:-1]) | (p.link >= p.path_offsets[1:])
+    if np.any(out):
+        return f"sliders.link holds {p.link[out][0]}, outside its slider's path"
+    line = p.path_lines[p.link]
+    bad = (p.at < vo[line]) | (p.at > vo[line + 1] - 2)
     if np.any(bad):
         return f"sliders.at holds {p.at[bad][0]}, outside the elements of its line"
     return None

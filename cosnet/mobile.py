@@ -30,14 +30,21 @@ class Sliders(Effect):
         for e in on.effects:   # a driven node goes where its drive says, whatever pushes it
             if isinstance(e, Drive):
                 weight[e.node.index] = 0.0
-        at = np.zeros(k, dtype=np.int64)
+        offsets = np.concatenate([[0], np.cumsum([len(sl.lines) for sl in self.sliders])]).astype(np.int64)
+        path_lines = np.array([l.index for sl in self.sliders for l in sl.lines], dtype=np.int64)
+        path_arc = np.array([arc_before for sl in self.sliders
+                             for arc_before in np.concatenate([[0.0], np.cumsum([l.length for l in sl.lines])[:-1]])])
+        at, link = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
         for j, sl in enumerate(self.sliders):
-            l = sl.line.index
-            local = np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s, side="right") - 1
-            at[j] = vo[l] + min(max(int(local), 0), vo[l + 1] - vo[l] - 2)
+            before = path_arc[offsets[j]:offsets[j + 1]]
+            here = int(np.searchsorted(before, sl.s, side="right")) - 1
+            link[j] = offsets[j] + here
+            l = path_lines[link[j]]
+            local = int(np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s - before[here], side="right")) - 1
+            at[j] = vo[l] + min(max(local, 0), vo[l + 1] - vo[l] - 2)
         return SlidingParams(
-            node=np.array([sl.node.index for sl in self.sliders], dtype=np.int64),
-            line=np.array([sl.line.index for sl in self.sliders], dtype=np.int64), node_weight=weight, arc=arc,
+            node=np.array([sl.node.index for sl in self.sliders], dtype=np.int64), path_offsets=offsets,
+            path_lines=path_lines, path_arc=path_arc.reshape(-1), link=link, node_weight=weight, arc=arc,
             mu_s=np.array([sl.mu_s for sl in self.sliders], dtype=float),
             mu_k=np.array([sl.mu_k for sl in self.sliders], dtype=float),
             damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
@@ -50,7 +57,8 @@ class Sliders(Effect):
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
-        return {"at": p.at, "s": p.s, "push": p.push, "sliding": p.sliding, "dissipated": p.dissipated}
+        return {"link": p.link, "at": p.at, "s": p.s, "push": p.push, "sliding": p.sliding,
+                "dissipated": p.dissipated}
 
     def describe(self) -> str:
         return f"Sliders({len(self.sliders)} rings and eyelets)"

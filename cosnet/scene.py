@@ -193,15 +193,16 @@ def _joint(t: Table, key):
 
 
 def _slider(t: Table, net: Net, name: str, ring: bool):
-    """[rings.NAME] (line, s, mass, inertia, mu_s, mu_k, damping) or [eyelets.NAME] (line, s,
-    at: a node's name or a point, mu, damping): Net.add_ring / add_eyelet."""
+    """[rings.NAME] (line: a line's name or a path of them, s, mass, inertia, mu_s, mu_k,
+    damping) or [eyelets.NAME] (line, s, at: a node's name or a point, mu, damping):
+    Net.add_ring / add_eyelet."""
     own = ("mass", "inertia", "mu_s", "mu_k") if ring else ("at", "mu")
     t.expect("line", "s", "damping", *own)
-    lname = t.get("line", string)
+    names = t.get("line", lambda v: string_list(v) if isinstance(v, list) else [string(v)])
     try:
-        line = net.line(lname)
-    except KeyError:
-        raise t.err("line", f"unknown line {lname!r}; lines are {[x.name for x in net.lines]}") from None
+        line = [net.line(n) for n in names]
+    except KeyError as e:
+        raise t.err("line", f"unknown line {e.args[0]!r}; lines are {[x.name for x in net.lines]}") from None
     kw = dict(s=t.get("s", number), damping=t.get("damping", nonnegative, default=0.0))
     if ring:
         kw.update(mass=t.get("mass", positive), inertia=t.get("inertia", _inertia, default=None),

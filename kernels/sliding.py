@@ -1,8 +1,9 @@
 """Mobile nodes (§8): a node held on a line's centreline at a material coordinate that moves.
 
-A slider j keeps its node's centre of mass P on line l's centreline: P = (1 - t) x_i + t x_{i+1}
-on the element of vertices i, i+1, at the material coordinate s = S_i + t (S_{i+1} - S_i)
-(S: unstretched arc length from the line's start), which the constraint leaves free. A ring is
+A slider j keeps its node's centre of mass P on the centreline of a path of lines (one line,
+or a chain whose lines meet end to start at nodes): P = (1 - t) x_i + t x_{i+1} on the element
+of vertices i, i+1, at the material coordinate s = S_i + t (S_{i+1} - S_i) (S: unstretched arc
+length from the path's start), which the constraint leaves free. A ring is
 a node of its own mass sliding on the line; an eyelet is a node (fixed, driven or free) through
 which the line slides. Both are the same constraint.
 
@@ -10,8 +11,9 @@ The constraint is kept as RATTLE keeps one, by impulses equal and opposite on P 
 vertices (weights 1 - t and t), each moving by its inverse mass (an end vertex by its node's):
 - after every drift of h, P is brought onto the segment (its distance to it removed along the
   normal, a few passes to round-off) and the velocities take the impulse that displacement
-  means over h; the slider passes from element to element as t leaves [0, 1], and stops at the
-  line's ends (the projection then takes the tangential part too);
+  means over h; the slider passes from element to element as t leaves [0, 1], from line to line
+  of its path through their junctions, and stops at the path's ends (the projection then takes
+  the tangential part too);
 - after every kick, the relative velocity of P across the line is removed; along the line, a
   damper c and Coulomb friction act on it: the slider sticks while the tangential impulse that
   would stop it stays within mu_s times the normal impulse of the step (the kick's and the
@@ -38,7 +40,10 @@ class SlidingParams(NamedTuple):
     """k sliders: their nodes, lines and state."""
 
     node: np.ndarray        # (k,) int64 node held on the line
-    line: np.ndarray        # (k,) int64
+    path_offsets: np.ndarray  # (k+1,) int64 CSR offsets of each slider's path into path_lines
+    path_lines: np.ndarray  # (m,) int64 the lines of each path, in order (each ends where the next starts)
+    path_arc: np.ndarray    # (m,) unstretched arc length of the path before each of its lines
+    link: np.ndarray        # (k,) int64 the slider's line now: an index into path_lines
     node_weight: np.ndarray  # (nn,) inverse mass that moves each node here (0: fixed or driven)
     arc: np.ndarray         # (nv,) unstretched arc length of each vertex from its line's start
     mu_s: np.ndarray        # (k,) static friction coefficient
@@ -86,7 +91,7 @@ def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
     """Update the node of slider j and vertices i, i+1 by the impulse J on the node and -(1-t) J,
     -t J on the vertices: velocities by J times inverse masses, positions by h times that
     (h = 0: velocities only)."""
-    l, nd = p.line[j], p.node[j]
+    l, nd = p.path_lines[p.link[j]], p.node[j]
     wp = p.node_weight[nd]
     for k, c in enumerate((jx, jy, jz)):
         state.node_v[nd, k] += wp * c
@@ -99,30 +104,46 @@ def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
 
 
 @njit(**INLINE)
-def nearest_on_line(p, j, model, state):
-    """Return (i, t): the element (first vertex i) and fraction t in [0, 1] of the point of line
-    p.line[j] nearest to the node, found by walking from p.at[j]; t stays in [0, 1] at the
-    line's ends (the stops)."""
-    l = p.line[j]
-    first, last = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1] - 2
+def line_span(model, l):
+    """Return the first and last element's first vertex of line l."""
+    return model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1] - 2
+
+
+@njit(**INLINE)
+def nearest_on_path(p, j, model, state):
+    """Return (link, i, t): the line of slider j's path (index into p.path_lines), the element
+    (first vertex i) and the fraction t in [0, 1] of the point of the path nearest to the
+    node, found by walking from p.link[j], p.at[j]; t stays in [0, 1] at the path's ends (the
+    stops)."""
+    c0, c1 = p.path_offsets[j], p.path_offsets[j + 1]
+    link = p.link[j]
+    first, last = line_span(model, p.path_lines[link])
     i = min(max(p.at[j], first), last)
     x, xp = state.x, state.node_x[p.node[j]]
     t = 0.0
-    for _ in range(last - first + 2):
+    for _ in range(x.shape[0] + c1 - c0):
         dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
         t = ((xp[0] - x[i, 0]) * dx + (xp[1] - x[i, 1]) * dy + (xp[2] - x[i, 2]) * dz) / (dx * dx + dy * dy + dz * dz)
         if t < 0.0 and i > first:
             i -= 1
+        elif t < 0.0 and link > c0:   # on into the line before, through their junction
+            link -= 1
+            first, last = line_span(model, p.path_lines[link])
+            i = last
         elif t > 1.0 and i < last:
             i += 1
+        elif t > 1.0 and link < c1 - 1:
+            link += 1
+            first, last = line_span(model, p.path_lines[link])
+            i = first
         else:
             break
-    return i, min(max(t, 0.0), 1.0)
+    return link, i, min(max(t, 0.0), 1.0)
 
 
 @njit(**INLINE)
 def effective_inverse_mass(p, j, model, i, t):
-    l = p.line[j]
+    l = p.path_lines[p.link[j]]
     return (p.node_weight[p.node[j]] + (1.0 - t) ** 2 * inverse_mass(p, model, l, i)
             + t * t * inverse_mass(p, model, l, i + 1))
 
@@ -136,8 +157,8 @@ def slide_after_drift(p, model, state, h):
         nd = p.node[j]
         i, t = p.at[j], 0.0
         for _ in range(PASSES):
-            i, t = nearest_on_line(p, j, model, state)
-            p.at[j] = i
+            link, i, t = nearest_on_path(p, j, model, state)
+            p.link[j], p.at[j] = link, i
             xp = state.node_x[nd]
             rx = xp[0] - (x[i, 0] + t * (x[i + 1, 0] - x[i, 0]))
             ry = xp[1] - (x[i, 1] + t * (x[i + 1, 1] - x[i, 1]))
@@ -153,7 +174,7 @@ def slide_after_drift(p, model, state, h):
             p.push[j, 0] += jx
             p.push[j, 1] += jy
             p.push[j, 2] += jz
-        p.s[j] = p.arc[i] + t * (p.arc[i + 1] - p.arc[i])
+        p.s[j] = p.path_arc[p.link[j]] + p.arc[i] + t * (p.arc[i + 1] - p.arc[i])
 
 
 @njit(**INLINE)
@@ -186,9 +207,8 @@ def slide_after_kick(p, model, state, arg):
     lost = 0.0
     for j in range(p.node.shape[0]):
         nd, i = p.node[j], p.at[j]
-        l = p.line[j]
         span = p.arc[i + 1] - p.arc[i]
-        t = min(max((p.s[j] - p.arc[i]) / span, 0.0), 1.0) if span > 0.0 else 0.0
+        t = min(max((p.s[j] - p.path_arc[p.link[j]] - p.arc[i]) / span, 0.0), 1.0) if span > 0.0 else 0.0
         dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
         size = math.sqrt(dx * dx + dy * dy + dz * dz)
         tx, ty, tz = dx / size, dy / size, dz / size
@@ -205,8 +225,10 @@ def slide_after_kick(p, model, state, arg):
         px, py, pz = p.push[j, 0] - pt * tx, p.push[j, 1] - pt * ty, p.push[j, 2] - pt * tz
         normal = math.sqrt((nx + px) ** 2 + (ny + py) ** 2 + (nz + pz) ** 2)
         p.push[j, 0], p.push[j, 1], p.push[j, 2] = 0.0, 0.0, 0.0
-        at_start = t == 0.0 and i == model.line_vertex_offsets[l] and ut < 0.0
-        at_end = t == 1.0 and i == model.line_vertex_offsets[l + 1] - 2 and ut > 0.0
+        first = line_span(model, p.path_lines[p.path_offsets[j]])[0]
+        last = line_span(model, p.path_lines[p.path_offsets[j + 1] - 1])[1]
+        at_start = t == 0.0 and i == first and ut < 0.0
+        at_end = t == 1.0 and i == last and ut > 0.0
         if at_start or at_end:   # a stop: the slider does not leave the line
             jt = -ut / w
         else:

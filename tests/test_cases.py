@@ -379,3 +379,20 @@ def test_hinged_chain_conserves_energy_and_its_hinges_turn_freely():
             assert abs(cosnet.joint_state(sim, line)["reaction"][1]) < 1e-8 * scale
     assert worst < 1e-6 * scale
     assert sim.node_position(scene.net.node("hand"))[2] < -0.1   # it fell (in 0.18 s)
+
+
+def test_zip_line_trolley_rides_the_cable_and_keeps_the_energy_account():
+    """The trolley (a ring) runs down the sagging cable: on its centreline to round-off, and
+    energy + what its damper and the damping took stays what it was (Verlet's error)."""
+    scene = case("zip_line")
+    sim = scene.simulation()
+    trolley = scene.net.node("trolley")
+    e0 = sim.energy()
+    sim.run(until=1.0)
+    s = cosnet.slider_state(sim, trolley)["s"]
+    assert s > 3.0 and sim.dissipated() > 0.0
+    drop = free_weight(sim) * 10.0       # the net's weight over the towers' height difference
+    assert abs(sim.energy() + sim.dissipated() - e0) < 1e-4 * drop
+    x, p = sim.line_positions(scene.net.line("cable")), sim.node_position(trolley)
+    gaps = [np.linalg.norm(np.cross(x[k + 1] - x[k], p - x[k])) / np.linalg.norm(x[k + 1] - x[k]) for k in range(100)]
+    assert min(gaps) < 1e-9

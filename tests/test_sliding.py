@@ -211,5 +211,23 @@ def test_scene_declares_rings_and_eyelets(tmp_path):
     # the push along the wire (0.5 N) beats static friction (0.2 x 0.981 N): it slides toward b
     assert cosnet.slider_state(sim, scene.net.node("bead"))["s"] > 0.5
     path.write_text(SCENE % "2.5")
-    with pytest.raises(ValueError, match=r"\[rings.bead\] s: ring on Line\('wire'"):
+    with pytest.raises(ValueError, match=r"\[rings.bead\] s: ring on line 'wire': s must be in \[0, 2\] m"):
         cosnet.load_scene(path)
+
+
+def test_ring_passes_through_the_junction_of_a_path_of_lines():
+    alpha, length = 0.5, 2.0
+    net = cosnet.Net()
+    a = net.add_node((0.0, 0.0, 0.0), fixed=True)
+    mid = net.add_node((length / 2 * math.cos(alpha), 0.0, length / 2 * math.sin(alpha)))
+    b = net.add_node((length * math.cos(alpha), 0.0, length * math.sin(alpha)), fixed=True)
+    lower = net.add_line(a, mid, material=HEAVY, section=cosnet.Circle(0.02), elements=10)
+    upper = net.add_line(mid, b, material=HEAVY, section=cosnet.Circle(0.02), elements=10)
+    ring = net.add_ring([lower, upper], s=1.1, mass=MASS)   # on the upper line, 0.1 m above the junction
+    sim = cosnet.Simulation(net, [cosnet.NodeLoad(ring, force=(0.0, 0.0, -MASS * G))])
+    t, s = slide(sim, ring, 0.3)
+    assert s[0] > 1.0 > s[-1]                               # it has passed the junction
+    a_fit = 2.0 * np.polyfit(t ** 2, s[0] - s, 1)[0]
+    assert abs(a_fit / (G * math.sin(alpha)) - 1.0) < 5e-3
+    with pytest.raises(ValueError, match="a path's line must end at the node where the next starts"):
+        net.add_ring([upper, lower], s=0.5, mass=MASS)
