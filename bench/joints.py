@@ -5,6 +5,9 @@ free hinges, ball joints, or hinges with a spring, a damper and friction; every 
 the welded chain's stable step, interleaved rounds, one thread. Each row also gives the net's
 own stable step against the welded one's.
 
+Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings of 1 kg
+sliding on it with friction, each pulled down by a node load; the cost per step and per ring.
+
 Accuracy: a double compound pendulum of two 1 m steel arms (r = 10 mm, 10 elements each) on a
 fixed pivot, released from the horizontal, against the rigid-body limit of the same arms (their
 vertex masses and rotary inertias; Lagrange's equations by scipy's solve_ivp, rtol 1e-12): the
@@ -63,6 +66,31 @@ def cost(links, rounds):
                     "us_per_joint": 1e6 * (t / steps - base) / links,
                     "stable_dt_over_weld": sim.stable_dt() / welded.stable_dt()})
     return out
+
+
+def wire_with_rings(rings, dt=None):
+    """A stiff 100-element wire between two pins, loaded by ``rings`` rings of 1 kg spread
+    along it (a node load each), sliding; returns the simulation (at step dt if given)."""
+    net = cosnet.Net()
+    a, b = net.add_node((0.0, 0.0, 0.0), fixed=True), net.add_node((10.0, 0.0, 1.0), fixed=True)
+    wire = net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=100)
+    loads = [cosnet.NodeLoad(b, force=(0.0, 0.0, 0.0))]
+    for k in range(rings):
+        ring = net.add_ring(wire, s=wire.length * (k + 0.5) / rings, mass=1.0, mu_s=0.1, mu_k=0.05)
+        loads.append(cosnet.NodeLoad(ring, force=(0.0, 0.0, -G)))
+    return cosnet.Simulation(net, loads, threads=1, dt=dt, force_dt=dt is not None)
+
+
+def ring_cost(counts, rounds):
+    """us per step of the wire with each number of rings, at the bare wire's step."""
+    bare = wire_with_rings(0)
+    sims = [bare] + [wire_with_rings(k, bare.dt) for k in counts]
+    steps = 20_000
+    times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims], rounds)
+    base = times[0] / steps
+    return [{"rings": n, "us_per_step": 1e6 * t / steps,
+             "us_per_ring": 0.0 if n == 0 else 1e6 * (t / steps - base) / n}
+            for n, t in zip((0, *counts), times)]
 
 
 def double_pendulum(middle, k=0.0):
@@ -143,13 +171,16 @@ def main():
           [[r["links"], r["junctions"], r["us_per_step"], r["over_weld_percent"], r["us_per_joint"],
             r["stable_dt_over_weld"]]
            for r in runs])
+    rings = ring_cost((1, 10) if quick else (1, 10, 50), rounds)
+    table("joints: cost per step of rings sliding on a 100-element wire (one thread, the bare wire's step)",
+          ["rings", "us/step", "us per ring"], [[r["rings"], r["us_per_step"], r["us_per_ring"]] for r in rings])
     until = 0.1 if quick else 0.5
     acc = accuracy(until, 10 if quick else 50, (1e6, 1e8) if quick else (1e5, 1e6, 1e7, 1e8))
     table(f"joints: double compound pendulum against its rigid limit over {until} s",
           ["middle junction", "dt (s)", "steps", "largest end distance / length", "wall (s)"],
           [[r["middle"], r["dt"], r["steps"], r["error_over_length"], r["wall_s"]] for r in acc])
     write_json(__file__, {"command": " ".join(["python", "bench/joints.py", *sys.argv[1:]]),
-                          "cost": runs, "accuracy": acc, "until": until})
+                          "cost": runs, "rings": rings, "accuracy": acc, "until": until})
 
 
 if __name__ == "__main__":

@@ -273,6 +273,14 @@ def joints_cost() -> str:
     return _table(head, rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
 
+def rings_cost() -> str:
+    d = _json("joints.json")
+    rows = [[str(r["rings"]), f"{r['us_per_step']:.3g}", "–" if r["rings"] == 0 else f"{r['us_per_ring']:.2g}"]
+            for r in d["rings"]]
+    return _table(["rings", "µs per step", "µs per ring"], rows) + measured_on(
+        d["machine"], f", one thread, `{d['command']}`")
+
+
 def joints_accuracy() -> str:
     d = _json("joints.json")
     rows = [[r["middle"], _g(r["dt"], 3), f"{r['steps']:,}", _g(r["error_over_length"]), f"{r['wall_s']:.2g}"]
@@ -281,7 +289,8 @@ def joints_accuracy() -> str:
                   rows) + measured_on(d["machine"], f", one thread, over {d['until']} s, `{d['command']}`")
 
 
-TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy, "moordyn": moordyn,
+TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy,
+          "rings_cost": rings_cost, "moordyn": moordyn,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
