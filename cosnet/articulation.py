@@ -6,7 +6,7 @@ A line end is welded to its node unless it declares a joint:
 
     Hinge(axis, stiffness=0, rest=0, damping=0, friction=(0, 0), limits=None)
     Universal(axes=(a, b), ...)   a stays with the node, b turns with the line (a Cardan cross)
-    Ball(stiffness=0, rest=(0, 0, 0), damping=0, friction=(0, 0))
+    Ball(cone=None, stiffness=0, rest=(0, 0, 0), damping=0, friction=(0, 0))
 
 Axes are given in the node's body frame as the net is built (a line's own end turns with the
 joint). Per coordinate (one for a hinge, two for a universal joint, three for a ball joint:
@@ -71,6 +71,7 @@ class Joint:
                              f"friction = {friction!r}")
         self.lower = np.full(3, -math.inf)
         self.upper = np.full(3, math.inf)
+        self.cone = math.pi
         if limits is not None:
             self._limits(limits)
 
@@ -151,14 +152,20 @@ class Universal(Joint):
 
 
 class Ball(Joint):
-    """Three relative rotations (the rotation vector, line end's frame as built)."""
+    """Three relative rotations (the rotation vector, line end's frame as built); ``cone``:
+    the largest angle (rad) the line end's axis d3 may turn from where it was built."""
 
     kind, dofs = "ball", BALL
 
-    def __init__(self, **kw):
+    def __init__(self, cone=None, **kw):
         if kw.get("limits") is not None:
-            raise ValueError("Ball: limits are not offered for a ball joint (use a universal joint's)")
+            raise ValueError("Ball: limits are per axis; a ball joint takes a cone (its largest tilt, rad)")
         super().__init__(**kw)
+        if cone is not None:
+            c = checks.number(self.who, "cone", cone)
+            if not 0.0 < c <= math.pi:
+                raise ValueError(f"Ball: cone must be an angle in (0, pi] rad, got {cone!r}")
+            self.cone = c
 
 
 JOINTS = {cls.kind: cls for cls in (Hinge, Universal, Ball)}

@@ -37,6 +37,7 @@ class Articulations(Effect):
             dofs=np.array([j.dofs for _, j, _ in self.ends], dtype=np.int64),
             axis_a=z(), axis_b=z(), bend=np.array([b for _, _, b in self.ends], dtype=float).reshape(k, 3),
             stiffness=z(), rest=z(), damping=z(), static=z(), kinetic=z(), lower=z(), upper=z(),
+            cone=np.array([j.cone for _, j, _ in self.ends], dtype=float),
             phi=z(), rate=z(), sliding=z(), reaction=z(), last=on.state.clock.copy(), dissipated=np.zeros(1))
         m = on.model
         for i, (a, joint, _) in enumerate(self.ends):

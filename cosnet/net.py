@@ -320,13 +320,13 @@ class Net:
             line.curvature_at(float(s))
 
     # ------------------------------------------------------------------ queries
-    def add_ring(self, line: Line, *, s: float, mass: float, inertia=None, mu_s: float = 0.0,
+    def add_ring(self, line: Line | list[Line], *, s: float, mass: float, inertia=None, mu_s: float = 0.0,
                  mu_k: float = 0.0, damping: float = 0.0, name: str | None = None) -> Node:
         """A ring of ``mass`` on ``line`` at s (m of unstretched length from its start), sliding
         with Coulomb friction mu_s / mu_k and a damper (N s/m): its new node (cosnet.sliding)."""
         return add_ring(self, line, s, mass, inertia, mu_s, mu_k, damping, name)
 
-    def add_eyelet(self, line: Line, *, s: float, at=None, mu: float = 0.0, damping: float = 0.0,
+    def add_eyelet(self, line: Line | list[Line], *, s: float, at=None, mu: float = 0.0, damping: float = 0.0,
                    name: str | None = None) -> Node:
         """An eyelet ``line`` slides through, at s (m of unstretched length from its start): a
         fixed node made there (at=None) or at a point, or an existing node on the line; its

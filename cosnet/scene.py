@@ -174,7 +174,7 @@ def _line(t: Table, net: Net, name: str, materials, sections):
     _check_first_frame(t, line)
 
 
-JOINT_KEYS = {"hinge": ("axis",), "universal": ("axes",), "ball": ()}
+JOINT_KEYS = {"hinge": ("axis",), "universal": ("axes",), "ball": ("cone",)}
 
 
 def _joint(t: Table, key):

@@ -18,7 +18,8 @@ bending torque of the boundary point on G (3.22), the generalised torque
 (springs k, dampers d, phi^- the coordinates at the previous evaluation, dt before it) equals
 the friction torque: zero without friction, the kinetic torque against the motion while a
 coordinate slides; a coordinate sticks (phi_i = phi_i^-) while |Q_i(phi^-)| stays within the
-static torque (the kinetic one once sliding), and a limit holds phi_i in [lower_i, upper_i].
+static torque (the kinetic one once sliding), and a limit holds phi_i in [lower_i, upper_i] (a
+ball joint's cone holds the angle of G's d3 from X's within it).
 Without dampers and friction phi minimises the boundary bending energy plus the springs', so
 the loads are the exact gradient of that energy minimised over the joint (the envelope
 theorem): the step stays variational, and a free axis adds no stiffness to it. The node
@@ -37,8 +38,8 @@ from numba import njit
 from .compiler import CACHED, INLINE
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
-from .rotations import cross, quat_exp, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, relative_rotation, \
-    solve_sym3
+from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
+    relative_rotation, solve_sym3
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
 NEWTON_STEPS = 40                  # at most; a balance converges in a few
@@ -60,6 +61,7 @@ class ArticulationParams(NamedTuple):
     kinetic: np.ndarray     # (k, 3) kinetic friction torque (N m)
     lower: np.ndarray       # (k, 3) limits (rad; -inf, +inf: none)
     upper: np.ndarray       # (k, 3)
+    cone: np.ndarray        # (k,) a ball's cone: largest angle of its d3 from X's (rad; pi: none)
     phi: np.ndarray         # (k, 3) coordinates at the last evaluation
     rate: np.ndarray        # (k, 3) their rate over the last interval between evaluations (rad/s)
     sliding: np.ndarray     # (k, 3) 1.0 while a coordinate slides against its friction
@@ -194,6 +196,28 @@ def clamp_step(p, j, i, moves, phi, step):
 
 
 @njit(**INLINE)
+def within_cone(p, j, phi):
+    """Return a ball joint's coordinates phi (3-tuple) with its d3 brought back within its cone
+    about X's d3 if it has left it: R = swing twist (twist about d3), the swing's angle cut
+    to the cone's, its axis and the twist kept. Other joints' coordinates come back as given."""
+    cone = p.cone[j]
+    if p.dofs[j] != BALL or not cone < math.pi:
+        return phi
+    r = quat_exp(phi[0], phi[1], phi[2])
+    dx, dy, dz = quat_rotate(r[0], r[1], r[2], r[3], 0.0, 0.0, 1.0)
+    tilt = math.acos(min(max(dz, -1.0), 1.0))
+    if tilt <= cone:
+        return phi
+    size = math.sqrt(dx * dx + dy * dy)
+    nx, ny = (-dy / size, dx / size) if size > 0.0 else (1.0, 0.0)   # e3 x d, normalised
+    sw = quat_exp(tilt * nx, tilt * ny, 0.0)
+    tw = quat_mul(sw[0], -sw[1], -sw[2], -sw[3], r[0], r[1], r[2], r[3])
+    cut = quat_exp(cone * nx, cone * ny, 0.0)
+    q = quat_mul(cut[0], cut[1], cut[2], cut[3], tw[0], tw[1], tw[2], tw[3])
+    return quat_log(q[0], q[1], q[2], q[3])
+
+
+@njit(**INLINE)
 def settle_joint(p, j, model, state, dt):
     """Return (phi, friction, moves, R, tau_G, tau_E) of joint j: its coordinates where its
     loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque
@@ -212,9 +236,9 @@ def settle_joint(p, j, model, state, dt):
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
     # start from the coordinates carried on at their last rate: Newton then needs a step or two
     ahead = dt if dt > 0.0 else 0.0
-    phi = (clamp_step(p, j, 0, m0, prev[0], ahead * p.rate[j, 0]),
-           clamp_step(p, j, 1, m1, prev[1], ahead * p.rate[j, 1]),
-           clamp_step(p, j, 2, m2, prev[2], ahead * p.rate[j, 2]))
+    phi = within_cone(p, j, (clamp_step(p, j, 0, m0, prev[0], ahead * p.rate[j, 0]),
+                             clamp_step(p, j, 1, m1, prev[1], ahead * p.rate[j, 1]),
+                             clamp_step(p, j, 2, m2, prev[2], ahead * p.rate[j, 2])))
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
         tau, te, _, _, rel = boundary_torques(p, j, model, state, r)
@@ -225,8 +249,8 @@ def settle_joint(p, j, model, state, dt):
         a02 = coupling(p, j, model, rel, m0 and m2, c0, c2)
         a12 = coupling(p, j, model, rel, m1 and m2, c1, c2)
         s = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
-        new = (clamp_step(p, j, 0, m0, phi[0], s[0]), clamp_step(p, j, 1, m1, phi[1], s[1]),
-               clamp_step(p, j, 2, m2, phi[2], s[2]))
+        new = within_cone(p, j, (clamp_step(p, j, 0, m0, phi[0], s[0]), clamp_step(p, j, 1, m1, phi[1], s[1]),
+                                 clamp_step(p, j, 2, m2, phi[2], s[2])))
         size = max(abs(new[0] - phi[0]), abs(new[1] - phi[1]), abs(new[2] - phi[2]))
         # balanced where evaluated (a NaN ends it too: the watch reports it); the result is
         # always the point evaluated, so R and the torques belong to it

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from scipy.special import ellipk
 
 import cosnet
@@ -243,7 +244,8 @@ def test_checkpoint_carries_the_joint_state(tmp_path):
     (lambda: cosnet.Hinge(friction=(1.0, 2.0)), "must not exceed the static one"),
     (lambda: cosnet.Universal(axes=((1, 0, 0), (2, 0, 0))), "the two axes must not be parallel"),
     (lambda: cosnet.Universal(stiffness=[1.0, 2.0, 3.0]), "stiffness must be a number or 2 numbers"),
-    (lambda: cosnet.Ball(limits=(-1, 1)), "limits are not offered for a ball joint"),
+    (lambda: cosnet.Ball(limits=(-1, 1)), "a ball joint takes a cone"),
+    (lambda: cosnet.Ball(cone=0.0), "cone must be an angle in (0, pi] rad"),
 ])
 def test_bad_joints_are_refused_in_one_line(make, message):
     with pytest.raises(ValueError, match=None) as err:
@@ -394,3 +396,16 @@ def test_scaled_scene_converts_joint_torques(tmp_path):
     assert math.isclose(joint.stiffness[0], 3.0 * torque) and math.isclose(joint.static[0], 2.0 * torque)
     assert math.isclose(joint.kinetic[0], 1.0 * torque) and math.isclose(joint.damping[0], 0.5 * torque * scale.time)
     assert joint.axis.tolist() == [0.0, 1.0, 0.0]
+
+
+def test_ball_joint_holds_its_cone():
+    cone = 0.4
+    sim, arm, tip = hanging_arm(math.pi / 2, cosnet.Ball(cone=cone))   # built horizontal: it falls
+    worst = 0.0
+    while sim.time < 0.4:
+        sim.run(steps=200)
+        d3 = Rotation.from_rotvec(cosnet.joint_state(sim, arm)["angle"]).apply([0.0, 0.0, 1.0])
+        worst = max(worst, math.acos(min(1.0, d3[2])))
+    assert cone - 1e-9 < worst < cone + 1e-12     # it reached the cone and never left it
+    end = sim.node_position(tip)
+    assert math.acos(end[0] / np.linalg.norm(end)) < cone + 0.02   # the stiff arm stays near it
