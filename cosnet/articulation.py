@@ -12,7 +12,8 @@ Axes are given in the node's body frame as the net is built (a line's own end tu
 joint). Per coordinate (one for a hinge, two for a universal joint, three for a ball joint:
 its rotation vector in the line end's frame as built): a spring ``stiffness`` (N m/rad) about
 ``rest`` (rad), a damper ``damping`` (N m s/rad), Coulomb ``friction`` = (static, kinetic)
-torques (N m) that stick, and ``limits`` = (lower, upper) (rad) a coordinate cannot leave. A
+torques (N m) that stick, and ``limits`` = (lower, upper) (rad) a coordinate cannot leave (a
+ball joint: ``cone``, the largest angle its line end's axis may turn from where it was built). A
 number applies to every coordinate, a list gives one per coordinate. The joint's relative
 rotation is restricted exactly (kernels/articulation.py), so a free axis costs no stiffness
 in the step. A scene declares the same as ``start_joint = { kind = "hinge", axis = [0, 0, 1] }``

@@ -26,7 +26,10 @@ theorem): the step stays variational, and a free axis adds no stiffness to it. T
 receives the whole torque on G (the joint frame is in balance between the line and the node).
 
 phi is found by Newton's method with the Jacobian's leading term, c_i^T B c_k / L + (k_i +
-d_i / dt) delta_ik (B in G's components, L the boundary point's length), to round-off.
+d_i / dt) delta_ik (B in G's components, L the boundary point's length), to round-off. The
+larger helpers are compiled as functions of their own, not inlined into each caller: the load
+kernel, the energy and the fields share them, and numba types an inlined copy anew each time
+(tens of seconds for this module).
 """
 
 import math
@@ -35,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compiler import CACHED, INLINE
+from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
@@ -70,7 +73,7 @@ class ArticulationParams(NamedTuple):
     dissipated: np.ndarray  # (1,) energy the dampers and friction took (J)
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def ball_axis(p0, p1, p2, i):
     """Return column i of the right Jacobian J_r(phi) = 1 - a [phi]x + b [phi]x^2 of exp
     (a = (1 - cos t)/t^2, b = (t - sin t)/t^3, t = |phi|): the body axis turned by d phi_i."""
@@ -88,7 +91,7 @@ def ball_axis(p0, p1, p2, i):
     return e0 - a * cx + b * dx, e1 - a * cy + b * dy, e2 - a * cz + b * dz
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def joint_turn(p, j, phi):
     """Return (R, c0, c1, c2): joint j's rotation relative to X (quaternion) at coordinates
     phi (3-tuple) and the body axes of its coordinates in the joint frame ((0, 0, 0) for those
@@ -106,7 +109,7 @@ def joint_turn(p, j, phi):
             ball_axis(phi[0], phi[1], phi[2], 1), ball_axis(phi[0], phi[1], phi[2], 2))
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def boundary_torques(p, j, model, state, r):
     """Return (tau_G, tau_E, kappa, m, rel): the body torques of joint j's boundary Voronoi
     point on the joint frame G = D X R and on the end element, its strain kappa = theta/L - u0,
@@ -131,7 +134,7 @@ def boundary_torques(p, j, model, state, r):
     return (rx, ry, rz), (lx, ly, lz), (kx, ky, kz), (mx, my, mz), rel
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def axis_stiffness(p, j, model, rel, ci, ck):
     """Return c_i^T B c_k / L at joint j's boundary point, B taken in the element's principal
     axes, c_i and c_k in the joint frame's (rel: G^T E, quaternion)."""
@@ -171,7 +174,7 @@ def free_joint(p, j):
     return held == 0.0
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, model):
     """Return (Q_i - f_i, the Newton diagonal) of coordinate i of joint j (module docstring);
     (0, 1) for a coordinate that does not move."""
@@ -195,7 +198,7 @@ def clamp_step(p, j, i, moves, phi, step):
     return min(max(phi + step, p.lower[j, i]), p.upper[j, i]) if moves else phi
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def within_cone(p, j, phi):
     """Return a ball joint's coordinates phi (3-tuple) with its d3 brought back within its cone
     about X's d3 if it has left it: R = swing twist (twist about d3), the swing's angle cut
@@ -217,7 +220,7 @@ def within_cone(p, j, phi):
     return quat_log(q[0], q[1], q[2], q[3])
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def settle_joint(p, j, model, state, dt):
     """Return (phi, friction, moves, R, tau_G, tau_E) of joint j: its coordinates where its
     loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque

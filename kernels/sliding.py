@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compiler import CACHED, INLINE
+from .compiler import CACHED, INLINE, INNER
 from .compose import constraint_kernels
 from .motion import place_line_end
 
@@ -67,7 +67,7 @@ def inverse_mass(p, model, l, v):
     return model.vertex_inv_mass[v]
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def move_vertex(model, state, l, v, dx, dv):
     """Update vertex v of line l by dx (3-tuple, position) and dv (velocity); an end vertex
     moves its node, whose line ends then follow (1.1)."""
@@ -86,7 +86,7 @@ def move_vertex(model, state, l, v, dx, dv):
         place_line_end(model.node_attach_list[a], model, state)
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
     """Update the node of slider j and vertices i, i+1 by the impulse J on the node and -(1-t) J,
     -t J on the vertices: velocities by J times inverse masses, positions by h times that
@@ -109,7 +109,7 @@ def line_span(model, l):
     return model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1] - 2
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def nearest_on_path(p, j, model, state):
     """Return (link, i, t): the line of slider j's path (index into p.path_lines), the element
     (first vertex i) and the fraction t in [0, 1] of the point of the path nearest to the
@@ -177,7 +177,7 @@ def slide_after_drift(p, model, state, h):
         p.s[j] = p.path_arc[p.link[j]] + p.arc[i] + t * (p.arc[i + 1] - p.arc[i])
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def tangential_impulse(p, j, ut, w, normal, h):
     """Return the impulse along the line (on the node) of slider j's damper and friction given
     its relative sliding velocity ut after the normal impulse, the effective inverse mass w
