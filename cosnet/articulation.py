@@ -4,19 +4,20 @@ A line end is welded to its node unless it declares a joint:
 
     net.add_line(a, b, ..., start_joint=cosnet.Hinge(axis=(0, 0, 1)), end_joint=None)
 
-    Hinge(axis, stiffness=0, rest=0, damping=0, friction=(0, 0), limits=None)
+    Hinge(axis, stiffness=0, rest=0, damping=0, friction=(0, 0), limits=None, spring_table=None)
     Universal(axes=(a, b), ...)   a stays with the node, b turns with the line (a Cardan cross)
     Ball(cone=None, stiffness=0, rest=(0, 0, 0), damping=0, friction=(0, 0))
 
 Axes are given in the node's body frame as the net is built (a line's own end turns with the
 joint). Per coordinate (one for a hinge, two for a universal joint, three for a ball joint:
 its rotation vector in the line end's frame as built): a spring ``stiffness`` (N m/rad) about
-``rest`` (rad), a damper ``damping`` (N m s/rad), Coulomb ``friction`` = (static, kinetic)
-torques (N m) that stick, and ``limits`` = (lower, upper) (rad) a coordinate cannot leave (a
-ball joint: ``cone``, the largest angle its line end's axis may turn from where it was built). A
-number applies to every coordinate, a list gives one per coordinate. The joint's relative
-rotation is restricted exactly (kernels/articulation.py), so a free axis costs no stiffness
-in the step. A scene declares the same as ``start_joint = { kind = "hinge", axis = [0, 0, 1] }``
+``rest`` (rad) or a ``spring_table`` = (angles, torques) of the torque resisting each angle
+(piecewise linear, its end segments carried on), a damper ``damping`` (N m s/rad), Coulomb
+``friction`` = (static, kinetic) torques (N m) that stick, and ``limits`` = (lower, upper)
+(rad) a coordinate cannot leave (a ball joint: ``cone``, the largest angle its line end's axis
+may turn from where it was built). A number applies to every coordinate, a list gives one
+per coordinate. The joint's relative rotation is restricted exactly (kernels/articulation.py),
+so a free axis costs no stiffness in the step. A scene declares the same as ``start_joint = { kind = "hinge", axis = [0, 0, 1] }``
 in ``[lines.X]``.
 
 The joints of a net act through one effect (cosnet.articulations), which a Simulation adds
@@ -58,8 +59,10 @@ class Joint:
     kind = ""
     dofs = 0
 
-    def __init__(self, *, stiffness=0.0, rest=0.0, damping=0.0, friction=(0.0, 0.0), limits=None):
+    def __init__(self, *, stiffness=0.0, rest=0.0, damping=0.0, friction=(0.0, 0.0), limits=None,
+                 spring_table=None):
         who, n = self.who, self.dofs
+        self.tables = self._tables(spring_table)
         self.stiffness = _per_axis(who, "stiffness", stiffness, n, checks.nonnegative)
         self.rest = _per_axis(who, "rest", rest, n, _finite)
         self.damping = _per_axis(who, "damping", damping, n, checks.nonnegative)
@@ -75,6 +78,35 @@ class Joint:
         self.cone = math.pi
         if limits is not None:
             self._limits(limits)
+
+    def _tables(self, given) -> list:
+        """One (angles, torques) table per coordinate (None: none) from spring_table: a table
+        (angles, torques) for every coordinate, or a list of one per coordinate."""
+        who, n = self.who, self.dofs
+        if given is None:
+            return [None] * n
+        def one_table(t):   # (angles, torques): two sequences
+            return isinstance(t, (list, tuple)) and len(t) == 2 and isinstance(t[0], (list, tuple, np.ndarray))
+        per_axis = n > 1 and isinstance(given, (list, tuple)) and len(given) == n and \
+            all(t is None or one_table(t) for t in given) and not one_table(given)
+        per = list(given) if per_axis else [given] * n
+        out: list = []
+        for t in per:
+            if t is None:
+                out.append(None)
+                continue
+            try:
+                a, q = (np.array(x, dtype=float) for x in t)
+            except (TypeError, ValueError):
+                raise ValueError(f"{who}: spring_table must be (angles, torques), got {given!r}") from None
+            if a.ndim != 1 or a.shape != q.shape or a.size < 2 or not np.all(np.isfinite(a)) or \
+                    not np.all(np.isfinite(q)):
+                raise ValueError(f"{who}: spring_table must be two lists of the same length >= 2 of finite "
+                                 f"numbers (angles in rad, torques in N m), got {given!r}")
+            if np.any(np.diff(a) <= 0):
+                raise ValueError(f"{who}: spring_table's angles must increase, got {a.tolist()}")
+            out.append((a, q))
+        return out
 
     @property
     def who(self) -> str:
@@ -101,6 +133,7 @@ class Joint:
         (units of a [scale]: angles and axes do not change)."""
         out = copy.copy(self)
         out.stiffness, out.static, out.kinetic = self.stiffness * torque, self.static * torque, self.kinetic * torque
+        out.tables = [None if t is None else (t[0], t[1] * torque) for t in self.tables]
         out.damping = self.damping * rotary_damping
         return out
 

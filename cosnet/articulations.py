@@ -32,12 +32,19 @@ class Articulations(Effect):
     def bind(self, on: Binding):
         k = len(self.ends)
         z = lambda: np.zeros((k, 3))
+        # coordinate (j, i) at 3 j + i: its spring table, or none (the kinds' unused coordinates too)
+        per = [(joint.tables + [None] * 3)[i] for _, joint, _ in self.ends for i in range(3)]
+        tables = [t for t in per if t is not None]
+        sizes = [0 if t is None else t[0].size for t in per]
         p = ArticulationParams(
             attach=np.array([a for a, _, _ in self.ends], dtype=np.int64),
             dofs=np.array([j.dofs for _, j, _ in self.ends], dtype=np.int64),
             axis_a=z(), axis_b=z(), bend=np.array([b for _, _, b in self.ends], dtype=float).reshape(k, 3),
             stiffness=z(), rest=z(), damping=z(), static=z(), kinetic=z(), lower=z(), upper=z(),
             cone=np.array([j.cone for _, j, _ in self.ends], dtype=float),
+            table_offsets=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+            table_angle=np.concatenate([t[0] for t in tables] or [np.zeros(0)]),
+            table_torque=np.concatenate([t[1] for t in tables] or [np.zeros(0)]),
             phi=z(), rate=z(), sliding=z(), reaction=z(), last=on.state.clock.copy(), dissipated=np.zeros(1))
         m = on.model
         for i, (a, joint, _) in enumerate(self.ends):

@@ -214,10 +214,18 @@ def _fluid_error(p, model):
 
 def _articulation_error(p, model):
     k, na = p.attach.shape[0], model.attach_node.shape[0]
-    if any(a.shape[0] != k for a in p[1:-2]) or p.last.shape != (1,) or p.dissipated.shape != (1,):
+    rows = [a for name, a in zip(p._fields, p) if name not in ("attach", "table_offsets", "table_angle",
+                                                                  "table_torque", "last", "dissipated")]
+    if any(a.shape[0] != k for a in rows) or p.last.shape != (1,) or p.dissipated.shape != (1,):
         return "joints: every table needs one row per articulated line end"
     if np.any((p.dofs < 1) | (p.dofs > 3)):
         return "joints: dofs must be 1 (hinge), 2 (universal) or 3 (ball)"
+    m = p.table_angle.shape[0]
+    if p.table_offsets.shape != (3 * k + 1,) or p.table_torque.shape != (m,):
+        return "joints: table_offsets needs 3 entries per joint and one, table_torque one per angle"
+    problem = _offsets_error("joints.table_offsets", p.table_offsets, m)
+    if problem:
+        return problem
     return _index_error("joints.attach", p.attach, na)
 
 

@@ -185,7 +185,7 @@ def _joint(t: Table, key):
         return None
     kind = sub.get("kind", choice(*JOINTS))
     own = JOINT_KEYS[kind]
-    common = ("stiffness", "rest", "damping", "friction") + (("limits",) if kind != "ball" else ())
+    common = ("stiffness", "rest", "damping", "friction", "spring_table") + (("limits",) if kind != "ball" else ())
     sub.expect("kind", *own, *common)
     kw = {k: sub.get(k, lambda v: v, default=None) for k in own + common}
     sub.done()

@@ -14,10 +14,10 @@ The joint frame has no inertia of its own (the rotary inertia about the end belo
 element and the node, as at a weld), so at every evaluation of the loads phi is where the
 loads on it balance. With c_i the joint frame's body axis of coordinate i and tau_G the
 bending torque of the boundary point on G (3.22), the generalised torque
-    Q_i(phi) = c_i . tau_G - k_i (phi_i - phi0_i) - d_i (phi_i - phi_i^-) / dt
-(springs k, dampers d, phi^- the coordinates at the previous evaluation, dt before it) equals
-the friction torque: zero without friction, the kinetic torque against the motion while a
-coordinate slides; a coordinate sticks (phi_i = phi_i^-) while |Q_i(phi^-)| stays within the
+    Q_i(phi) = c_i . tau_G - k_i (phi_i - phi0_i) - T_i(phi_i) - d_i (phi_i - phi_i^-) / dt
+(springs k, tables T of torque against angle, dampers d, phi^- the coordinates at the previous
+evaluation, dt before it) equals the friction torque: zero without friction, the kinetic torque
+against the motion while a coordinate slides; a coordinate sticks (phi_i = phi_i^-) while |Q_i(phi^-)| stays within the
 static torque (the kinetic one once sliding), and a limit holds phi_i in [lower_i, upper_i] (a
 ball joint's cone holds the angle of G's d3 from X's within it).
 Without dampers and friction phi minimises the boundary bending energy plus the springs', so
@@ -65,6 +65,9 @@ class ArticulationParams(NamedTuple):
     lower: np.ndarray       # (k, 3) limits (rad; -inf, +inf: none)
     upper: np.ndarray       # (k, 3)
     cone: np.ndarray        # (k,) a ball's cone: largest angle of its d3 from X's (rad; pi: none)
+    table_offsets: np.ndarray  # (3 k + 1,) int64 CSR offsets of the spring table of coordinate (j, i) at 3 j + i
+    table_angle: np.ndarray    # (m,) the tables' angles (rad, increasing within a table)
+    table_torque: np.ndarray   # (m,) the torque resisting each angle (N m)
     phi: np.ndarray         # (k, 3) coordinates at the last evaluation
     rate: np.ndarray        # (k, 3) their rate over the last interval between evaluations (rad/s)
     sliding: np.ndarray     # (k, 3) 1.0 while a coordinate slides against its friction
@@ -157,12 +160,39 @@ def start_motion(p, j, i, torque, prev, dt):
     then meets (module docstring)."""
     if i >= p.dofs[j]:
         return False, 0.0
-    q0 = torque - p.stiffness[j, i] * (prev[i] - p.rest[j, i])
+    q0 = torque - p.stiffness[j, i] * (prev[i] - p.rest[j, i]) - spring_table(p, j, i, prev[i])[0]
     limit = p.kinetic[j, i] if p.sliding[j, i] != 0.0 else p.static[j, i]
     held = p.damping[j, i] > 0.0 and not dt > 0.0   # a damper gives way only over time
     if abs(q0) <= limit or held:
         return False, 0.0
     return True, math.copysign(p.kinetic[j, i], q0)
+
+
+@njit(**INLINE)
+def spring_table(p, j, i, x):
+    """Return (T, dT/dphi, the integral of T from 0 to x) of coordinate i of joint j's spring
+    table at angle x: piecewise linear through its points, its end segments carried on beyond
+    them; (0, 0, 0) without a table."""
+    a0, a1 = p.table_offsets[3 * j + i], p.table_offsets[3 * j + i + 1]
+    if a1 - a0 < 2:
+        return 0.0, 0.0, 0.0
+    ang, tq = p.table_angle, p.table_torque
+    out = 0.0
+    value, slope = 0.0, 0.0
+    for end, sign in ((x, 1.0), (0.0, -1.0)):   # integral from the first point to x, less to 0
+        k = a0
+        while k < a1 - 2 and end > ang[k + 1]:
+            k += 1
+        slope_k = (tq[k + 1] - tq[k]) / (ang[k + 1] - ang[k])
+        at = tq[k] + slope_k * (end - ang[k])
+        # the whole segments before k, then the part of segment k up to end
+        whole = 0.0
+        for m in range(a0, k):
+            whole += 0.5 * (tq[m] + tq[m + 1]) * (ang[m + 1] - ang[m])
+        out += sign * (whole + 0.5 * (tq[k] + at) * (end - ang[k]))
+        if sign > 0.0:
+            value, slope = at, slope_k
+    return value, slope, out
 
 
 @njit(**INLINE)
@@ -181,8 +211,9 @@ def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, m
     if not moves:
         return 0.0, 1.0
     d = p.damping[j, i] * inv_dt
-    g = dot3(col, tau) - p.stiffness[j, i] * (phi - p.rest[j, i]) - d * (phi - prev) - fric
-    return g, axis_stiffness(p, j, model, rel, col, col) + p.stiffness[j, i] + d
+    table, slope, _ = spring_table(p, j, i, phi)
+    g = dot3(col, tau) - p.stiffness[j, i] * (phi - p.rest[j, i]) - table - d * (phi - prev) - fric
+    return g, axis_stiffness(p, j, model, rel, col, col) + p.stiffness[j, i] + max(slope, 0.0) + d
 
 
 @njit(**INLINE)
@@ -300,7 +331,8 @@ def add_articulations(p, model, state, loads):
 @njit(**CACHED)
 def articulation_energy(p, model, state):
     """Return the bending energy of the articulated ends' boundary Voronoi points, L/2 kappa^T
-    B kappa, plus the joints' springs, k (phi - phi0)^2 / 2, with each joint settled as the
+    B kappa, plus the joints' springs, k (phi - phi0)^2 / 2 and the integral of their tables'
+    torque from 0, with each joint settled as the
     next evaluation of the loads will settle it (nothing is stored)."""
     dt = state.clock[0] - p.last[0]
     total = 0.0
@@ -311,7 +343,7 @@ def articulation_energy(p, model, state):
         k = model.attach_vertex[p.attach[j]]
         total += 0.5 * dot3(kappa, m) / model.voronoi_inv_rest_length[k]
         for i in range(3):
-            total += 0.5 * p.stiffness[j, i] * (phi[i] - p.rest[j, i]) ** 2
+            total += 0.5 * p.stiffness[j, i] * (phi[i] - p.rest[j, i]) ** 2 + spring_table(p, j, i, phi[i])[2]
     return total
 
 

@@ -409,3 +409,45 @@ def test_ball_joint_holds_its_cone():
     assert cone - 1e-9 < worst < cone + 1e-12     # it reached the cone and never left it
     end = sim.node_position(tip)
     assert math.acos(end[0] / np.linalg.norm(end)) < cone + 0.02   # the stiff arm stays near it
+
+
+def table_torsion(omega0, k=0.5, disk=0.01):
+    """The torsion test's disk on a hinge whose spring is a table: linear (slope k) to 0.05 rad,
+    stiffer (slope 1.9 k) beyond; started turning at omega0."""
+    net = cosnet.Net()
+    base = net.add_node((0.0, 0.0, 0.0), fixed=True)
+    top = net.add_node((0.0, 0.0, 0.5), mass=2.0, inertia=(disk / 2, disk / 2, disk))
+    knee = 0.05 * k
+    table = ([-1.0, -0.05, 0.0, 0.05, 1.0], [-knee - 1.9 * k * 0.95, -knee, 0.0, knee, knee + 1.9 * k * 0.95])
+    rod = net.add_line(base, top, material=STIFF, section=cosnet.Circle(0.01), elements=10,
+                       start_joint=cosnet.Hinge(axis=(0.0, 0.0, 1.0), spring_table=table))
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0))])
+    sim.line_angular_velocities(rod)[:] = (0.0, 0.0, omega0)
+    sim.node_angular_velocity(top)[:] = matrix_from_quat(sim.state.node_q[top.index]).T @ [0.0, 0.0, omega0]
+    turning = sim.model.element_inertia[:, 2].sum() + sim.model.node_inertia[top.index].max()
+    return sim, rod, turning
+
+
+def test_spring_table_gives_its_torque_and_stores_its_energy():
+    k = 0.5
+    # within the linear part the table is the spring k: the torsion test's period
+    sim, rod, turning = table_torsion(0.02)
+    k_eff = 1.0 / (1.0 / k + 0.5 / (STIFF.G * cosnet.Circle(0.01).J))
+    expected = 2.0 * math.pi * math.sqrt(turning / k_eff)
+    t, phi, _ = record(sim, rod, 1.1 * expected)
+    assert abs(crossings(t[1:], phi[1:], 0.0)[1] / expected - 1.0) < 5e-3
+    # past the knee: the swing stops where the table's energy, the integral of its torque, has
+    # taken the kinetic energy (less the rod's share of the twist), and the energy is kept
+    omega0 = 0.8
+    sim, rod, turning = table_torsion(omega0)
+    e0 = sim.energy()
+    t, phi, _ = record(sim, rod, 0.3)
+    kinetic = 0.5 * turning * omega0 ** 2
+    knee_energy = 0.5 * k * 0.05 ** 2
+    # V(phi) = knee_energy + 0.05 k (phi - 0.05) + 1.9 k (phi - 0.05)^2 / 2 = kinetic
+    a, b, c = 0.95 * k, 0.05 * k, knee_energy - kinetic
+    reach = 0.05 + (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a)
+    assert abs(phi.max() / reach - 1.0) < 1e-2
+    assert abs(sim.energy() / e0 - 1.0) < 1e-3
+    with pytest.raises(ValueError, match="spring_table's angles must increase"):
+        cosnet.Hinge(spring_table=([0.0, 0.0], [0.0, 1.0]))
