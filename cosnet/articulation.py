@@ -17,8 +17,8 @@ its rotation vector in the line end's frame as built): a spring ``stiffness`` (N
 (rad) a coordinate cannot leave (a ball joint: ``cone``, the largest angle its line end's axis
 may turn from where it was built). A number applies to every coordinate, a list gives one
 per coordinate. The joint's relative rotation is restricted exactly (kernels/articulation.py),
-so a free axis costs no stiffness in the step. A scene declares the same as ``start_joint = { kind = "hinge", axis = [0, 0, 1] }``
-in ``[lines.X]``.
+so a free axis costs no stiffness in the step. A scene declares the same as
+``start_joint = { kind = "hinge", axis = [0, 0, 1] }`` in ``[lines.X]``.
 
 The joints of a net act through one effect (cosnet.articulations), which a Simulation adds
 when a line declares a joint.
