@@ -69,12 +69,21 @@ def test_clamped_free_bending_frequencies(mode):
     assert abs(omega / exact - 1) < 0.01, (omega, exact)
 
 
-def test_bending_frequency_converges_at_order_at_least_one():
-    errs = [abs(bending_omega(n, 0)[0] / bending_omega(n, 0)[1] - 1) for n in (5, 10, 20)]
+def test_bending_frequency_converges_at_order_two():
+    """The first bending frequency against the exact frequency of the continuous Timoshenko
+    rod it discretises (cosnet.lincos.analytic_modes: shear and rotary inertia included), not
+    Euler-Bernoulli's: the Euler-Bernoulli value differs from it by a fixed O((r/L)^2) that
+    would flatten the observed order as the error falls towards it. The staggered grid is
+    centred (the strains are differences over one element, the Voronoi points halfway), so the
+    error is C l^2 + O(l^4): from n = 5 on, each halving divides it by 4 within a few %."""
+    errs = []
+    for n in (5, 10, 20):
+        omega, _ = bending_omega(n, 0)
+        exact = cosnet.analytic_modes(cantilever(n=n, length=1.0, radius=0.01)[0], count=1).omega[0]
+        errs.append(abs(omega / exact - 1))
     orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
     print("first bending mode relative error for n = 5, 10, 20:", errs, "orders", orders)
-    assert errs[0] > errs[1] > errs[2]
-    assert orders.min() >= 1.0, orders
+    assert np.all((orders > 1.9) & (orders < 2.1)), orders
 
 
 @pytest.mark.parametrize("kind", ["axial", "torsion"])
