@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cosseratbench as cb  # noqa: E402
 from cosseratbench.registry import load_experiment  # noqa: E402
 from cosseratbench.solvers.pyelastica import PyElasticaSolver  # noqa: E402
-from cosseratbench_adapter import CosnetSolver  # noqa: E402
+from cosnet.cosserat_bench import CosnetSolver  # noqa: E402
 from harness import table, write_json  # noqa: E402
 
 EXPERIMENTS = ("catenary", "cantilever", "pendulum", "twist", "crossing", "capstan", "pile")

@@ -1,4 +1,7 @@
-"""cosnet as a cosseratbench solver (cosseratbench 0.3.0, ``cosseratbench.solver.Solver``).
+"""cosnet as a cosseratbench solver (cosseratbench 0.3.0, ``cosseratbench.solver.Solver``),
+registered under the entry point ``cosseratbench.solvers`` as ``cosnet``: with both installed,
+``cosseratbench run twist -s cosnet`` runs it (bench/cosseratbench_run.py sets it beside
+PyElastica's).
 
 Each scenario rod becomes one cosnet line between two nodes: a clamped end is a fixed node
 (position and rotation held), a pinned end a node of infinite mass with free rotation, a free
@@ -37,6 +40,7 @@ changing axis.
 from __future__ import annotations
 
 import math
+from typing import Any
 from importlib.metadata import version
 
 import numpy as np
@@ -45,6 +49,10 @@ from cosseratbench.solver import Capability, Diverged
 from cosseratbench.trajectory import Trajectory
 
 import cosnet
+from cosnet.contact import Contact
+from cosnet.drives import Drive
+from cosnet.effects import Damping, Gravity, NodeLoad
+from cosnet.obstacles import Obstacle
 
 SAMPLE = 0.05  # s between the samples of a clamp's motion by a translation only
 
@@ -82,9 +90,9 @@ class CosnetSolver:
             t = np.unique(np.concatenate([times, np.arange(0.0, times[-1], SAMPLE)]))
             moved = np.stack([np.interp(t, times, moved[:, k]) for k in range(3)], axis=1)
             times, angle = t, np.zeros(t.shape)
-        return cosnet.Drive(node, position=cosnet.Path(times=times, values=moved) if np.any(moved) else None,
-                            rotation=cosnet.Path(times=times, values=angle), axis=axis,
-                            slide=motion.slides_along is not None)
+        return Drive(node, position=cosnet.Path(times=times, values=moved) if np.any(moved) else None,
+                     rotation=cosnet.Path(times=times, values=angle), axis=axis,
+                     slide=motion.slides_along is not None)
 
     @staticmethod
     def _node(net, position, condition: EndCondition, name: str, driven: bool = False):
@@ -118,11 +126,11 @@ class CosnetSolver:
                 if motion is not None:
                     effects.append(self._drive(node, motion))
             for load in rod.loads:
-                effects.append(cosnet.NodeLoad(a if load.at is End.START else b, force=load.force))
+                effects.append(NodeLoad(a if load.at is End.START else b, force=load.force))
         if any(scenario.gravity):
-            effects.append(cosnet.Gravity(scenario.gravity))
+            effects.append(Gravity(scenario.gravity))
         if scenario.quasi_static:
-            effects.append(cosnet.Damping(2.0 * scenario.slowest_frequency()))
+            effects.append(Damping(2.0 * scenario.slowest_frequency()))
         if len(scenario.rods) > 1 or scenario.self_contact or scenario.obstacles:
             k, gamma = self._penalty(net, effects)
             if len(scenario.rods) > 1 or scenario.self_contact:
@@ -143,8 +151,8 @@ class CosnetSolver:
     def _contact(scenario: Scenario, k: float, gamma: float):
         """Rod-rod contact, with friction between rods when theirs is given."""
         mu = max(rod.friction for rod in scenario.rods)
-        friction = {"mu_s": mu, "mu_k": mu, "pairs_per_element": 8} if mu > 0 else {}
-        return cosnet.Contact(k=k, gamma=gamma, self_contact=scenario.self_contact, **friction)
+        friction: dict[str, Any] = {"mu_s": mu, "mu_k": mu, "pairs_per_element": 8} if mu > 0 else {}
+        return Contact(k=k, gamma=gamma, self_contact=scenario.self_contact, **friction)
 
     @staticmethod
     def _obstacles(scenario: Scenario, k: float, gamma: float) -> list:
@@ -154,13 +162,14 @@ class CosnetSolver:
         rod_mu = max((rod.friction for rod in scenario.rods), default=0.0)
         for i, ob in enumerate(scenario.obstacles):
             mu = max(ob.friction, rod_mu)
-            common = dict(k=k, gamma=gamma, name=f"{ob.kind}{i}", **({"mu_s": mu, "mu_k": mu} if mu > 0 else {}))
+            common: dict[str, Any] = dict(k=k, gamma=gamma, name=f"{ob.kind}{i}",
+                                          **({"mu_s": mu, "mu_k": mu} if mu > 0 else {}))
             if isinstance(ob, Cylinder):
                 half = ob.unit_axis * ob.length / 2
-                out.append(cosnet.Obstacle("capsule", start=np.asarray(ob.center) - half,
-                                           end=np.asarray(ob.center) + half, radius=ob.radius, **common))
+                out.append(Obstacle("capsule", start=np.asarray(ob.center) - half,
+                                    end=np.asarray(ob.center) + half, radius=ob.radius, **common))
             elif isinstance(ob, Plane):
-                out.append(cosnet.Obstacle("plane", point=ob.point, normal=ob.unit_normal, **common))
+                out.append(Obstacle("plane", point=ob.point, normal=ob.unit_normal, **common))
             else:
                 raise NotImplementedError(f"this adapter has no {type(ob).__name__} obstacle")
         return out
