@@ -162,7 +162,8 @@ def cosseratbench() -> str:
         label = EXPERIMENTS.get(exp, exp) + (f", {VARIANT[exp]} {value:g}" if value is not None else "")
         rows.append([label, str(n), metric, *cells, " / ".join(walls)])
     return _table(["experiment", "elements", "metric", "cosnet", "PyElastica", "wall s cosnet / PyElastica"],
-                  rows) + measured_on(d["machine"], f", cosseratbench {d['cosseratbench']}, `python bench/cosseratbench_run.py`")
+                  rows) + measured_on(d["machine"],
+                                      f", cosseratbench {d['cosseratbench']}, `python bench/cosseratbench_run.py`")
 
 
 def contact_friction() -> str:
