@@ -129,7 +129,7 @@ def rigid_limit(sim, until):
     def rhs(_, y):
         t1, t2, w1, w2 = y
         c, s = math.cos(t1 - t2), math.sin(t1 - t2)
-        a = np.array([[i1 + m2 * length ** 2, m2 * length * (mc2 / m2) * c], [m2 * length * (mc2 / m2) * c, i2]])
+        a = np.array([[i1 + m2 * length ** 2, mc2 * length * c], [mc2 * length * c, i2]])
         b = np.array([-mc2 * length * s * w2 ** 2 - (mc1 + m2 * length) * G * math.sin(t1),
                       mc2 * length * s * w1 ** 2 - mc2 * G * math.sin(t2)])
         return [w1, w2, *np.linalg.solve(a, b)]

@@ -169,30 +169,47 @@ def start_motion(p, j, i, torque, prev, dt):
 
 
 @njit(**INLINE)
+def table_segment(p, a0, a1, x):
+    """Return (k, T, dT/dphi) at angle x of the spring table in p.table_angle / table_torque
+    a0 .. a1-1: its segment k (first point) and the torque on it, the end segments carried on
+    beyond the table."""
+    ang, tq = p.table_angle, p.table_torque
+    k = a0
+    while k < a1 - 2 and x > ang[k + 1]:
+        k += 1
+    slope = (tq[k + 1] - tq[k]) / (ang[k + 1] - ang[k])
+    return k, tq[k] + slope * (x - ang[k]), slope
+
+
+@njit(**INLINE)
 def spring_table(p, j, i, x):
-    """Return (T, dT/dphi, the integral of T from 0 to x) of coordinate i of joint j's spring
-    table at angle x: piecewise linear through its points, its end segments carried on beyond
-    them; (0, 0, 0) without a table."""
+    """Return (T, dT/dphi) of coordinate i of joint j's spring table at angle x: piecewise
+    linear through its points, its end segments carried on beyond them; (0, 0) without one."""
     a0, a1 = p.table_offsets[3 * j + i], p.table_offsets[3 * j + i + 1]
     if a1 - a0 < 2:
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0
+    return table_segment(p, a0, a1, x)[1:]
+
+
+@njit(**INLINE)
+def table_integral(p, a0, a1, x):
+    """Return the integral of the spring table a0 .. a1-1 from its first angle to x."""
     ang, tq = p.table_angle, p.table_torque
-    out = 0.0
-    value, slope = 0.0, 0.0
-    for end, sign in ((x, 1.0), (0.0, -1.0)):   # integral from the first point to x, less to 0
-        k = a0
-        while k < a1 - 2 and end > ang[k + 1]:
-            k += 1
-        slope_k = (tq[k + 1] - tq[k]) / (ang[k + 1] - ang[k])
-        at = tq[k] + slope_k * (end - ang[k])
-        # the whole segments before k, then the part of segment k up to end
-        whole = 0.0
-        for m in range(a0, k):
-            whole += 0.5 * (tq[m] + tq[m + 1]) * (ang[m + 1] - ang[m])
-        out += sign * (whole + 0.5 * (tq[k] + at) * (end - ang[k]))
-        if sign > 0.0:
-            value, slope = at, slope_k
-    return value, slope, out
+    k, at, _ = table_segment(p, a0, a1, x)
+    whole = 0.0
+    for m in range(a0, k):
+        whole += 0.5 * (tq[m] + tq[m + 1]) * (ang[m + 1] - ang[m])
+    return whole + 0.5 * (tq[k] + at) * (x - ang[k])
+
+
+@njit(**INLINE)
+def spring_table_energy(p, j, i, x):
+    """Return the integral of coordinate i of joint j's spring table from 0 to x (its energy);
+    0 without one."""
+    a0, a1 = p.table_offsets[3 * j + i], p.table_offsets[3 * j + i + 1]
+    if a1 - a0 < 2:
+        return 0.0
+    return table_integral(p, a0, a1, x) - table_integral(p, a0, a1, 0.0)
 
 
 @njit(**INLINE)
@@ -211,7 +228,7 @@ def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, m
     if not moves:
         return 0.0, 1.0
     d = p.damping[j, i] * inv_dt
-    table, slope, _ = spring_table(p, j, i, phi)
+    table, slope = spring_table(p, j, i, phi)
     g = dot3(col, tau) - p.stiffness[j, i] * (phi - p.rest[j, i]) - table - d * (phi - prev) - fric
     return g, axis_stiffness(p, j, model, rel, col, col) + p.stiffness[j, i] + max(slope, 0.0) + d
 
@@ -343,7 +360,7 @@ def articulation_energy(p, model, state):
         k = model.attach_vertex[p.attach[j]]
         total += 0.5 * dot3(kappa, m) / model.voronoi_inv_rest_length[k]
         for i in range(3):
-            total += 0.5 * p.stiffness[j, i] * (phi[i] - p.rest[j, i]) ** 2 + spring_table(p, j, i, phi[i])[2]
+            total += 0.5 * p.stiffness[j, i] * (phi[i] - p.rest[j, i]) ** 2 + spring_table_energy(p, j, i, phi[i])
     return total
 
 
