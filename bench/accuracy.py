@@ -3,7 +3,7 @@ count, time step and stepper ("verlet", order 2; "pefrl", order 4).
 
 Cases (reference in brackets):
   freq      first bending frequency of a clamped-free steel rod (L/r = 50)
-            [cosnet.lincos.analytic_modes: the exact Timoshenko frequency of the same rod];
+            [cosnet.studies.lincos.analytic_modes: the exact Timoshenko frequency of the same rod];
             started in the exact mode shape, frequency from a least-squares sinusoid fit
             to the tip's transverse motion over three periods
   static    tip deflection of an end-loaded cantilever in the linear regime, damped to rest
@@ -52,9 +52,9 @@ from scipy.optimize import minimize_scalar
 from scipy.special import ellipk
 
 import cosnet
-from cosnet.fast_modes import FAST_MODES
-from cosnet.rotmath import matrix_from_quat
-from cosnet.lincos import analytic_modes
+from cosnet.core.fast_modes import FAST_MODES
+from cosnet.core.rotations import matrix_from_quat
+from cosnet.studies.lincos import analytic_modes
 from harness import table, write_json
 
 STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0, name="steel")

@@ -10,7 +10,7 @@ join them. Run: python bench/effects.py [--quick]; writes bench/effects.json.
 import sys
 
 import cosnet
-from cosnet.flatten import flatten
+from cosnet.engine.flatten import flatten
 from cosnet.kernels.backend import Serial
 from cosnet.kernels.layout import empty_loads
 from cosnet.kernels.stepping import advance_verlet

@@ -37,7 +37,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cosnet  # noqa: E402
-from cosnet.modes import bending_omegas  # noqa: E402
+from cosnet.studies.modes import bending_omegas  # noqa: E402
 from harness import STEEL, table, write_json  # noqa: E402
 
 SETTINGS = ("resolve", "rotary", "soften", "auto")

@@ -38,7 +38,7 @@ import warnings
 import numpy as np
 
 import cosnet
-from cosnet.scene import load_scene
+from cosnet.scene.loader import load_scene
 from harness import table, write_json
 from snake import CASE, case_numbers, pe_snake, SnakeSim
 
@@ -192,13 +192,13 @@ def profile(count):
 
     sim = cn_snakes(count, 1)
     sim.run(steps=10)
-    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim._load_params, sim._backend
+    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.load_records, sim.backend
     k = max(20, int(2e6 / (count * ELEMENTS)))
     stages = {"evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
               "  internal loads": lambda: loop_internal(m, s, l, k),
               "kick_state": lambda: loop_kick_state(m, s, l, 0.0, be, k),
               "drift_state": lambda: loop_drift_state(m, s, 0.0, be, k)}
-    for e, p in zip(sim.effects, sim._params):
+    for e, p in zip(sim.effects, sim.records):
         if type(e).stage == "load":
             stages[f"  {type(e).__name__}"] = lambda p=p: loop_one(m, s, l, (p,), k)
         elif type(e).stage == "flow":

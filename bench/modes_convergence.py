@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 import cosnet
-from cosnet.modes import modes
+from cosnet.studies.modes import modes
 
 STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0)
 EB = np.array([1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349, 14.1371683910])
@@ -45,7 +45,7 @@ def table(ns):
     print(f"{'n':>6} {'dofs':>7} {'time[s]':>8} " + " ".join(f"bend{k + 1:<5d}" for k in range(5))
           + "  axial      torsion")
     try:   # the analytic modes of the same continuum model (Timoshenko + axial + torsion)
-        from cosnet.lincos import analytic_modes
+        from cosnet.studies.lincos import analytic_modes
         exact = analytic_modes(rod(4), count=10).omega[::2]
     except ImportError:
         exact = None

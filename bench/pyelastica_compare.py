@@ -269,7 +269,7 @@ def cable_compare(quick):
     line = ref.net.lines[0]
     positions = ref.line_positions(line).copy()
     q = ref.state.q[ref.model.line_element_offsets[0]:ref.model.line_element_offsets[1]]
-    from cosnet.flatten import matrix_from_quat
+    from cosnet.core.rotations import matrix_from_quat
     directors = np.array([matrix_from_quat(qq).T for qq in q])   # rows d1, d2, d3
     check = 2000 if quick else 20000
     dt_pe, tried = pe_stable_dt(positions, directors, ref.dt, check)

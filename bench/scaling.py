@@ -136,7 +136,7 @@ def with_threads(sim, threads):
     the same backend)."""
     twin = copy.copy(sim)
     twin.threads = threads
-    twin._backend = Serial() if threads == 1 else Parallel(threads)
+    twin.backend = Serial() if threads == 1 else Parallel(threads)
     return twin
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cosnet.scene import load_scene
+from cosnet.scene.loader import load_scene
 from harness import table, write_json
 
 warnings.filterwarnings("ignore")

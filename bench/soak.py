@@ -42,7 +42,7 @@ def soak(case: str, steps: int, every: int) -> dict:
     """One case run for ``steps`` steps with output every ``every`` steps; per frame (step,
     simulated time, wall s, resident MB, open descriptors, energy J) and a summary."""
     from cosnet import load_scene
-    from cosnet.cli import scene_path
+    from cosnet.scene.cases import scene_path
     scene = load_scene(scene_path(case))
     sim = scene.simulation(threads=1)
     rows = []

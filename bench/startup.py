@@ -48,7 +48,7 @@ def mark(name, log=None):
     t, done[:] = now, [c, l]
 import cosnet
 from cosnet.compiling import CompileLog, compiling_alongside
-from cosnet.record import Recorder
+from cosnet.output.record import Recorder
 mark("import")
 with CompileLog() as log:
     scene = cosnet.load_scene(sys.argv[1])

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from harness import table, write_json
 
-from cosnet.sweep import local_cluster, sweep
+from cosnet.studies.sweep import local_cluster, sweep
 
 SCENE = """title = "bench cantilever"
 [materials.steel]

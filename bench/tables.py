@@ -67,7 +67,7 @@ def pyelastica() -> str:
 
 SPACE_CASES = {   # case in accuracy.json -> what it is, against what
     "freq": ("first bending frequency, clamped–free steel rod, L/r = 50",
-             "exact Timoshenko frequency (`cosnet.lincos.analytic_modes`)"),
+             "exact Timoshenko frequency (`cosnet.studies.lincos.analytic_modes`)"),
     "static": ("end-loaded cantilever, static tip deflection (damped to rest)", "P L³/3EI + P L/kGA"),
     "elastica": ("large-deflection cantilever, P L²/EI = 3, tip displacement",
                  "elastica with stretch and shear (`scipy.integrate.solve_bvp`; gives Bisshopp–Drucker's "

@@ -10,22 +10,22 @@ if not _os.path.isdir(_os.path.join(__path__[0], "kernels")):
     if _os.path.isfile(_os.path.join(_root, "kernels", "__init__.py")):
         __path__.append(_root)
 
-from .registry import Binding, Effect, Key, builtin_effects
-from .materials import Circle, Ellipse, Material, Rectangle, Section, Tube
-from .net import Line, Net, Node
-from .scaling import Scale
-from .simulation import InstabilityError, Simulation
-from .contract import contract
-from .io import Output, SeriesWriter, read_output
-from .lincos import Mode, Modes, analytic_modes
-from .modes import DiscreteModes, main_modes, modes
-from .scene import RunSettings, Scene, build_scene, load_scene
-from .sweep import sweep
-from .drives import Path
-from .fluid import resistive_coefficients, wave_number
-from .articulation import Ball, Hinge, Universal
-from .articulations import joint_state
-from .mobile import slider_state
+from .engine.registry import Binding, Effect, Key, builtin_effects
+from .core.materials import Circle, Ellipse, Material, Rectangle, Section, Tube
+from .core.net import Line, Net, Node
+from .core.scaling import Scale
+from .engine.simulation import InstabilityError, Simulation
+from .core.contract import contract
+from .output.io import Output, SeriesWriter, read_output
+from .studies.lincos import Mode, Modes, analytic_modes
+from .studies.modes import DiscreteModes, main_modes, modes
+from .scene.loader import RunSettings, Scene, build_scene, load_scene
+from .studies.sweep import sweep
+from .effects.drives import Path
+from .effects.fluid import resistive_coefficients, wave_number
+from .core.articulation import Ball, Hinge, Universal
+from .effects.articulations import joint_state
+from .effects.sliders import slider_state
 
 # every effect cosnet declares is exported under its class name (cosnet.Gravity, ...)
 _EFFECTS = {cls.__name__: cls for cls in builtin_effects().values()}

@@ -12,7 +12,7 @@
     cosnet sweep --check STORE                               every file of a store against its manifest
 
 ``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
-interval (cosnet.record, which ``Simulation.run(out=...)`` uses too), each only after the
+interval (cosnet.output.record, which ``Simulation.run(out=...)`` uses too), each only after the
 state has passed every test of the instability watch (so on instability the checkpoint holds
 the last state that passed); ``--resume`` (continue
 from the last checkpoint in DIR) reproduces an uninterrupted run bit for bit.
@@ -28,43 +28,16 @@ import sys
 import threading
 from pathlib import Path
 
-from .scene_values import _one_line
-
-
-def cases_dir() -> Path:
-    """The ready cases: cases/ of a source checkout, or the copy installed as cosnet.cases."""
-    here = Path(__file__).resolve().parent
-    for cand in (here.parent / "cases", here / "cases"):
-        if (cand / "bridge.toml").exists():
-            return cand
-    raise ValueError("the ready cases (cases/*.toml) were not found next to the package")
-
-
-def default_scene() -> Path:
-    """cases/bridge.toml, the suspension bridge of Figure 1.1."""
-    return cases_dir() / "bridge.toml"
-
-
-def scene_path(arg: str | None) -> Path:
-    """A scene file given on the command line, or the name of a ready case (``cantilever``,
-    ``hard/column``), or the default case when none is given."""
-    if arg is None:
-        return default_scene()
-    p = Path(arg)
-    if p.is_file() or p.suffix == ".toml":
-        return p
-    case = cases_dir() / f"{arg}.toml"
-    if case.exists():
-        return case
-    names = sorted(str(c.relative_to(cases_dir()).with_suffix("")) for c in cases_dir().rglob("*.toml"))
-    raise ValueError(f"{arg}: no such scene file, nor a ready case; cases are {', '.join(names)}")
+from .core.units import one_line
+from .scene.cases import cases_dir, default_scene, scene_path
+from .studies.sweep_store import package_version
 
 
 def _threads_option(text) -> dict:
     """The Simulation keyword of --threads (none when not given: the scene's, else automatic)."""
     if text is None:
         return {}
-    from .simulation import check_threads
+    from .engine.simulation import check_threads
     try:
         return {"threads": check_threads(int(text))}
     except ValueError as e:
@@ -73,16 +46,17 @@ def _threads_option(text) -> dict:
 
 
 def cmd_run(args) -> int:
-    from . import outdir
-    from .limits import check_run
-    from .scene import load_scene
+    from .output import outdir
+    from .core.limits import check_run
+    from .scene.loader import load_scene
+    from .studies.runner import schedule
     scene = load_scene(scene_path(args.scene), limits=not args.no_limits)
     out = Path(args.out)
     until = scene.run.until if args.until is None else float(args.until)
     if not (math.isfinite(until) and until > 0):
         raise ValueError(f"--until must be a positive number of seconds, got {args.until}")
     sim = scene.simulation(**_threads_option(args.threads))
-    interval = min(scene.run.interval, until)
+    interval = schedule(scene, until).interval
     if interval < sim.dt:
         what = "until" if interval == until else "output_interval"
         raise ValueError(f"{scene.path}: [run] {what}: {interval:g} s is shorter than one step "
@@ -98,7 +72,7 @@ def cmd_run(args) -> int:
 
 def _write_run(args, scene, sim, out: Path, until: float) -> int:
     from .compiling import CompileLog, compiling_alongside
-    from .record import kernels_compiled
+    from .output.record import kernels_compiled
     cached = kernels_compiled(sim)
     if not cached:
         print("compiling kernels (first run only)...", file=sys.stderr)
@@ -141,7 +115,7 @@ class CompileStatus:
 
 
 def _record(args, scene, sim, out: Path, until: float, log, status) -> int:
-    from .record import Progress, Recorder
+    from .output.record import Progress, Recorder
     rec = Recorder(out, sim, until, scene.run.interval, scene.run.probes, resume=args.resume)
     status.clear()
     if args.resume and rec.done:
@@ -168,7 +142,7 @@ def _record(args, scene, sim, out: Path, until: float, log, status) -> int:
 def fast_modes_line(sim) -> str:
     """The fast-modes setting in force, the stable step it gives (against "resolve") and the
     step "auto" would give."""
-    from .fast_modes import dt_with, summary
+    from .studies.accuracy import dt_with, summary
     est, auto = sim.stable_dt(), dt_with(sim, "auto")
     text = f"{summary(sim)}: stable dt {est:.4g} s"
     if sim.fast_modes != "resolve":
@@ -202,7 +176,7 @@ def cmd_compile(args) -> int:
                     r = done.result()
                 except (ValueError, RuntimeError) as e:
                     failed += 1
-                    print(f"{name}: {_one_line(e)}", file=sys.stderr)
+                    print(f"{name}: {one_line(e)}", file=sys.stderr)
                     continue
                 what = (f"compiled {r['kernels']} kernels in {r['seconds']:.0f} s" if r["kernels"]
                         else "all kernels cached")
@@ -215,7 +189,7 @@ def cmd_compile(args) -> int:
 
 
 def cmd_info(args) -> int:
-    from .scene import load_scene
+    from .scene.loader import load_scene
     scene = load_scene(scene_path(args.scene))
     net = scene.net
     sim = scene.simulation()
@@ -240,8 +214,8 @@ def cmd_info(args) -> int:
 
 
 def cmd_modes(args) -> int:
-    from .modes import comparison_table, main_modes, spectrum_table, write_modes
-    from .scene import load_scene
+    from .studies.modes import comparison_table, main_modes, spectrum_table, write_modes
+    from .scene.loader import load_scene
     scene = load_scene(scene_path(args.scene))
     res = main_modes(scene, count=args.count, sigma=args.sigma, analytic=args.analytic)
     print(spectrum_table(res))
@@ -256,8 +230,8 @@ def cmd_modes(args) -> int:
 def cmd_render(args) -> int:
     import contextlib
 
-    from . import outdir
-    from .render import render
+    from .output import outdir
+    from .output.render import render
     kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
     src = Path(args.dir)
     # a picture written into a run's directory is a write: not while a run or sweep holds it
@@ -272,17 +246,9 @@ def cmd_render(args) -> int:
     return 0
 
 
-def package_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("cosnet")
-    except PackageNotFoundError:    # a source tree that was never installed
-        return "unknown (not installed)"
-
-
 def cmd_accuracy(args) -> int:
     """Exit code 0 with a recommendation, 1 when no setting reaches --tol."""
-    from .accuracy import check_tol, report, study
+    from .studies.accuracy import check_tol, report, study
     try:
         tol = check_tol(args.tol)
     except ValueError as e:   # the library names its parameter, the command its flag
@@ -300,8 +266,8 @@ def cmd_accuracy(args) -> int:
 def cmd_sweep(args) -> int:
     """Exit code 0 when every variant ran to the end, 1 when some failed (with --check: 0
     when the store is intact, 1 when it is damaged)."""
-    from .sweep import check, sweep
-    from .sweep_report import plot, summary
+    from .studies.sweep import check, sweep
+    from .studies.sweep_report import plot, summary
     if args.check is not None:
         if args.scene is not None:
             raise ValueError("--check STORE takes the store alone, not a scene")
@@ -347,7 +313,7 @@ class _Parser(argparse.ArgumentParser):
     """Usage mistakes end in one line (like every other error), exit code 2."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
 def _positive_int(text: str) -> int:
@@ -463,12 +429,12 @@ def main(argv=None) -> int:
         return {"run": cmd_run, "compile": cmd_compile, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
                 "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
     except ValueError as e:
-        print(f"cosnet: error: {_one_line(e)}", file=sys.stderr)
+        print(f"cosnet: error: {one_line(e)}", file=sys.stderr)
         return 2
     except (MemoryError, RecursionError) as e:
         where = getattr(args, "scene", None) or getattr(args, "dir", None) or default_scene()
         what = "out of memory: too large for this machine" if isinstance(e, MemoryError) else "nested too deeply"
-        print(f"cosnet: error: {_one_line(where)}: {what}", file=sys.stderr)
+        print(f"cosnet: error: {one_line(where)}: {what}", file=sys.stderr)
         return 2
     except RuntimeError as e:  # InstabilityError and other run failures
         print(f"\ncosnet: error: {e}", file=sys.stderr)

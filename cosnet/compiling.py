@@ -209,7 +209,7 @@ def compile_scene(path, alongside: bool = True) -> dict:
     load) every kernel its first frames and its steps need, on a simulation thrown away after
     one step (``alongside``: with a second process compiling the kick, compiling_alongside).
     Returns {"scene", "kernels" (compiled in this process), "seconds" (compiling)}."""
-    from .scene import load_scene
+    from .scene.loader import load_scene
     scene = load_scene(path)
     sim = scene.simulation()
     helper = compiling_alongside(path, sim) if alongside else contextlib.nullcontext()
@@ -231,14 +231,13 @@ def compile_kick(path, threads: int):
     first gets the loads on their own, as the drives' reactions in its frame 0 ask for them."""
     from numba import typeof, types
 
-    from .drives import Drive
     from .kernels.stepping import evaluate_loads, kick_loads
-    from .scene import load_scene
+    from .scene.loader import load_scene
     sim = load_scene(path).simulation(threads=threads)
-    model, state, loads, backend = (typeof(x) for x in (sim.model, sim.state, sim.loads, sim._backend))
-    if any(isinstance(e, Drive) for e in sim.effects):
-        evaluate_loads.compile((model, state, loads, typeof(sim._load_params), backend))
-    kick_loads.compile((model, state, loads, typeof(sim._step_effects), types.float64, backend))
+    model, state, loads, backend = (typeof(x) for x in (sim.model, sim.state, sim.loads, sim.backend))
+    if any(e.reads_loads for e in sim.effects):
+        evaluate_loads.compile((model, state, loads, typeof(sim.load_records), backend))
+    kick_loads.compile((model, state, loads, typeof(sim.step_records), types.float64, backend))
 
 
 @contextlib.contextmanager
@@ -249,7 +248,7 @@ def compiling_alongside(path, sim, cached: bool | None = None):
     (kernels/compiler.py), while the frame-0 kernels and the drift were compiled here. The
     process dies with this one and is stopped when the block ends. ``cached``: whether the
     step is cached, when the caller knows (record.kernels_compiled)."""
-    from .record import kernels_compiled
+    from .output.record import kernels_compiled
     if (os.cpu_count() or 1) < 2 or (kernels_compiled(sim) if cached is None else cached):
         yield
         return

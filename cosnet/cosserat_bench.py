@@ -49,10 +49,10 @@ from cosseratbench.solver import Capability, Diverged
 from cosseratbench.trajectory import Trajectory
 
 import cosnet
-from cosnet.contact import Contact
-from cosnet.drives import Drive
-from cosnet.effects import Damping, Gravity, NodeLoad
-from cosnet.obstacles import Obstacle
+from cosnet.effects.contact import Contact
+from cosnet.effects.drives import Drive
+from cosnet.effects.loads import Damping, Gravity, NodeLoad
+from cosnet.effects.obstacles import Obstacle
 
 SAMPLE = 0.05  # s between the samples of a clamp's motion by a translation only
 

@@ -8,7 +8,7 @@ to a subset of SO(3), given by its coordinates phi (rad):
     ball       R = exp(phi)                      phi a rotation vector, X's components
 so the constrained relative rotations hold to round-off whatever phi is. The boundary Voronoi
 point of the end (half an element, kernels/elastic.py) joins G, not D X, to the end element; the
-model holds no bending stiffness there (cosnet.flatten) and this effect carries it.
+model holds no bending stiffness there (cosnet.engine.flatten) and this effect carries it.
 
 The joint frame has no inertia of its own (the rotary inertia about the end belongs to the end
 element and the node, as at a weld), so at every evaluation of the loads phi is where the

@@ -21,7 +21,7 @@ class GravityParams(NamedTuple):
 
 
 class NodeLoadParams(NamedTuple):
-    """Node loads, a row each (one declared NodeLoad, or several joined: cosnet.effects.join_loads)."""
+    """Node loads, a row each (one declared NodeLoad, or several joined: cosnet.effects.loads.join_loads)."""
     nodes: np.ndarray    # (k,) int64
     force: np.ndarray    # (k, 3) lab force at the node's reference point
     torque: np.ndarray   # (k, 3) lab torque

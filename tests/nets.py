@@ -70,7 +70,7 @@ def perturb(sim, rng, scale_v=0.3, scale_w=3.0):
 def smooth_motion(sim, amplitude=0.2, spin=2.0):
     """Smooth, consistent initial motion: a half-sine lateral velocity along every line (its
     elements turning with the tangent), and a spin of every node."""
-    from cosnet.rotmath import matrix_from_quat
+    from cosnet.core.rotations import matrix_from_quat
     m, s = sim.model, sim.state
     for line in sim.net.lines:
         v0, v1 = m.line_vertex_offsets[line.index], m.line_vertex_offsets[line.index + 1]

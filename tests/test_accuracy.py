@@ -1,4 +1,4 @@
-"""cosnet.accuracy: Richardson estimates of the time-step error against the true error, the
+"""cosnet.studies.accuracy: Richardson estimates of the time-step error against the true error, the
 observed orders of the two steppers, element-count refinement of a scene, and the
 ``cosnet accuracy`` command."""
 
@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosnet.accuracy import resolve_probes, run_window, scaled_scene, time_series
-from cosnet.scene import load_scene
+from cosnet.studies.accuracy import resolve_probes, run_window, scaled_scene, time_series
+from cosnet.scene.loader import load_scene
 from nets import ROD_SCENE
 
 REPO = Path(__file__).resolve().parents[1]
@@ -117,8 +117,8 @@ def test_fast_modes_settings_are_listed_and_the_cheapest_one_within_tol_is_recom
     """A slender wire (l/r = 100), resolving or treating its own fast modes: every fast_modes
     setting is listed, measured against the full scheme; the softened ones take longer steps;
     the recommendation meets tol and no cheaper listed setting does."""
-    from cosnet.accuracy import study
-    from cosnet.fast_modes import FAST_MODES
+    from cosnet.studies.accuracy import study
+    from cosnet.core.fast_modes import FAST_MODES
     path = tmp_path / "wire.toml"
     path.write_text(WIRE_SCENE + f'fast_modes = "{own}"\n')
     st = study(path, window=0.0005, probes=["tip"])

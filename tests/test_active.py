@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.scene import build_scene
+from cosnet.scene.loader import build_scene
 from nets import ROD_SCENE
 
 RUBBER = cosnet.Material(E=1e6, G=4e5, density=1000.0, name="rubber")

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 from scipy.special import ellipk
 
 import cosnet
-from cosnet.rotmath import matrix_from_quat
+from cosnet.core.rotations import matrix_from_quat
 
 G = 9.81
 STIFF = cosnet.Material(E=1e10, G=4e9, density=1000.0)
@@ -209,7 +209,7 @@ def test_ball_joint_keeps_angular_momentum_about_the_vertical():
     sim, arm, tip = hanging_arm(0.6, cosnet.Ball())
     # set it turning about the vertical: a conical swing
     spin = np.array([0.0, 0.0, 2.0])
-    sim.line_velocities(arm)[:] = np.cross(spin, sim.state.x[sim._vrange(arm)])
+    sim.line_velocities(arm)[:] = np.cross(spin, sim.state.x[sim.vertex_range(arm)])
     sim.node_velocity(tip)[:] = np.cross(spin, sim.state.node_x[tip.index])
     for i, d in enumerate(sim.line_directors(arm)):
         sim.line_angular_velocities(arm)[i] = d.T @ spin

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.scene import build_scene, load_scene
+from cosnet.scene.loader import build_scene, load_scene
 from test_cases import CASES, free_weight, support_force
 
 G = 9.81
@@ -110,7 +110,7 @@ def test_a_checkpoint_carries_the_contacts(tmp_path):
     """Resumed from a checkpoint taken while the ball slides, a run ends bit-identical to the
     uninterrupted one (spring displacements, modes, the last evaluation's time and the
     dissipation travel with the state)."""
-    from cosnet import checkpoint
+    from cosnet.engine import checkpoint
 
     def start():
         sim, ball, body = ball_on_floor(k=1e5, gamma=100.0, mu=0.3, height=RADIUS - MASS * G / 1e5, dt=2e-4)

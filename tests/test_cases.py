@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.scene import load_scene
+from cosnet.scene.loader import load_scene
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 G = 9.81

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosnet.io import read_output
-from cosnet.scene import load_scene
+from cosnet.output.io import read_output
+from cosnet.scene.loader import load_scene
 from nets import ROD_SCENE
 from procs import spawn
 
@@ -145,7 +145,7 @@ def test_killed_run_resumes_to_the_uninterrupted_result(tiny, tmp_path):
 
 
 def test_default_scene_is_the_bridge(tmp_path):
-    from cosnet.cli import default_scene
+    from cosnet.scene.cases import default_scene
     scene = load_scene(default_scene())
     assert default_scene().name == "bridge.toml"
     assert {"west_n_top", "east_s_top", "deck_n06"} <= {n.name for n in scene.net.nodes}
@@ -257,11 +257,11 @@ def test_unreadable_scenes_and_bad_options_end_in_one_line(tmp_path, capsys):
 
 
 def test_out_of_memory_ends_in_one_line(tiny, capsys, monkeypatch):
-    import cosnet.scene
+    import cosnet.scene.loader
 
     def exhausted(*a, **kw):
         raise MemoryError
-    monkeypatch.setattr(cosnet.scene, "load_scene", exhausted)
+    monkeypatch.setattr(cosnet.scene.loader, "load_scene", exhausted)
     assert main_err(capsys, "info", tiny) == (2, f"cosnet: error: {tiny}: out of memory: too large for this machine")
 
 

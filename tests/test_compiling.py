@@ -174,7 +174,8 @@ def test_the_process_compiling_alongside_ends_with_the_block(tmp_path, monkeypat
     """The second process is started only for a step not cached yet, and is gone when the
     block ends, finished or not."""
     import cosnet
-    from cosnet import compiling, record
+    from cosnet import compiling
+    from cosnet.output import record
     from nets import write_sweep_scene
     sim = cosnet.load_scene(write_sweep_scene(tmp_path / "scene.toml")).simulation(threads=1)
     marker = tmp_path / "helper.pid"

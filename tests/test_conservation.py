@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.rotmath import matrix_from_quat, quat_from_matrix
+from cosnet.core.rotations import matrix_from_quat, quat_from_matrix
 from cosnet.kernels.backend import Parallel, Serial
 from cosnet.kernels.elastic import LONG_LINE
 from cosnet.kernels.motion import place_line_ends
@@ -72,7 +72,7 @@ def test_compiled_energies_equal_the_sums_of_the_strains_and_velocities():
     """kernels/energy.py's one pass = (3.25) summed from measure.line_strains, and the kinetic
     energy of the moving masses and free axes; its worst strain is the largest |v - d3|_1, a
     NaN counting as the worst."""
-    from cosnet.measure import block_of, element_stretch, energies, line_strains, worst_strain
+    from cosnet.engine.measure import block_of, element_stretch, energies, line_strains, worst_strain
     rng = np.random.default_rng(1)
     sim = cosnet.Simulation(free_net(n=3))
     m, s = sim.model, sim.state
@@ -248,7 +248,7 @@ def test_principal_axes_of_a_round_body_do_not_depend_on_the_lapack(monkeypatch)
     them (it differs between LAPACK builds). Flattening takes the user's body axes projected
     on the eigenspace, signed so each axis's largest component is positive: an eigh that
     returns another basis of the repeated pair, with flipped signs, gives the same frame."""
-    from cosnet import flatten
+    from cosnet.engine import flatten
     c, s = np.cos(0.7), np.sin(0.7)
     R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     I = R @ np.diag([3.0, 2.0, 2.0]) @ R.T         # the repeated pair spans (R e2, e3)

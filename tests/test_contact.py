@@ -10,7 +10,7 @@ import pytest
 import cosnet
 from cosnet.kernels.contact import add_contact, closest_points
 from cosnet.kernels.layout import empty_loads
-from cosnet.scene import build_scene
+from cosnet.scene.loader import build_scene
 
 STIFF = cosnet.Material(E=1e9, G=4e8, density=1000.0, name="stiff")
 SOFT = cosnet.Material(E=1e8, G=4e7, density=1000.0, name="soft")

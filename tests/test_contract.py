@@ -8,10 +8,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.contract import contract
-from cosnet.flatten import build_line_grid
-from cosnet.lincos import analytic_modes
-from cosnet.rotmath import frame_from_tangent
+from cosnet.core.contract import contract
+from cosnet.core.grid import build_line_grid
+from cosnet.studies.lincos import analytic_modes
+from cosnet.core.rotations import frame_from_tangent
 from nets import STEEL
 
 ROT_A = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()
@@ -165,7 +165,7 @@ def test_frequencies_approach_the_contracted_net_as_the_line_stiffens():
 
 def start_in_mode(sim, mode, amplitude):
     """Set every velocity to the mode's, scaled so the largest node displacement is 'amplitude'."""
-    from cosnet.rotmath import matrix_from_quat
+    from cosnet.core.rotations import matrix_from_quat
     w = mode.omega * amplitude / np.abs(mode.node_displacement).max()
     for line in sim.net.lines:
         n = line.elements

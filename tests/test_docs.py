@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from cosnet.cli import main
-from cosnet.scene import load_scene
+from cosnet.scene.loader import load_scene
 
 REPO = Path(__file__).resolve().parents[1]
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]

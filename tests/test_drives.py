@@ -10,8 +10,8 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.rotmath import matrix_from_quat
-from cosnet.scene import build_scene
+from cosnet.core.rotations import matrix_from_quat
+from cosnet.scene.loader import build_scene
 from nets import ROD_SCENE
 
 RUBBER = cosnet.Material(E=1e6, G=4e5, density=1000.0, name="rubber")

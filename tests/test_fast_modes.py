@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.fast_modes import (FastModesError, MODE_TOLERANCE, MODES_KEPT, ROTARY_SHARE, STRAIN_GUARD,
-                               _Rows, auto_rotary_scale)
-from cosnet.flatten import build_line_grid, flatten
-from cosnet.modes import bending_omegas
-from cosnet.scene import build_scene
+from cosnet.core.fast_modes import (FastModesError, MODE_TOLERANCE, MODES_KEPT, ROTARY_SHARE, STRAIN_GUARD,
+                                    _Rows, auto_rotary_scale)
+from cosnet.core.grid import build_line_grid
+from cosnet.engine.flatten import flatten
+from cosnet.studies.modes import bending_omegas
+from cosnet.scene.loader import build_scene
 from nets import STEEL
 
 REPO = Path(__file__).resolve().parents[1]
@@ -59,7 +60,7 @@ def test_default_is_the_derived_rotary_inertia_unchanged():
     I = math.pi * 1e-3 ** 4 / 4
     np.testing.assert_allclose(model.element_inertia[3], STEEL.density * 0.125 * np.array([I, I, 2 * I]), rtol=1e-14)
     sim = cosnet.Simulation(net)
-    assert sim.fast_modes == "resolve" and all(f == cosnet.fast_modes.Factors() for f in sim.line_factors)
+    assert sim.fast_modes == "resolve" and all(f == cosnet.core.fast_modes.Factors() for f in sim.line_factors)
 
 
 def test_auto_rotary_scale_brings_the_rotation_bound_to_the_translation_bound():
@@ -281,7 +282,7 @@ def test_docs_blocks_run():
 
 @pytest.mark.parametrize("path", sorted((REPO / "cases" / "hard").glob("*.toml")), ids=lambda p: p.stem)
 def test_hard_cases_run_under_auto_never_slower(path):
-    from cosnet.scene import load_scene
+    from cosnet.scene.loader import load_scene
     scene = load_scene(path)
     full = scene.simulation(fast_modes="resolve")
     sim = scene.simulation(fast_modes="auto")
@@ -290,5 +291,5 @@ def test_hard_cases_run_under_auto_never_slower(path):
     for line, f in zip(scene.net.lines, sim.line_factors):
         assert np.all(np.isfinite(sim.line_positions(line)))
         if f.treatment == "resolve":      # untreated lines are exactly today's
-            np.testing.assert_array_equal(sim.model.element_inertia[sim._erange(line)],
-                                          full.model.element_inertia[full._erange(line)])
+            np.testing.assert_array_equal(sim.model.element_inertia[sim.element_range(line)],
+                                          full.model.element_inertia[full.element_range(line)])

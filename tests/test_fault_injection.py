@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from cosnet import cli
-from cosnet.io import read_output
+from cosnet.output.io import read_output
 from test_cli import REPO, TINY, cosnet
 from test_scene import dumps
 from procs import spawn
@@ -154,7 +154,7 @@ def test_a_directory_locked_by_a_running_run_is_refused(scene, tmp_path):
     import os
     import socket
 
-    from cosnet import outdir
+    from cosnet.output import outdir
     out = tmp_path / "held"
     with outdir.locked(out):
         runs = [cosnet("run", scene, "--out", out, "--until", 0.02), cosnet("render", out, "--png")]
@@ -253,7 +253,7 @@ def test_mutated_scenes_are_refused_in_one_line_or_run(mutated):
     then runs 20 steps (exit 0), or is refused in one line, or stops as unstable with the
     instability message (exit 3): never a traceback."""
     name, data = mutated
-    from cosnet.scene import load_scene
+    from cosnet.scene.loader import load_scene
     with tempfile.TemporaryDirectory() as tmp:
         p = Path(tmp) / name
         p.write_text(dumps(data), encoding="utf-8")
@@ -295,9 +295,9 @@ def test_the_commands_of_docs_faults_run_as_written(tmp_path):
 def test_the_limits_key_of_docs_faults_lifts_the_element_limit(tmp_path, monkeypatch):
     """With the limit lowered below the cantilever's 10 elements, the case is refused, and
     loads with the [run] table of docs/faults.md (or limits=False)."""
-    import cosnet.limits
-    from cosnet.scene import load_scene
-    monkeypatch.setattr(cosnet.limits, "MAX_ELEMENTS", 5)
+    import cosnet.core.limits
+    from cosnet.scene.loader import load_scene
+    monkeypatch.setattr(cosnet.core.limits, "MAX_ELEMENTS", 5)
     toml = re.findall(r"```toml\n(.*?)```", (REPO / "docs" / "faults.md").read_text(), re.S)[0]
     case = (REPO / "cases" / "cantilever.toml").read_text()
     with pytest.raises(ValueError, match=r"10 elements in the net .* the limits are 5 elements"):

@@ -11,7 +11,7 @@ import pytest
 
 import cosnet
 from cosnet.kernels.obstacles import obstacle_distance
-from cosnet.scene import build_scene
+from cosnet.scene.loader import build_scene
 
 STIFF = cosnet.Material(E=1e9, G=4e8, density=1000.0, name="stiff")
 G = 9.81
@@ -347,7 +347,7 @@ def test_mesh_distance_is_the_nearest_triangle_with_the_side_of_the_solid():
 def test_a_checkpoint_carries_the_anchors(tmp_path):
     """Resumed from a checkpoint taken while contacts stick and slide, a run ends bit-identical
     to the uninterrupted one (the anchors, modes and dissipation travel with the state)."""
-    from cosnet import checkpoint
+    from cosnet.engine import checkpoint
 
     def start():
         sim, line, nodes = rod(plane(mu_s=0.4, mu_k=0.3))

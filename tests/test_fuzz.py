@@ -131,7 +131,7 @@ def set_in_motion(sim, rng, speed=0.05, spin=0.5):
     each line's interior follows the straight interpolation of its ends' velocities plus a
     half-sine lateral swing, its elements turning with it and twisting as a half sine (so
     even a line between two fixed nodes moves)."""
-    from cosnet.rotmath import matrix_from_quat
+    from cosnet.core.rotations import matrix_from_quat
     m, s = sim.model, sim.state
     free = np.isfinite(m.node_mass)
     s.node_v[:] = speed * rng.standard_normal(s.node_v.shape) * free[:, None]

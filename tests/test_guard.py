@@ -9,11 +9,13 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet import cli, measure
-from cosnet.io import SeriesWriter, read_output
-from cosnet.record import CHECKPOINT, PROBES, advance_to, fit_step, frame_time
-from cosnet.scene import load_scene
-from cosnet.watch import STRAIN_LIMIT
+from cosnet import cli
+from cosnet.engine import measure
+from cosnet.output.io import SeriesWriter, read_output
+from cosnet.output.record import CHECKPOINT, PROBES, advance_to
+from cosnet.studies.runner import schedule
+from cosnet.scene.loader import load_scene
+from cosnet.engine.watch import STRAIN_LIMIT
 from nets import ROD_SCENE, STEEL, cantilever, free_net, smooth_motion
 
 REPO = Path(__file__).resolve().parents[1]
@@ -56,16 +58,16 @@ def test_blown_up_ring_writes_no_frame_or_checkpoint_that_failed_the_watch(tmp_p
     assert not list(out.glob("*.tmp*"))
     # the checkpoint is the state of the last frame, bit for bit, and it passes the watch
     scene = load_scene(scene_file)
-    interval = min(scene.run.interval, scene.run.until)
+    plan = schedule(scene)
     sim = scene.simulation()
-    fit_step(sim, interval)     # the run's step: dt shortened to a whole fraction of the interval
+    plan.fit_step(sim)     # the run's step: dt shortened to a whole fraction of the interval
     sim.load_checkpoint(out / CHECKPOINT)
     assert sim.time == series.times[-1]
     assert measure.worst_strain(sim.model, sim.state)[0] <= STRAIN_LIMIT
     again = scene.simulation()
-    fit_step(again, interval)
+    plan.fit_step(again)
     for k in range(1, len(series.times)):   # as the run went: frame by frame
-        advance_to(again, frame_time(k, 0.0, interval, scene.run.until))
+        advance_to(again, plan.time(k))
     again.check()      # the line ends placed on their nodes, as before every write
     for name, a in again.state._asdict().items():
         np.testing.assert_array_equal(a, getattr(sim.state, name), err_msg=name)

@@ -11,10 +11,10 @@ import meshio
 import numpy as np
 import pytest
 
-import cosnet.io as cio
+import cosnet.output.io as cio
 from cosnet import cli
-from cosnet.io import LINE_FIELDS, NODE_FIELDS, SeriesWriter, read_output
-from cosnet.scene import load_scene
+from cosnet.output.io import LINE_FIELDS, NODE_FIELDS, SeriesWriter, read_output
+from cosnet.scene.loader import load_scene
 
 TINY = """
 title = "tiny"

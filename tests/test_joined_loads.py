@@ -1,4 +1,4 @@
-"""Loads declared one after another run as one record (cosnet.simulation.joined_records): their
+"""Loads declared one after another run as one record (cosnet.engine.simulation.joined_records): their
 number is not part of the compiled step's type, each row keeps its own amplitude, and each
 declared effect's record is a view into the joined one."""
 
@@ -24,7 +24,7 @@ def _loads(net):
 
 def _node_loads(sim):
     sim.state.clock[0] = T
-    evaluate_loads(sim.model, sim.state, sim.loads, sim._load_params, sim._backend)
+    evaluate_loads(sim.model, sim.state, sim.loads, sim.load_records, sim.backend)
     return sim.loads.node_f.copy(), sim.loads.node_tau.copy()
 
 
@@ -32,13 +32,13 @@ def test_a_run_of_node_loads_is_one_record_whatever_its_length():
     net = free_net()
     three = cosnet.Simulation(net, effects=[cosnet.Gravity(), *_loads(net)])
     six = cosnet.Simulation(net, effects=[cosnet.Gravity(), *_loads(net), *_loads(net)])
-    assert [len(s._load_params) for s in (three, six)] == [2, 2]
-    assert three._load_params[1].nodes.shape == (3,) and six._load_params[1].nodes.shape == (6,)
+    assert [len(s.load_records) for s in (three, six)] == [2, 2]
+    assert three.load_records[1].nodes.shape == (3,) and six.load_records[1].nodes.shape == (6,)
     # the same step serves both: adding a load changes numbers, not the compiled code
-    assert numba.typeof(three._step_effects) == numba.typeof(six._step_effects)
+    assert numba.typeof(three.step_records) == numba.typeof(six.step_records)
     # separated by another effect, runs stay apart (the loads add up in the declared order)
     split = cosnet.Simulation(net, effects=[_loads(net)[0], cosnet.Gravity(), *_loads(net)[1:]])
-    assert [type(p).__name__ for p in split._load_params] == ["NodeLoadParams", "GravityParams", "NodeLoadParams"]
+    assert [type(p).__name__ for p in split.load_records] == ["NodeLoadParams", "GravityParams", "NodeLoadParams"]
 
 
 def test_each_row_keeps_its_amplitude_and_its_own_record_is_live():
@@ -48,7 +48,7 @@ def test_each_row_keeps_its_amplitude_and_its_own_record_is_live():
     f, tau = _node_loads(sim)
     for load in loads:                      # switch every load off through its own record
         rec = sim.effect_params(load)
-        assert np.shares_memory(rec.force, sim._load_params[1].force)
+        assert np.shares_memory(rec.force, sim.load_records[1].force)
         rec.force[:] = 0.0
         rec.torque[:] = 0.0
     f0, tau0 = _node_loads(sim)

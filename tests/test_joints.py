@@ -10,7 +10,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.rotmath import matrix_from_quat
+from cosnet.core.rotations import matrix_from_quat
 from nets import STEEL
 
 KINDS = {"spherical": cosnet.SphericalJoint, "hinge": cosnet.HingeJoint, "fixed": cosnet.FixedJoint}

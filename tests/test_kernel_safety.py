@@ -63,7 +63,7 @@ start = p.bucket_start
 out["csr"] = bool(start[0] == 0 and np.all(np.diff(start) >= 0) and start[-1] == p.elements.size)
 out["permutation"] = sorted(p.sorted_elem.tolist()) == sorted(p.elements.tolist())
 f = contact_forces(sim, contact)
-rows = np.r_[sim._vrange(la), sim._vrange(lb)]
+rows = np.r_[sim.vertex_range(la), sim.vertex_range(lb)]
 out["touching"] = bool(np.abs(clean[rows]).max() > 0)
 out["same_forces"] = bool(np.allclose(f[rows], clean[rows], rtol=1e-12, atol=0.0))
 out["runs"] = []
@@ -206,12 +206,12 @@ SPOILS = {
     "model.line_vertex_offsets is not an offset table": lambda s: s.model.line_vertex_offsets.__setitem__(1, 9),
     "model: every line needs": lambda s: s.model.line_element_offsets.__setitem__(1, 2),
     "model: attach_vertex": lambda s: s.model.attach_vertex.__setitem__(1, 0),
-    "HingeJointParams.attach_b holds 4, outside [0, 4)": lambda s: s._params[1].attach_b.__setitem__(0, 4),
-    "node load.nodes holds 4, outside [0, 4)": lambda s: s._params[2].nodes.__setitem__(0, 4),
-    "line load.lines holds -3": lambda s: s._params[3].lines.__setitem__(0, -3),
-    "contact.elements holds 6, outside [0, 6)": lambda s: s._params[4].elements.__setitem__(0, 6),
-    "contact.elem_index does not name": lambda s: s._params[4].elem_index.__setitem__((5, 0), 7),
-    "contact.elem_index (line) holds 2": lambda s: s._params[4].elem_index.__setitem__((5, 1), 2),
+    "HingeJointParams.attach_b holds 4, outside [0, 4)": lambda s: s.records[1].attach_b.__setitem__(0, 4),
+    "node load.nodes holds 4, outside [0, 4)": lambda s: s.records[2].nodes.__setitem__(0, 4),
+    "line load.lines holds -3": lambda s: s.records[3].lines.__setitem__(0, -3),
+    "contact.elements holds 6, outside [0, 6)": lambda s: s.records[4].elements.__setitem__(0, 6),
+    "contact.elem_index does not name": lambda s: s.records[4].elem_index.__setitem__((5, 0), 7),
+    "contact.elem_index (line) holds 2": lambda s: s.records[4].elem_index.__setitem__((5, 1), 2),
     "state.x has shape (3, 3), the net needs 8 rows":
         lambda s: setattr(s, "state", s.state._replace(x=s.state.x[:3])),
 }
@@ -220,9 +220,9 @@ SPOILS = {
 def test_index_tables_are_checked_before_a_run():
     """The tables the kernels index by unchecked are valid as built, and a spoilt one (a user
     can reach them all) stops run() with one line naming the table, before any kernel runs."""
-    from cosnet.bounds import table_error
+    from cosnet.engine.bounds import table_error
     sim = small_sim()
-    assert table_error(sim.model, sim.state, sim.loads, sim._params) is None
+    assert table_error(sim.model, sim.state, sim.loads, sim.records, [type(e) for e in sim.effects]) is None
     for message, spoil in SPOILS.items():
         sim = small_sim()
         spoil(sim)

@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.lincos import analytic_modes
+from cosnet.studies.lincos import analytic_modes
 from nets import STEEL
 
 EB_CLAMPED_FREE = (1.8751040687, 4.6940911330, 7.8547574382)

@@ -8,10 +8,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.measure import energies
+from cosnet.engine.measure import energies
 from cosnet.kernels.motion import place_line_ends
-from cosnet.modes import linearise, modes, rigid_basis
-from cosnet.flatten import flatten
+from cosnet.studies.modes import linearise, modes, rigid_basis
+from cosnet.engine.flatten import flatten
 from nets import STEEL, cantilever, free_net
 
 EB_CLAMPED_FREE = (1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349, 14.1371683910)
@@ -188,7 +188,7 @@ def net_kinetic_shares(res, j, dx, alpha):
 
 def test_cantilever_frequencies_converge_to_euler_bernoulli_and_quarter_waves():
     """The first five bending frequencies against the exact ones of the continuous Timoshenko
-    rod the grid discretises (cosnet.lincos.analytic_modes), the axial and torsional ones
+    rod the grid discretises (cosnet.studies.lincos.analytic_modes), the axial and torsional ones
     against their quarter waves: the staggered grid is centred, so each error is C l^2 +
     O(l^4) and every halving of l divides it by 4 within a few % (orders in (1.9, 2.1)). Shear
     and rotary inertia lower the Timoshenko frequencies below Euler-Bernoulli's by a share of
@@ -296,7 +296,7 @@ def test_main_modes_writes_an_animated_series_of_each_mode(tmp_path, capsys):
     import xml.etree.ElementTree as ET
 
     import meshio
-    from cosnet.modes import main_modes, spectrum_table, write_modes
+    from cosnet.studies.modes import main_modes, spectrum_table, write_modes
     net, line, root, tip = cantilever(n=8)
     res = main_modes(net, 3)
     assert capsys.readouterr().out == ""                  # the library prints nothing
@@ -324,8 +324,8 @@ def test_cosnet_modes_command_prints_and_writes_the_spectrum_of_a_case(tmp_path)
     import sys
     import meshio
     from pathlib import Path
-    from cosnet.io import read_pvd
-    from cosnet.scene import load_scene
+    from cosnet.output.io import read_pvd
+    from cosnet.scene.loader import load_scene
     case = Path(__file__).resolve().parents[1] / "cases" / "t_junction.toml"
     r = subprocess.run([sys.executable, "-m", "cosnet.cli", "modes", str(case), "--count", "3",
                         "--out", str(tmp_path), "--frames", "4", "--analytic"],

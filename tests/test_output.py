@@ -13,9 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosnet import cli, record
-from cosnet.io import read_output
-from cosnet.scene import load_scene
+from cosnet import cli
+
+from cosnet.output import record
+from cosnet.output.io import read_output
+from cosnet.scene.loader import load_scene
 from nets import ROD_SCENE
 
 REPO = Path(__file__).resolve().parents[1]

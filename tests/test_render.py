@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cosnet.cli import main
-from cosnet.io import read_output
+from cosnet.output.io import read_output
 
 REPO = Path(__file__).resolve().parents[1]
 ROD = """# a cantilever sagging and swinging under gravity
@@ -61,7 +61,7 @@ def magnitudes(out, field, frames):
 
 
 def picture(directory, **kw):
-    from cosnet.render import Picture
+    from cosnet.output.render import Picture
     return Picture(directory, window_size=(W, H), **kw)
 
 
@@ -122,7 +122,7 @@ def test_tubes_have_the_lines_radii_or_the_visible_minimum(run):
 def test_png_of_each_view_is_drawn(run, tmp_path):
     from PIL import Image
 
-    from cosnet.render import render
+    from cosnet.output.render import render
     for view in ("iso", "xy", "xz", "yz", "-60,20"):
         path = render(run, field="force", view=view, output=tmp_path / "v.png", window_size=(W, H))
         img = np.asarray(Image.open(path).convert("L"))
@@ -136,7 +136,7 @@ def test_movie_has_one_frame_per_frame_drawn(run, tmp_path, kind):
         pytest.importorskip("imageio_ffmpeg")
     import imageio.v3 as iio
 
-    from cosnet.render import render
+    from cosnet.output.render import render
     path = render(run, kind=kind, every=2, output=tmp_path / f"m.{kind}", window_size=(160, 128))
     assert len(list(iio.imiter(path))) == 3
 
@@ -156,9 +156,9 @@ def test_movie_extra_is_declared():
 
 
 def test_mode_series_render_with_displacement_and_radius(tmp_path):
-    from cosnet.modes import main_modes, write_modes
-    from cosnet.render import render
-    from cosnet.scene import load_scene
+    from cosnet.studies.modes import main_modes, write_modes
+    from cosnet.output.render import render
+    from cosnet.scene.loader import load_scene
     res = main_modes(load_scene(REPO / "cases" / "cantilever.toml"), 2)
     write_modes(res, tmp_path, frames=8, amplitude=0.02)
     import meshio

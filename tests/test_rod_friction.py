@@ -137,7 +137,7 @@ def test_energy_plus_dissipation_is_conserved():
 def test_a_checkpoint_carries_the_pair_springs(tmp_path):
     """Resumed from a checkpoint taken while pairs slide, a run ends bit-identical to the
     uninterrupted one (the pair table and the dissipation travel with the state)."""
-    from cosnet import checkpoint
+    from cosnet.engine import checkpoint
 
     def start():
         sim, line, _ = rails((0.0, 0.0, -G), mu_s=0.4, mu_k=0.3)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet import measure
+from cosnet.engine import measure
 from cosnet.kernels.motion import place_line_ends
 from cosnet.kernels.stepping import evaluate_loads
-from cosnet.rotmath import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
+from cosnet.core.rotations import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
 
 E, G, RHO, R, L = 2.1e11, 8.1e10, 7850.0, 0.01, 1.0
 EI = E * math.pi * R ** 4 / 4
@@ -106,7 +106,7 @@ def flutter(n, alpha, tip_inertia=None):
             qs = s.q if c == "q" else s.node_q
             qs[i] = quat_from_matrix(matrix_from_quat(qs[i]) @ matrix_from_rotvec(d))
         place_line_ends(m, s)
-        evaluate_loads(m, s, sim.loads, sim._load_params, sim._backend)
+        evaluate_loads(m, s, sim.loads, sim.load_records, sim.backend)
         ld = sim.loads
         tau_node = matrix_from_quat(s.node_q[1]).T @ ld.node_tau[1]
         table = {"x": ld.f, "q": ld.tau, "nx": ld.node_f}

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from cosnet.rotmath import (matrix_from_quat, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix)
+from cosnet.core.rotations import (matrix_from_quat, matrix_from_rotvec, quat_from_matrix, rotvec_from_matrix)
 
 
 def _rotvecs():

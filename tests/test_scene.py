@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.flatten import flatten
-from cosnet.scene import build_scene, load_scene
+from cosnet.engine.flatten import flatten
+from cosnet.scene.loader import build_scene, load_scene
 
 SCENE = """
 title = "everything"
@@ -553,7 +553,7 @@ def test_frames_closer_than_the_step_are_refused(tmp_path):
 
 
 def test_a_net_above_the_element_limit_is_refused_before_it_is_built(tmp_path):
-    from cosnet.limits import MAX_ELEMENTS
+    from cosnet.core.limits import MAX_ELEMENTS
     text = SCENE.replace("elements = 4", "elements = 100_000_000")
     msg = refused(write(tmp_path, text), r"\[lines\.bent\] elements: 100,000,0\d\d elements in the net "
                                          r"need about [\d.]+ GB of memory")

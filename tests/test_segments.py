@@ -209,7 +209,7 @@ def test_segment_triangle_matches_a_fine_scan():
 
 def test_a_checkpoint_carries_the_element_springs(tmp_path):
     """Resumed while the line slides and sticks on two thin rods, a run ends bit-identical."""
-    from cosnet import checkpoint
+    from cosnet.engine import checkpoint
 
     def start():
         obstacles = supports("capsule", tmp_path, k=1e4, gamma=5.0, mu_s=0.4, mu_k=0.3)

@@ -7,7 +7,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from cosnet.scene import build_scene
+from cosnet.scene.loader import build_scene
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "snake.toml"
 DATA = tomllib.loads(CASE.read_text())

@@ -23,10 +23,10 @@ xr = pytest.importorskip("xarray")
 from cosnet import cli, load_scene
 from nets import write_sweep_scene as write_scene
 from procs import spawn
-from cosnet.runner import run_probes
-from cosnet.scene import build_scene
-from cosnet.sweep import sweep
-from cosnet.variants import parse_vary, plan, set_path
+from cosnet.studies.runner import run_probes
+from cosnet.scene.loader import build_scene
+from cosnet.studies.sweep import sweep
+from cosnet.studies.variants import parse_vary, plan, set_path
 
 def read_csv(path):
     rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
@@ -152,7 +152,7 @@ def ds_doc(path, changes):
 
 
 def test_resume_runs_only_unfinished_variants(tmp_path, client):
-    from cosnet.sweep_store import Store
+    from cosnet.studies.sweep_store import Store
     path = write_scene(tmp_path / "s.toml")
     vary = ["materials.steel.E=1e11,2e11,3e11"]
     first = sweep(path, vary=vary, out=tmp_path, client=client, name="r").load()

@@ -22,12 +22,16 @@ import pytest
 pytest.importorskip("distributed")
 xr = pytest.importorskip("xarray")
 
-from cosnet import cli, limits, sweep_store
-from cosnet.runner import run_probes
-from cosnet.scene import build_scene
-from cosnet.sweep import DEATH_TIMEOUT, check, sweep
-from cosnet.sweep_store import MANIFEST, Store
-from cosnet.variants import set_path
+from cosnet import cli
+
+from cosnet.core import limits
+
+from cosnet.studies import sweep_store
+from cosnet.studies.runner import run_probes
+from cosnet.scene.loader import build_scene
+from cosnet.studies.sweep import DEATH_TIMEOUT, check, sweep
+from cosnet.studies.sweep_store import MANIFEST, Store
+from cosnet.studies.variants import set_path
 from nets import write_sweep_scene
 from procs import session, spawn, started, wait_until
 from test_fault_injection import command
@@ -115,7 +119,7 @@ def test_more_variants_than_the_limit_are_refused_with_their_count(tmp_path, cli
     def planned(*a, **k):
         raise AssertionError("the variants were planned before the limit refused them")
     with monkeypatch.context() as m:
-        m.setattr(sys.modules["cosnet.sweep"], "plan", planned)
+        m.setattr(sys.modules["cosnet.studies.sweep"], "plan", planned)
         assert cli.main(["sweep", str(path), "--vary", "materials.steel.E=linspace(1e11, 3e11, 200)",
                          "--vary", "materials.steel.G=linspace(7e10, 9e10, 200)", "--out", str(tmp_path)]) == 2
     assert one_line(capsys.readouterr().err) == (
@@ -130,7 +134,7 @@ def test_more_variants_than_the_limit_are_refused_with_their_count(tmp_path, cli
 
 
 def test_an_unreachable_scheduler_is_one_line_naming_it(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(sys.modules["cosnet.sweep"], "CONNECT_TIMEOUT", 2)
+    monkeypatch.setattr(sys.modules["cosnet.studies.sweep"], "CONNECT_TIMEOUT", 2)
     with socket.socket() as s:   # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         addr = f"tcp://127.0.0.1:{s.getsockname()[1]}"

@@ -13,8 +13,8 @@ import numba
 import pytest
 
 import cosnet
-from cosnet import simulation
-from cosnet.scene import build_scene, read_toml
+from cosnet.engine import simulation
+from cosnet.scene.loader import build_scene, read_toml
 
 REPO = Path(__file__).resolve().parents[1]
 AVAILABLE = numba.config.NUMBA_NUM_THREADS

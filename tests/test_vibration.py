@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import cosnet
-from cosnet.rotmath import matrix_from_quat
+from cosnet.core.rotations import matrix_from_quat
 from nets import STEEL, cantilever
 
 BETA_L = (1.8751040687, 4.6940911330, 7.8547574382)
@@ -71,7 +71,7 @@ def test_clamped_free_bending_frequencies(mode):
 
 def test_bending_frequency_converges_at_order_two():
     """The first bending frequency against the exact frequency of the continuous Timoshenko
-    rod it discretises (cosnet.lincos.analytic_modes: shear and rotary inertia included), not
+    rod it discretises (cosnet.studies.lincos.analytic_modes: shear and rotary inertia included), not
     Euler-Bernoulli's: the Euler-Bernoulli value differs from it by a fixed O((r/L)^2) that
     would flatten the observed order as the error falls towards it. The staggered grid is
     centred (the strains are differences over one element, the Voronoi points halfway), so the

@@ -241,7 +241,7 @@ def long_run_net(elements=4):
 def rigid_motion(sim, velocity, omega):
     """Set every vertex, element and node of sim to the rigid motion v + omega x (r - c),
     c = the centre of mass (lab vectors)."""
-    from cosnet.rotmath import matrix_from_quat
+    from cosnet.core.rotations import matrix_from_quat
     m, s = sim.model, sim.state
     omega = np.asarray(omega, dtype=float)
     fin = np.isfinite(m.node_mass)
@@ -274,7 +274,7 @@ def excite_bending_mode(sim, line, mode=0, amplitude=1e-3, lateral=(0.0, 0.0, 1.
     """Give a straight clamped-free line the velocity field of its Euler-Bernoulli mode
     (vertices move along 'lateral', elements turn with the slope, the free end node follows).
     Returns the mass-weighted projection signal(sim) of the displacement on the mode."""
-    from cosnet.rotmath import matrix_from_quat
+    from cosnet.core.rotations import matrix_from_quat
     n = line.elements
     L = line.length
     x0 = sim.line_positions(line).copy()

@@ -11,7 +11,7 @@ import pytest
 
 import cosnet
 import nets_hard as H
-from cosnet.scene import load_scene
+from cosnet.scene.loader import load_scene
 from nets import smooth_motion
 
 HARD = Path(__file__).resolve().parents[2] / "cases" / "hard"

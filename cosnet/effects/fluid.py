@@ -1,0 +1,362 @@
+"""The fluid medium: lines in water or air feel drag, added mass, buoyancy and the inertia
+force of an accelerating medium (Morison's equation), or the resistive forces of Stokes flow.
+One declaration, ``Fluid``, scene kind "fluid"; its kernels are cosnet.kernels.fluid."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..core import samples
+from ..engine.bounds import index_error
+from ..core import checks
+from .contact import chosen_lines
+from .drives import Drive
+from .loads import Gravity, checked_table
+from ..kernels.fluid import LINEAR, MORISON, FluidParams
+from ..engine.registry import Binding, Effect, Key
+from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
+                          pair, positive)
+
+DENSITY = Unit("kg/m^3", -3, 1, 0)
+RESISTANCE = Unit("N s/m^2", -1, 1, -1)   # force per length per velocity
+
+
+def _finite(name: str, v) -> float:
+    x = checks.number("Fluid", name, v)
+    if not math.isfinite(x):
+        raise ValueError(f"Fluid: {name} must be finite, got {v!r}")
+    return x
+
+
+def wave_number(omega: float, depth: float, g: float) -> float:
+    """The wave number k of a linear wave of angular frequency omega over water of the given
+    depth: the root of omega^2 = g k tanh(k depth) (Newton's method from the deep-water value)."""
+    k = omega * omega / g
+    if not math.isfinite(depth):
+        return k
+    k = max(k, omega / math.sqrt(g * depth))
+    for _ in range(100):
+        th = math.tanh(k * depth)
+        f = g * k * th - omega * omega
+        df = g * th + g * k * depth * (1.0 - th * th)
+        step = f / df
+        k -= step
+        if abs(step) <= 1e-15 * k:
+            break
+    return k
+
+
+def resistive_coefficients(viscosity: float, diameter: float, wavelength: float,
+                           theory: str = "gray_hancock") -> tuple[float, float]:
+    """(c_n, c_t), the drag per length per velocity of resistive-force theory for a filament
+    of the given diameter bending in waves of the given wavelength in a fluid of the given
+    dynamic viscosity: Gray & Hancock (1955), c_n = 4 pi mu / (ln(2 q / a) + 1/2),
+    c_t = 2 pi mu / (ln(2 q / a) - 1/2), or Lighthill (1976), c_n = 4 pi mu / (ln(2 q / a) + 1/2),
+    c_t = 2 pi mu / ln(2 q / a); a the radius and q = 0.09 wavelength."""
+    for name, x in (("viscosity", viscosity), ("diameter", diameter), ("wavelength", wavelength)):
+        checks.positive("resistive_coefficients", name, x)
+    log = math.log(2.0 * 0.09 * wavelength / (0.5 * diameter))
+    if theory == "gray_hancock":
+        return 4 * math.pi * viscosity / (log + 0.5), 2 * math.pi * viscosity / (log - 0.5)
+    if theory == "lighthill":
+        return 4 * math.pi * viscosity / (log + 0.5), 2 * math.pi * viscosity / log
+    raise ValueError(f"resistive_coefficients: theory must be 'gray_hancock' or 'lighthill', got {theory!r}")
+
+
+class Fluid(Effect):
+    """A fluid around the lines: water (with a free surface, waves, a current) or air (wind).
+
+    Each wet vertex of a line (Voronoi length l, tangent t, diameter d, section area A; u its
+    velocity relative to the medium's U, split into u_t along t and u_n across) feels
+    - drag (Morison): -1/2 rho C_dn d l |u_n| u_n - 1/2 rho C_dt pi d l |u_t| u_t (the
+      tangential part on the surface area, as MoorDyn), or with ``resistance = [c_n, c_t]``
+      (Stokes flow) -c_n l u_n - c_t l u_t;
+    - added mass: its mass becomes m + C_an rho A l (1 - t t^T) + C_at rho A l t t^T;
+    - the medium's inertia force rho A l ((1 + C_an) A_n + (1 + C_at) A_t) where the medium
+      accelerates (waves, a current changing in time) - Froude-Krylov plus added mass;
+    - buoyancy: rho g A times the submerged length of each element (cut at the still surface),
+      shared by its vertices as the gradient of its potential.
+    The current is ``velocity`` times a profile over height (a table, or a power law
+    ((z - ground) / reference_height)^power_law) times a factor over time (a table); waves are
+    linear (Airy) components over water of the given depth, their kinematics stretched to the
+    instantaneous surface (Wheeler) or held above the still surface at its value ("none").
+    Vertical is +z; above the free surface nothing acts. Drag and the added mass are solved
+    exactly (or implicitly at nodes), so they never shorten the step. Energy: buoyancy and the
+    entrained fluid's kinetic energy are in energy(); what drag takes (relative to the medium)
+    is in dissipated(); what a moving medium gives is supplied().
+    """
+
+    kind = "fluid"
+    keys = (Key("density", positive, DENSITY, required=True, doc="density of the medium"),
+            Key("velocity", array((3,)), VELOCITY, doc="current (or wind) velocity"),
+            Key("profile_heights", floats, LENGTH, doc="heights z of the current's profile table (increasing)"),
+            Key("profile_factors", floats, doc="factors of the current at those heights"),
+            Key("power_law", nonnegative, doc="exponent of a power-law profile ((z - ground)/reference_height)^a"),
+            Key("reference_height", positive, LENGTH, doc="height above ground where the power law's factor is 1"),
+            Key("ground", number, LENGTH, doc="z where the power-law profile is zero"),
+            Key("times", floats, TIME, doc="times of the current's time factor (increasing)"),
+            Key("values", floats, doc="the time factor at those times (a gust or tidal series)"),
+            Key("drag", pair, doc="Morison drag coefficients [C_dn, C_dt]"),
+            Key("resistance", pair, RESISTANCE, doc="Stokes-flow drag per length [c_n, c_t] (instead of drag)"),
+            Key("diameter", positive, LENGTH, doc="hydrodynamic diameter (default: each line's section, 2 sqrt(A/pi))"),
+            Key("added_mass", pair, doc="added-mass coefficients [C_an, C_at]"),
+            Key("buoyancy", boolean, doc="whether the displaced medium lifts the lines"),
+            Key("surface", number, LENGTH, doc="z of the still free surface (default: the medium fills space)"),
+            Key("depth", positive, LENGTH, doc="water depth below the still surface (waves; default deep)"),
+            Key("wave_amplitudes", floats, LENGTH, doc="amplitudes of the Airy wave components"),
+            Key("wave_periods", floats, TIME, doc="their periods"),
+            Key("wave_headings", floats, doc="their directions of travel, degrees from +x towards +y"),
+            Key("wave_phases", floats, doc="their phases (rad)"),
+            Key("stretching", choice("wheeler", "none"), doc="wave kinematics above the still surface"),
+            Key("lines", "lines", doc="the lines in the medium (default: all)"))
+    record = FluidParams
+
+    free_integers = ("turn",)            # which half of the kick is next, compared
+    none_if_negative = ("line_row",)     # a line out of the fluid
+
+    @classmethod
+    def example(cls):
+        net, _ = samples.rod(start=(0.0, 0.0, -0.02), end=(samples.LENGTH, 0.0, 0.01))
+        return net, [Gravity(), cls(1025.0, velocity=(0.3, 0.0, 0.0), drag=(1.2, 0.008), added_mass=(1.0, 0.0),
+                                    buoyancy=True, surface=0.0)]
+
+    @staticmethod
+    def table_error(p, model):
+        """What is wrong with the index tables of record ``p`` for ``model``, or None."""
+        nl, nn, nv = model.line_vertex_offsets.shape[0] - 1, model.node_mass.shape[0], model.vertex_mass.shape[0]
+        k = p.lines.shape[0]
+        rows = ("drag_n", "drag_t", "added_n", "added_t", "inertia_n", "inertia_t", "buoyancy")
+        if any(getattr(p, name).shape != (k,) for name in rows):
+            return f"fluid: {', '.join(rows)} need one entry per line of fluid.lines"
+        if p.line_row.shape != (nl,) or p.node_skip.shape != (nn,) or p.sample.shape != (14, nv):
+            return "fluid: line_row needs one entry per line, node_skip one per node, sample 14 rows of one per vertex"
+        return index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
+
+    def __init__(self, density: float, velocity=(0.0, 0.0, 0.0), *, profile_heights=None, profile_factors=None,
+                 power_law: float = 0.0, reference_height: float = 10.0, ground: float = 0.0, times=None,
+                 values=None, drag=(0.0, 0.0), resistance=None, diameter: float | None = None,
+                 added_mass=(0.0, 0.0), buoyancy: bool = False, surface: float | None = None,
+                 depth: float | None = None, wave_amplitudes=None, wave_periods=None, wave_headings=None,
+                 wave_phases=None, stretching: str = "wheeler", lines=None):
+        who = "Fluid"
+        self.density = checks.positive(who, "density", density)
+        self.velocity = checks.vec3(who, "velocity", velocity)
+        self.profile = self._table(profile_heights, profile_factors, "profile_heights", "profile_factors")
+        self.power = (checks.nonnegative(who, "power_law", power_law),
+                      checks.positive(who, "reference_height", reference_height), _finite("ground", ground))
+        self.time_table = self._table(times, values, "times", "values")
+        self.drag = self._coefficients("drag", drag)
+        self.resistance = None if resistance is None else self._coefficients("resistance", resistance)
+        if self.resistance is not None and np.any(self.drag):
+            raise ValueError("Fluid: give drag (Morison, turbulent) or resistance (Stokes flow), not both")
+        self.diameter = None if diameter is None else checks.positive(who, "diameter", diameter)
+        self.added_coefficients = self._coefficients("added_mass", added_mass)
+        if not isinstance(buoyancy, (bool, np.bool_)):
+            raise ValueError(f"Fluid: buoyancy must be true or false, got {buoyancy!r}")
+        self.buoyancy = bool(buoyancy)
+        self.surface = math.inf if surface is None else _finite("surface", surface)
+        self.depth = math.inf if depth is None else checks.positive(who, "depth", depth)
+        if stretching not in ("wheeler", "none"):
+            raise ValueError(f"Fluid: stretching must be 'wheeler' or 'none', got {stretching!r}")
+        self.stretching = stretching
+        self.waves = self._waves(wave_amplitudes, wave_periods, wave_headings, wave_phases)
+        if self.waves[0].size and not math.isfinite(self.surface):
+            raise ValueError("Fluid: waves need a free surface; give surface")
+        if self.waves[0].size and math.isfinite(self.depth) and self.waves[0].max() >= self.depth:
+            raise ValueError(f"Fluid: a wave amplitude ({self.waves[0].max():g} m) must be less than the "
+                             f"depth ({self.depth:g} m)")
+        if lines is not None:
+            lines = list(lines)
+        self.lines = lines
+        # a medium that moves or accelerates feeds energy in
+        self.adds_energy = bool(np.any(self.velocity) or self.waves[0].size)
+
+    @staticmethod
+    def _table(x, y, xname, yname):
+        a, b = checked_table("Fluid", x, y, (xname, yname))
+        if x is not None and not a.size:
+            raise ValueError(f"Fluid: {xname} and {yname} must not be empty")
+        return a, b
+
+    @staticmethod
+    def _coefficients(name, v):
+        a = np.array(v, dtype=float)
+        if a.shape != (2,) or not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ValueError(f"Fluid: {name} must be two finite numbers >= 0 (normal, tangential), got {v!r}")
+        return a
+
+    def _waves(self, amplitudes, periods, headings, phases):
+        if amplitudes is None and periods is None:
+            if headings is not None or phases is not None:
+                raise ValueError("Fluid: wave_headings and wave_phases need wave_amplitudes and wave_periods")
+            return tuple(np.zeros(0) for _ in range(4))
+        if amplitudes is None or periods is None:
+            raise ValueError("Fluid: give both wave_amplitudes and wave_periods")
+        a, T = np.atleast_1d(np.array(amplitudes, float)), np.atleast_1d(np.array(periods, float))
+        n = a.size
+        hd = np.zeros(n) if headings is None else np.atleast_1d(np.array(headings, float))
+        ph = np.zeros(n) if phases is None else np.atleast_1d(np.array(phases, float))
+        if any(x.shape != (n,) for x in (T, hd, ph)):
+            raise ValueError("Fluid: wave_amplitudes, wave_periods, wave_headings and wave_phases must have "
+                             "one entry per component")
+        if not all(np.all(np.isfinite(x)) for x in (a, T, hd, ph)) or np.any(a < 0) or np.any(T <= 0):
+            raise ValueError("Fluid: wave amplitudes must be finite and >= 0, periods > 0, headings and "
+                             "phases finite")
+        return a, T, hd, ph
+
+    # ------------------------------------------------------------------ binding
+    def _g(self, on: Binding) -> float:
+        """|g| of the declared gravity (refused unless it points down, -z)."""
+        grav = [e for e in on.effects if isinstance(e, Gravity)]
+        if not grav:
+            if self.buoyancy:
+                raise ValueError("Fluid: buoyancy needs a gravity effect")
+            return 9.81
+        g = grav[0].g
+        if not np.any(g) and not (self.buoyancy or self.waves[0].size):
+            return 9.81
+        if abs(g[0]) > 1e-12 * abs(g[2]) or abs(g[1]) > 1e-12 * abs(g[2]) or g[2] >= 0:
+            raise ValueError(f"Fluid: the free surface is horizontal (z up); gravity must point along -z, "
+                             f"got {g.tolist()}")
+        return float(-g[2])
+
+    def bind(self, on: Binding) -> FluidParams:
+        lines = chosen_lines(on, self.lines, "Fluid")
+        g = self._g(on)
+        rho = self.density
+        nl, nn = len(on.net.lines), len(on.net.nodes)
+        k = len(lines)
+        rows = {name: np.zeros(k) for name in ("drag_n", "drag_t", "added_n", "added_t", "inertia_n",
+                                               "inertia_t", "buoyancy")}
+        line_row = np.full(nl, -1, dtype=np.int64)
+        for j, line in enumerate(lines):
+            line_row[line.index] = j
+            # the section at mid-length stands for the line's (a tapered line: its mean)
+            area = float(np.mean([line.section_at((i + 0.5) / line.elements).A for i in range(line.elements)]))
+            d = 2.0 * math.sqrt(area / math.pi) if self.diameter is None else self.diameter
+            if self.resistance is not None:
+                rows["drag_n"][j], rows["drag_t"][j] = self.resistance
+            else:
+                rows["drag_n"][j] = 0.5 * rho * self.drag[0] * d
+                rows["drag_t"][j] = 0.5 * rho * self.drag[1] * math.pi * d
+            vol = math.pi * d * d / 4.0     # displaced area per length
+            rows["added_n"][j], rows["added_t"][j] = rho * vol * self.added_coefficients
+            if self.waves[0].size or self.time_table[0].size:
+                rows["inertia_n"][j], rows["inertia_t"][j] = rho * vol * (1.0 + self.added_coefficients)
+            if self.buoyancy:
+                rows["buoyancy"][j] = rho * g * vol
+        skip = np.zeros(nn)
+        for e in on.effects:
+            if isinstance(e, Drive):
+                skip[e.node.index] = 1.0
+        a, T, hd, ph = self.waves
+        omega = 2.0 * math.pi / T if T.size else np.zeros(0)
+        kw = np.array([wave_number(w, self.depth, g) for w in omega])
+        heading = np.radians(hd)
+        zp, fp = self.profile
+        tt, tv = self.time_table
+        return FluidParams(LINEAR if self.resistance is not None else MORISON,
+                           np.array([ln.index for ln in lines], dtype=np.int64), line_row, **rows,
+                           surface=self.surface, depth=self.depth, stretch=int(self.stretching == "wheeler"),
+                           current=self.velocity.copy(), profile_z=zp.copy(), profile_f=fp.copy(),
+                           power=np.array(self.power), times=tt.copy(), values=tv.copy(), wave_a=a.copy(),
+                           wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
+                           wave_phase=ph.copy(), node_skip=skip,
+                           sample=np.zeros((14, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
+                           dissipated=np.zeros(1), supplied=np.zeros(1))
+
+    # ------------------------------------------------------------------ energy
+    def potential(self, p, on: Binding) -> float:
+        """Buoyancy's potential, -rho g A times the integral of min(z, surface) over each line's
+        elements, plus the kinetic energy of the entrained fluid, 1/2 v^T M_a v over the wet
+        vertices and the free nodes' wet line ends (M_a the added mass)."""
+        m, x, v = on.model, on.state.x, on.state.v
+        e = 0.0
+        for j, l in enumerate(p.lines):
+            lo, hi = m.line_vertex_offsets[l], m.line_vertex_offsets[l + 1]
+            e0 = m.line_element_offsets[l]
+            if p.buoyancy[j]:
+                za, zb = x[lo:hi - 1, 2], x[lo + 1:hi, 2]
+                e -= p.buoyancy[j] * float(np.sum(m.element_rest_length[e0:e0 + hi - lo - 1]
+                                                  * _mean_min(za, zb, p.surface)))
+            if p.added_n[j] or p.added_t[j]:
+                xs, vs = x[lo:hi], v[lo:hi]     # line ends placed on their nodes
+                k = np.arange(hi - lo)
+                chord = xs[np.minimum(k + 1, hi - lo - 1)] - xs[np.maximum(k - 1, 0)]
+                t = chord / np.maximum(np.linalg.norm(chord, axis=1), 1e-300)[:, None]
+                # einsum, not BLAS (see Gravity.potential)
+                vt = np.einsum("ij,ij->i", vs, t)
+                vn2 = np.einsum("ij,ij->i", vs, vs) - vt * vt
+                wet = xs[:, 2] <= p.surface + _eta(p, xs, on.time)
+                for i, end in ((0, 0), (-1, 1)):   # a line end counts with a node the medium moves
+                    nd = m.attach_node[2 * l + end]
+                    wet[i] &= bool(m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0)
+                e += 0.5 * float(np.sum(m.voronoi_rest_length[lo:hi] * wet
+                                        * (p.added_n[j] * vn2 + p.added_t[j] * vt * vt)))
+        return e
+
+    def exchange(self, p, on: Binding) -> float:
+        """Upthrust of the lines in the medium times the diagonal of the net's bounding box."""
+        x = on.state.x
+        size = float(np.linalg.norm(x.max(axis=0) - x.min(axis=0))) if x.size else 0.0
+        total = 0.0
+        for j, l in enumerate(p.lines):
+            e0, e1 = on.model.line_element_offsets[l], on.model.line_element_offsets[l + 1]
+            total += p.buoyancy[j] * float(np.sum(on.model.element_rest_length[e0:e1]))
+        return total * size
+
+    def added_mass(self, p, on: Binding):
+        """The least added mass, min(C_an, C_at) rho A l, of each vertex below the free
+        surface by more than the waves' height as built (and of the free nodes' such line
+        ends): a line that rises out of the water meets its dry step, which the watch
+        guards."""
+        m, x = on.model, on.state.x
+        vertex, node = np.zeros(m.vertex_mass.shape[0]), np.zeros(m.node_mass.shape[0])
+        deep = x[:, 2] < p.surface - float(np.sum(p.wave_a))
+        for j, l in enumerate(p.lines):
+            lo, hi = m.line_vertex_offsets[l], m.line_vertex_offsets[l + 1]
+            a = min(p.added_n[j], p.added_t[j]) * m.voronoi_rest_length[lo:hi] * deep[lo:hi]
+            vertex[lo + 1:hi - 1] += a[1:-1]
+            for end, i in ((0, 0), (1, -1)):
+                nd = m.attach_node[2 * l + end]
+                if m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0:
+                    node[nd] += a[i]
+        return (vertex, node) if np.any(vertex) or np.any(node) else None
+
+    def dissipated(self, sim) -> float:
+        """Energy drag has taken so far (J), measured in the frame of the medium."""
+        return float(self.params(sim).dissipated[0])
+
+    def supplied(self, sim) -> float:
+        """Work a moving or accelerating medium has done on the net so far (J): drag's share
+        from the medium's motion, and the inertia force's."""
+        return float(self.params(sim).supplied[0])
+
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"turn": p.turn, "dissipated": p.dissipated, "supplied": p.supplied}
+
+    def describe(self):
+        law = f"resistance={self.resistance.tolist()}" if self.resistance is not None else f"drag={self.drag.tolist()}"
+        return f"Fluid(density={self.density:g}, velocity={self.velocity.tolist()}, {law})"
+
+
+def _mean_min(za, zb, s):
+    """The mean over each element of min(z, s), z linear from za to zb."""
+    lo, hi = np.minimum(za, zb), np.maximum(za, zb)
+    out = 0.5 * (za + zb)
+    dry = lo >= s
+    out = np.where(dry, s, out)
+    cut = (lo < s) & (hi > s)
+    span = np.where(cut, hi - lo, 1.0)
+    f = np.where(cut, (s - lo) / span, 0.0)           # wet fraction
+    wet_mean = np.where(cut, f * 0.5 * (lo + s) + (1 - f) * s, 0.0)
+    return np.where(cut, wet_mean, out)
+
+
+def _eta(p, x, t) -> np.ndarray:
+    """The free surface's elevation above its still level at the points x (n, 3), time t."""
+    th = p.wave_k * (x[:, :1] * p.wave_cos + x[:, 1:2] * p.wave_sin) - p.wave_w * t + p.wave_phase
+    return np.sum(p.wave_a * np.cos(th), axis=1)

@@ -1,0 +1,122 @@
+"""The sliders of a net in motion: the effect a Simulation adds when a net has rings or
+eyelets (cosnet.core.sliding); its kernels keep each node on its line (kernels/sliding.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .drives import Drive
+from ..core import samples
+from ..engine.bounds import index_error, offsets_error
+from ..kernels.sliding import SlidingParams
+from ..engine.registry import Binding, Effect
+
+
+class Sliders(Effect):
+    """The rings and eyelets of a net (cosnet.core.sliding.Slider each)."""
+
+    record = SlidingParams
+
+    @property
+    def internal(self) -> bool:
+        return True
+
+    @classmethod
+    def implied(cls, net, grids):
+        return sliders(net, grids)
+
+    @classmethod
+    def example(cls):
+        net, line = samples.rod(fixed=True)
+        net.add_ring(line, s=0.4 * samples.LENGTH, mass=0.05)
+        return net, []
+
+    @staticmethod
+    def table_error(p, model):
+        """What is wrong with the index tables of record ``p`` for ``model``, or None."""
+        k, nv, nn = p.node.shape[0], model.vertex_mass.shape[0], model.node_mass.shape[0]
+        vo = model.line_vertex_offsets
+        if any(a.shape[0] != k for a in (p.link, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding)):
+            return "sliders: every table needs one row per ring or eyelet"
+        if p.arc.shape != (nv,) or p.node_weight.shape != (nn,) or p.dissipated.shape != (1,):
+            return "sliders: arc needs one entry per vertex, node_weight one per node"
+        m = p.path_lines.shape[0]
+        if p.path_arc.shape != (m,) or p.path_offsets.shape != (k + 1,):
+            return "sliders: path_arc needs one entry per path line, path_offsets one per slider and one"
+        problem = (index_error("sliders.node", p.node, nn) or offsets_error("sliders.path_offsets", p.path_offsets, m)
+                   or index_error("sliders.path_lines", p.path_lines, vo.shape[0] - 1))
+        if problem:
+            return problem
+        out = (p.link < p.path_offsets[:-1]) | (p.link >= p.path_offsets[1:])
+        if np.any(out):
+            return f"sliders.link holds {p.link[out][0]}, outside its slider's path"
+        line = p.path_lines[p.link]
+        bad = (p.at < vo[line]) | (p.at > vo[line + 1] - 2)
+        if np.any(bad):
+            return f"sliders.at holds {p.at[bad][0]}, outside the elements of its line"
+        return None
+
+    def __init__(self, sliders):
+        self.sliders = list(sliders)
+
+    def bind(self, on: Binding):
+        m = on.model
+        k = len(self.sliders)
+        vo, lengths = m.line_vertex_offsets, m.element_rest_length
+        arc = np.zeros(m.vertex_mass.shape[0])
+        for l in range(vo.shape[0] - 1):
+            e0 = m.line_element_offsets[l]
+            arc[vo[l] + 1:vo[l + 1]] = np.cumsum(lengths[e0:m.line_element_offsets[l + 1]])
+        weight = m.node_inv_mass.copy()
+        for e in on.effects:   # a driven node goes where its drive says, whatever pushes it
+            if isinstance(e, Drive):
+                weight[e.node.index] = 0.0
+        offsets = np.concatenate([[0], np.cumsum([len(sl.lines) for sl in self.sliders])]).astype(np.int64)
+        path_lines = np.array([l.index for sl in self.sliders for l in sl.lines], dtype=np.int64)
+        path_arc = np.array([arc_before for sl in self.sliders
+                             for arc_before in np.concatenate([[0.0], np.cumsum([l.length for l in sl.lines])[:-1]])])
+        at, link = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
+        for j, sl in enumerate(self.sliders):
+            before = path_arc[offsets[j]:offsets[j + 1]]
+            here = int(np.searchsorted(before, sl.s, side="right")) - 1
+            link[j] = offsets[j] + here
+            l = path_lines[link[j]]
+            local = int(np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s - before[here], side="right")) - 1
+            at[j] = vo[l] + min(max(local, 0), vo[l + 1] - vo[l] - 2)
+        return SlidingParams(
+            node=np.array([sl.node.index for sl in self.sliders], dtype=np.int64), path_offsets=offsets,
+            path_lines=path_lines, path_arc=path_arc.reshape(-1), link=link, node_weight=weight, arc=arc,
+            mu_s=np.array([sl.mu_s for sl in self.sliders], dtype=float),
+            mu_k=np.array([sl.mu_k for sl in self.sliders], dtype=float),
+            damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
+            s=np.array([sl.s for sl in self.sliders], dtype=float), push=np.zeros((k, 3)), sliding=np.zeros(k),
+            dissipated=np.zeros(1))
+
+    def dissipated(self, sim) -> float:
+        """Energy the sliders' friction and dampers have taken so far (J)."""
+        return float(self.params(sim).dissipated[0])
+
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"link": p.link, "at": p.at, "s": p.s, "push": p.push, "sliding": p.sliding,
+                "dissipated": p.dissipated}
+
+    def describe(self) -> str:
+        return f"Sliders({len(self.sliders)} rings and eyelets)"
+
+
+def sliders(net, grids=None) -> Sliders | None:
+    """The Sliders effect of the net's rings and eyelets (None when it has none)."""
+    return Sliders(net.sliders) if net.sliders else None
+
+
+def slider_state(sim, node) -> dict:
+    """The slider whose node is ``node`` in ``sim``: "s" (its material coordinate, m of
+    unstretched length from its line's start) and "sliding" (bool)."""
+    sim.check_node(node, "slider_state")
+    held = next((e for e in sim.effects if isinstance(e, Sliders)), None)
+    j = next((i for i, sl in enumerate(held.sliders) if sl.node is node), None) if held else None
+    if held is None or j is None:
+        raise ValueError(f"slider_state: node {node.name!r} is no ring or eyelet")
+    p = held.params(sim)
+    return {"s": float(p.s[j]), "sliding": bool(p.sliding[j] != 0.0)}

@@ -1,0 +1,1 @@
+"""What a run writes: frames, probes, checkpoints on the output schedule, VTK files, pictures."""

@@ -1,0 +1,1 @@
+"""Scene files (TOML): the loader, the ready cases and the generated scene reference."""
