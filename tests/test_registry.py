@@ -1,4 +1,4 @@
-"""Effects as declarations (cosnet.registry): a package of its own registers one through the
+"""Effects as declarations (cosnet.engine.registry): a package of its own registers one through the
 entry-point group cosnet.effects and a scene uses it (the example of docs/effects.md, run
 here); energy and stability follow the bound record; the scene reference is what the
 declarations generate; units are per key of each effect."""
@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 
 import cosnet
-from cosnet import registry
+from cosnet.engine import registry
 from cosnet.cli import main
-from cosnet.scene import build_scene, load_scene
-from cosnet.scene_doc import REGENERATE, scene_reference
-from cosnet.simulation import stability_interval
+from cosnet.scene.loader import build_scene, load_scene
+from cosnet.scene.reference import REGENERATE, scene_reference
+from cosnet.engine.simulation import stability_interval
 from test_docs import fences
 
 REPO = Path(__file__).resolve().parents[1]
@@ -45,16 +45,16 @@ def on_path(tmp_path, monkeypatch):
 def page_blocks():
     import tomllib
     blocks = fences(PAGE)
-    assert [k for k, _ in blocks] == ["python", "toml", "toml", "python"]
-    module, project, scene, run = (code for _, code in blocks)
-    return module, tomllib.loads(project), scene, run
+    assert [k for k, _ in blocks] == ["python", "toml", "toml", "python", "python"]
+    module, project, scene, run, check = (code for _, code in blocks)
+    return module, tomllib.loads(project), scene, run, check
 
 
 def test_an_effect_of_another_package_works_in_a_scene_file(on_path, capsys):
     """docs/effects.md: the tether package, installed, is a scene kind; a body of 2 kg on
     k = 8 pi^2 N/m swings with a period of 1 s (x(t) = x0 cos 2 pi t to Verlet's (w dt)^2
     error), conserving energy; its stable step is the stepper's interval over sqrt(k / m)."""
-    module, project, scene, run = page_blocks()
+    module, project, scene, run, check = page_blocks()
     install(on_path, project["project"]["name"], project["project"]["entry-points"][registry.ENTRY_POINTS],
             {"cosnet_tether.py": module})
     (on_path / "tether.toml").write_text(scene, encoding="utf-8")
@@ -76,6 +76,12 @@ def test_an_effect_of_another_package_works_in_a_scene_file(on_path, capsys):
     sim.effect_params(effect).k[0] *= 4
     assert sim.energy_parts()["potential"] == pytest.approx(4 * e_before, rel=1e-12)
     assert sim.stable_dt() == pytest.approx(dt_before / 2, rel=1e-12)
+
+    # the tether keeps the effect contract (cosnet.studies.effect_check), energy at order 2
+    exec(compile(check, "docs/effects.md block 5", "exec"), namespace)
+    report = namespace["report"]
+    assert report.gradient_error < 1e-7 and report.checkpoint_exact and report.unrefused == [], report
+    assert 1.9 < report.energy_order < 2.1, report
 
 
 def test_a_broken_entry_point_is_one_line_naming_it(on_path, capsys):
@@ -131,7 +137,7 @@ def test_stage_and_kernel_follow_from_the_registration():
 def test_units_are_per_key_of_each_effect():
     """[scale] converts contact's k as N/m and a hinge's kt as N m/rad: the same letter k
     scales differently from kt, by the declared units."""
-    from cosnet.scene_values import ROTARY_STIFFNESS, STIFFNESS
+    from cosnet.core.units import ROTARY_STIFFNESS, STIFFNESS
     keys = {k.name: k.unit for k in cosnet.HingeJoint.keys}
     assert keys["k"] == STIFFNESS and keys["kt"] == ROTARY_STIFFNESS
     assert {k.name: k.unit for k in cosnet.Contact.keys}["k"] == STIFFNESS
@@ -194,7 +200,7 @@ def test_scene_reference_is_generated_from_the_declarations():
 
 
 def test_scene_reference_includes_an_effect_given_to_it(on_path):
-    module, project, _, _ = page_blocks()
+    module, project, _, _, _ = page_blocks()
     install(on_path, "cosnet-tether", {"tether": "cosnet_tether:Tether"}, {"cosnet_tether.py": module})
     text = scene_reference({"tether": registry.effect_class("tether")})
     assert "## `tether`" in text and "| `k` | number > 0 | N/m | yes |" in text
@@ -203,7 +209,7 @@ def test_scene_reference_includes_an_effect_given_to_it(on_path):
 
 def test_examples_of_the_page_load(tmp_path):
     """The scene of docs/effects.md is refused without the package, naming the kind."""
-    _, _, scene, _ = page_blocks()
+    _, _, scene, _, _ = page_blocks()
     (tmp_path / "t.toml").write_text(scene, encoding="utf-8")
     if "tether" in registry.kinds():
         pytest.skip("a tether package is installed in this environment")

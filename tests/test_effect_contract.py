@@ -1,0 +1,100 @@
+"""Every registered effect, built in or a plugin's, and every effect a net implies, held to the
+effect contract on its own example scene (cosnet.studies.effect_check): loads minus the
+gradient of its energy where it says it is conservative (central differences; what they leave
+is truncation and round-off, ~1e-10 of the loads), no net force or moment where it says it is
+internal (round-off), a checkpoint round trip that continues its kernel bit for bit, and
+corrupted index tables refused before a run. The checks themselves are held to effects
+broken on purpose: each must fail."""
+
+import numpy as np
+import pytest
+
+import cosnet
+from cosnet.effects.contact import Contact
+from cosnet.effects.loads import Gravity
+from cosnet.effects.obstacles import Obstacle
+from cosnet.engine.registry import catalogue, implied_classes
+from cosnet.studies import effect_check
+from cosnet.studies.effect_check import check_effect
+
+EFFECTS = [*catalogue().values(), *implied_classes()]
+GRADIENT = 1e-7      # central differences at h = 1e-6: (h)^2 truncation, eps E / h round-off
+ROUND_OFF = 1e-12
+
+
+def test_every_effect_gives_an_example_to_be_checked_on():
+    missing = [cls.__name__ for cls in EFFECTS if cls.example() is None]
+    assert not missing, f"effects without an example scene (Effect.example): {missing}"
+
+
+@pytest.mark.parametrize("cls", EFFECTS, ids=lambda c: c.__name__)
+def test_effect_keeps_its_contract(cls):
+    net, effects = cls.example()
+    sim = cosnet.Simulation(net, effects)
+    effect = next(e for e in sim.effects if type(e) is cls)
+    r = check_effect(cls)
+    if effect.conservative and cls.stage == "load":
+        assert r.gradient_error < GRADIENT, r
+    if effect.internal and cls.stage == "load":
+        assert r.force_sum < ROUND_OFF and r.moment_sum < ROUND_OFF, r
+    if cls.stage == "load":
+        assert r.checkpoint_exact, r
+    assert r.unrefused == [], f"{cls.__name__}: table_error lets these planted entries through: {r.unrefused}"
+
+
+def test_the_conservative_effects_are_checked():
+    """The gradient check is not vacuous: gravity, contact, obstacles, penalty joints, bodies
+    and articulated ends all take it."""
+    checked = {cls.__name__ for cls in EFFECTS if check_effect(cls).gradient_error is not None}
+    assert {"Gravity", "Contact", "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint", "Body",
+            "Articulations"} <= checked
+
+
+class DoubledEnergy(Gravity):
+    """Gravity whose potential is twice the one its kernel's force derives from."""
+
+    def potential(self, p, on):
+        return 2.0 * super().potential(p, on)
+
+
+class UncheckedContact(Contact):
+    """Contact that no longer checks its tables."""
+
+    @staticmethod
+    def table_error(p, model):
+        return None
+
+
+class ForgetfulObstacle(Obstacle):
+    """A frictional obstacle whose checkpoint leaves out the friction anchors it keeps."""
+
+    @classmethod
+    def example(cls):
+        net, effects = Obstacle.example()
+        return net, [cls("plane", k=1e4, mu_s=0.5, mu_k=0.4, point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))]
+
+    def state_arrays(self, sim):
+        return {}
+
+
+def test_the_checks_fail_on_effects_broken_on_purpose():
+    assert check_effect(DoubledEnergy).gradient_error > 0.4
+    unrefused = {u.split(" = ")[0] for u in check_effect(UncheckedContact).unrefused}
+    assert {"elements", "elem_index"} <= unrefused, unrefused
+    assert check_effect(ForgetfulObstacle).checkpoint_exact is False
+    assert check_effect(Obstacle).checkpoint_exact is True
+
+
+def test_momentum_check_sees_a_force_without_its_reaction():
+    """The crossing rods' contact loads sum to nothing; without those on the second rod (a
+    kernel that forgot the reaction) the check sees a force and a moment."""
+    sim, effect = effect_check.example_simulation(Contact)
+    effect_check._perturb(sim, np.random.default_rng(0))
+    loads = effect_check._loads(Contact, sim.effect_params(effect), sim)
+    force, moment = effect_check.momentum_of(sim, loads)
+    assert force < ROUND_OFF and moment < ROUND_OFF
+    second = sim.vertex_range(sim.net.lines[1])
+    assert np.abs(loads.f[second]).sum() > 0
+    loads.f[second] = 0.0
+    force, moment = effect_check.momentum_of(sim, loads)
+    assert force > 0.5 and moment > 0.1
