@@ -8,6 +8,7 @@ import itertools
 
 import numpy as np
 
+from .friction import friction_keys
 from .contact import chosen_lines, smallest_mass
 from ..core import samples
 from ..engine.bounds import index_error
@@ -15,7 +16,7 @@ from ..core.net import Node
 from .obstacles import Obstacle, meets_elements
 from ..engine.registry import Binding, Effect, Key
 from ..core.rotations import matrix_from_quat
-from ..core.units import DAMPING, LENGTH, STIFFNESS, choice, frame, nonnegative, positive, string_list, vec3
+from ..core.units import LENGTH, choice, frame, positive, string_list, vec3
 from ..kernels import bodies as _body_kernels  # noqa: F401  (registers the body kernel)
 from ..kernels.bodies import BodyParams, BodyShape, body_energy
 from ..kernels.obstacles import BOX, CAPSULE, SHAPES, SLIDE, SPHERE
@@ -55,11 +56,7 @@ class Body(Effect):
     record = BodyParams
     keys = (Key("node", "node", required=True, doc="the node carrying the shape"),
             Key("shape", choice(*BODY_SHAPES), required=True, doc="sphere, capsule or box"),
-            Key("k", positive, STIFFNESS, required=True, doc="normal penalty stiffness"),
-            Key("gamma", nonnegative, DAMPING, doc="normal damping"),
-            Key("k_t", nonnegative, STIFFNESS, doc="tangential (stick) stiffness; default k"),
-            Key("mu_s", nonnegative, doc="static friction coefficient"),
-            Key("mu_k", nonnegative, doc="kinetic friction coefficient, at most mu_s"),
+            *friction_keys(),
             Key("radius", positive, LENGTH, doc="sphere, capsule: radius"),
             Key("center", vec3, LENGTH, doc="sphere, box: centre in the node's frame"),
             Key("start", vec3, LENGTH, doc="capsule: one end of its axis, node's frame"),

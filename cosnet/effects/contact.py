@@ -8,13 +8,14 @@ import math
 
 import numpy as np
 
+from .friction import friction_keys
 from ..core import samples
 from ..engine.bounds import index_error
 from ..core import checks
 from ..kernels.contact import SLIDE, ContactParams, contact_energy
 from ..core.net import Line
 from ..engine.registry import Binding, Effect, Key
-from ..core.units import DAMPING, STIFFNESS, boolean, integer, nonnegative, positive
+from ..core.units import boolean, integer, nonnegative
 
 PAIRS_PER_ELEMENT = 4  # default friction-table capacity: touching pairs per element taking part
 MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
@@ -71,14 +72,11 @@ class Contact(Effect):
     """
 
     kind = "contact"
-    keys = (Key("k", positive, STIFFNESS, required=True, doc="penalty stiffness"),
-            Key("gamma", nonnegative, DAMPING, doc="damping of the normal approach"),
+    keys = (*friction_keys(static="static friction coefficient between lines (default: frictionless)",
+                           normal="penalty stiffness", damping="damping of the normal approach"),
             Key("self_contact", boolean, doc="whether a line touches itself"),
             Key("lines", "lines", doc="names of the lines taking part (default: all)"),
             Key("self_gap", nonnegative, doc="rest-arc exclusion of a line's own segments, in r_i + r_j"),
-            Key("mu_s", nonnegative, doc="static friction coefficient between lines (default: frictionless)"),
-            Key("mu_k", nonnegative, doc="kinetic friction coefficient, at most mu_s"),
-            Key("k_t", nonnegative, STIFFNESS, doc="tangential (stick) stiffness; default k"),
             Key("pairs_per_element", integer, doc="friction table capacity: touching pairs per element"))
     record = ContactParams
 

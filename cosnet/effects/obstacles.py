@@ -9,14 +9,14 @@ from collections import deque
 
 import numpy as np
 
+from .friction import friction_keys
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..core import checks
 from .contact import chosen_lines, smallest_mass
 from ..core.net import Line
 from ..engine.registry import Binding, Effect, Key
-from ..core.units import (DAMPING, LENGTH, STIFFNESS, choice, coefficients, direction, frame, nonnegative,
-                          positive, string, vec3)
+from ..core.units import (LENGTH, choice, coefficients, direction, frame, positive, string, vec3)
 from ..kernels import segments as _obstacle_kernels  # noqa: F401  (registers the obstacle kernels)
 from ..kernels.obstacles import SHAPES, SLIDE, ObstacleParams, obstacle_energy
 from ..kernels.segments import element_energy
@@ -169,11 +169,8 @@ class Obstacle(Effect):
     record = ObstacleParams
     keys = (Key("shape", choice(*SHAPES), required=True, doc="plane, sphere, capsule, box or mesh"),
             Key("lines", "lines", doc="names of the lines touching it (default: all)"),
-            Key("k", positive, STIFFNESS, required=True, doc="normal penalty stiffness"),
-            Key("gamma", nonnegative, DAMPING, doc="normal damping"),
-            Key("k_t", nonnegative, STIFFNESS, doc="tangential (stick) stiffness; default k"),
-            Key("mu_s", coefficients, doc="static coefficient, or [forward, backward, lateral]"),
-            Key("mu_k", coefficients, doc="kinetic coefficient(s), at most mu_s"),
+            *friction_keys(coefficients, static="static coefficient, or [forward, backward, lateral]",
+                           kinetic="kinetic coefficient(s), at most mu_s"),
             Key("point", vec3, LENGTH, doc="plane: a point of it"),
             Key("normal", direction, doc="plane: its outward normal"),
             Key("center", vec3, LENGTH, doc="sphere, box: centre"),
