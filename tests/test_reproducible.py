@@ -1,11 +1,9 @@
 """Bit-identical results whether the kernels were compiled in the running process, loaded
 from numba's cache, or compiled after a run was killed halfway through compiling them: a
-net with contact, and one with joints beside a long rod on two threads, run in fresh
-processes sharing a cache directory, every state array compared exactly. (Mostly
-compilation, in a cache of its own: the run killed while compiling leaves some of the
-contact net's kernels cached; the rerun compiles the rest of them and its step in-process,
-and every kernel of the joints net and the threaded loops that the contact net did not
-need; the warm run loads it all.)"""
+net with contact on two threads, run in fresh processes sharing a cache directory, every
+state array compared exactly. (Mostly compilation, in a cache of its own: the run killed
+while compiling leaves some of the net's kernels cached; the rerun compiles the rest of them,
+the threaded loops among them, and its step in-process; the warm run loads it all.)"""
 
 import os
 import signal
@@ -20,36 +18,25 @@ from procs import spawn
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-# Runs the nets named by argv[3:] in turn and saves each one's state arrays (and, for the
-# contact net, the most contacts seen at its checks) to ARGV1.<net>.npz.
+# Runs the nets named by argv[3:] in turn and saves each one's state arrays (and the most
+# contacts seen at its checks) to ARGV1.<net>.npz.
 WORKER = r"""
 import sys
 import numpy as np
 import cosnet
 
 def run(case):
-    extra = {}
-    if case == "contact":
-        # on past the first impacts, where cold and warm runs used to part (a run stopped soon
-        # after the first touch showed no difference)
-        scene = cosnet.load_scene(cases + "/contact.toml")
-        sim = scene.simulation()
-        contact = next(e for e in scene.effects if isinstance(e, cosnet.Contact))
-        most = 0
-        for k in range(1, 8):
-            sim.run(until=0.005 * k)
-            most = max(most, contact.active_contacts(sim))
-        extra["contacts"] = np.array([most])
-    else:
-        # the joints net beside a long rod (its lines split across the threads), on two threads
-        scene = cosnet.load_scene(cases + "/elastica_joints.toml")
-        root = scene.net.add_node((0.0, 5.0, 0.0), fixed=True, name="root")
-        tip = scene.net.add_node((1.0, 5.0, 0.0), name="tip")
-        scene.net.add_line(root, tip, material=cosnet.Material(E=2e9, G=8e8, density=1000.0),
-                           section=cosnet.Circle(0.01), elements=6000, name="rod")
-        sim = scene.simulation(threads=2)
-        sim.run(steps=1000)
-    return {**sim.state._asdict(), **extra}
+    # on past the first impacts, where cold and warm runs used to part (a run stopped soon
+    # after the first touch showed no difference); on two threads, so that the threaded loops
+    # are compiled cold in the rerun too
+    scene = cosnet.load_scene(cases + f"/{case}.toml")
+    sim = scene.simulation(threads=2)
+    contact = next(e for e in scene.effects if isinstance(e, cosnet.Contact))
+    most = 0
+    for k in range(1, 8):
+        sim.run(until=0.005 * k)
+        most = max(most, contact.active_contacts(sim))
+    return {**sim.state._asdict(), "contacts": np.array([most])}
 
 
 out, cases = sys.argv[1:3]
@@ -93,10 +80,9 @@ def step_cached(cache):
 @pytest.mark.own_cache
 def test_a_run_killed_while_compiling_then_rerun_equals_a_warm_one(tmp_path):
     """SIGKILL once some kernels are cached but not the step; the rerun compiles the step
-    and the kernels not yet cached in-process, against the callees loaded from the cache,
-    then the joints net and the rod on two threads (their steps, joint kernels and threaded
-    loops compiled cold), and must compute what a run loading all of it does -- past the
-    contact net's first impacts, so the contact forces take part."""
+    and the kernels not yet cached in-process, against the callees loaded from the cache
+    (the threaded loops of two threads among them), and must compute what a run loading all
+    of it does -- past the contact net's first impacts, so the contact forces take part."""
     cache = tmp_path / "cache"
     proc = start(cache, tmp_path / "killed", ["contact"])
     deadline = time.time() + 1800
@@ -108,7 +94,7 @@ def test_a_run_killed_while_compiling_then_rerun_equals_a_warm_one(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.communicate()
     assert proc.returncode == -signal.SIGKILL and not cached_step, "killed too late: nothing half-compiled"
-    cases = ["contact", "joints"]
+    cases = ["contact"]
     rerun = run(cache, tmp_path / "rerun", cases)
     assert step_cached(cache)
     warm = run(cache, tmp_path / "warm", cases)
