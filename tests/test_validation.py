@@ -24,6 +24,23 @@ def test_material_and_sections_reject_unphysical_values():
         cosnet.Section(A=1.0, I11=1.0, I22=1.0, I12=2.0, J=1.0)
 
 
+def test_python_values_follow_the_scene_files_rule():
+    """One rule for a number, in a scene file and in Python alike: a truth value or a string
+    is refused (float(True) and float("3") would pass them as 1 and 3)."""
+    from cosnet.core import units
+    for bad in (True, "3", np.bool_(True)):
+        with pytest.raises(ValueError, match="must be a number"):
+            cosnet.Material(E=bad, G=1.0, density=1.0)
+        with pytest.raises(units.BadValue, match="must be a number"):
+            units.number(bad)
+    with pytest.raises(ValueError, match="g must be 3 finite numbers"):
+        cosnet.Gravity(g=["0", "0", "-9.81"])
+    with pytest.raises(ValueError, match="g must be 3 finite numbers"):
+        cosnet.Gravity(g=[True, 0.0, 0.0])
+    assert cosnet.Material(E=np.int64(2), G=np.float32(1.0), density=1).E == 2.0   # numpy numbers are numbers
+    assert np.array_equal(cosnet.Gravity(g=np.array([0, 0, -9])).g, [0.0, 0.0, -9.0])
+
+
 def test_node_validation_names_the_node():
     net = cosnet.Net()
     with pytest.raises(ValueError, match="node 'n'.*position must be finite"):

@@ -16,12 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import checks
+
 
 def _check_positive(owner: str, name: str, value, allow_zero: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{owner}: {name} must be a number, got {value!r}") from None
+    v = checks.number(owner, name, value)
     if not math.isfinite(v):
         raise ValueError(f"{owner}: {name} must be finite, got {v}")
     if v < 0 or (v == 0 and not allow_zero):
@@ -59,7 +58,7 @@ class Material:
 def rotary_inertia_triple(owner: str, value) -> tuple[float, float, float]:
     """Return value as three positive rotary inertias per length (kg m), or raise naming owner."""
     try:
-        vals = [float(v) for v in value]
+        vals = [checks.number(owner, "rotary_inertia", v) for v in value]
     except (TypeError, ValueError):
         raise ValueError(f"{owner}: rotary_inertia must be three numbers (kg m), got {value!r}") from None
     if len(vals) != 3:

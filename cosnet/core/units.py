@@ -14,6 +14,7 @@ from typing import Literal, overload
 
 import numpy as np
 
+from . import checks
 from .scaling import Scale
 
 _REQUIRED = object()
@@ -127,7 +128,7 @@ class Table:
 
 
 def number(v) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
+    if not checks.is_number(v):
         raise BadValue(f"must be a number, got {shown(v)}")
     if not math.isfinite(v):
         raise BadValue(f"must be finite, got {shown(v)}")
