@@ -6,12 +6,13 @@
     cosnet modes SCENE [--count K] [--out DIR] [--analytic]  normal modes: spectrum, VTK shapes
     cosnet render DIR [--png|--gif|--mp4] [--field NAME] [--clim LO HI] [--view V] [--warp F]
                                                              pictures of a run or of modes
+    cosnet plot DIR [PROBE ...] [--energy] [--output FILE]   probes and energy budget over time
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
     cosnet sweep SCENE [--vary KEY=VALUES] [--vtk] [--resume|--overwrite]
                                                              variants as Dask tasks, one Zarr store
     cosnet sweep --check STORE                               every file of a store against its manifest
 
-``run`` writes a frame, a probes row and a checkpoint at every multiple of the output
+``run`` writes a frame, a probes row, an energy row and a checkpoint at every multiple of the output
 interval (cosnet.output.record, which ``Simulation.run(out=...)`` uses too), each only after the
 state has passed every test of the instability watch (so on instability the checkpoint holds
 the last state that passed); ``--resume`` (continue
@@ -246,6 +247,24 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_plot(args) -> int:
+    import contextlib
+
+    from .output import outdir
+    from .output.io import read_output
+    src = Path(args.dir)
+    output = Path(args.output) if args.output else src / "plot.png"
+    if output.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise ValueError(f"--output {output}: a plot is written as .png, .svg or .pdf")
+    held = (outdir.locked(src, "plot") if args.output is None and (src / outdir.LOCK).exists()
+            else contextlib.nullcontext())
+    with held:
+        fig = read_output(src).plot(*args.probes, energy=args.energy)
+        fig.savefig(output, dpi=120)
+    print(output)
+    return 0
+
+
 def cmd_accuracy(args) -> int:
     """Exit code 0 with a recommendation, 1 when no setting reaches --tol."""
     from .studies.accuracy import check_tol, report, study
@@ -379,6 +398,12 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--size", type=int, nargs=2, default=(1024, 768), metavar=("W", "H"),
                    help="picture size in pixels (default 1024 768)")
     v.add_argument("--mode", type=int, help="mode J of a `cosnet modes` directory (default: 0)")
+    pl = sub.add_parser("plot", help="plot a run's probes and its energy budget over time")
+    pl.add_argument("dir", help="output directory of `cosnet run`")
+    pl.add_argument("probes", nargs="*", help="probes to plot, as named in [run] probes (default: all)")
+    pl.add_argument("--energy", action="store_true",
+                   help="plot the energy budget: kinetic, strain, potential, the accounts and the balance's drift")
+    pl.add_argument("--output", help="file to write, .png, .svg or .pdf (default: DIR/plot.png)")
     a = sub.add_parser("accuracy", help="estimate the error and cost of refined settings")
     a.add_argument("scene", help="scene file or ready case name")
     a.add_argument("--tol", default="1e-4", help="position error to reach, m (default: 1e-4)")
@@ -427,7 +452,7 @@ def main(argv=None) -> int:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return {"run": cmd_run, "compile": cmd_compile, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
-                "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
+                "plot": cmd_plot, "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
     except ValueError as e:
         print(f"cosnet: error: {one_line(e)}", file=sys.stderr)
         return 2

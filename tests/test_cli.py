@@ -142,6 +142,7 @@ def test_killed_run_resumes_to_the_uninterrupted_result(tiny, tmp_path):
         for key in ca.files:
             np.testing.assert_array_equal(ca[key], cb[key], err_msg=key)
     assert (full / "probes.csv").read_text() == (cut / "probes.csv").read_text()
+    assert (full / "energy.csv").read_text() == (cut / "energy.csv").read_text()
 
 
 def test_default_scene_is_the_bridge(tmp_path):
@@ -190,7 +191,7 @@ def test_a_second_run_into_one_out_is_refused_unless_overwrite(tiny, tmp_path, c
     (out / "lines_000099.vtu").write_text("a later frame of an older, longer run")
     code, err = main_err(capsys, "run", tiny, "--out", out, "--until", 0.01)
     assert code == 2 and err == (f"cosnet: error: {out}: holds a run already (*.vtu, checkpoint.npz, "
-                                 f"meta.json, probes.csv, series.pvd); pass --overwrite to replace it "
+                                 f"energy.csv, meta.json, probes.csv, series.pvd); pass --overwrite to replace it "
                                  f"or --resume to continue it")
     assert len(read_output(out).times) == 3                  # untouched
     r = cosnet("run", tiny, "--out", out, "--until", 0.01, "--overwrite")

@@ -40,6 +40,7 @@ def test_effect_keeps_its_contract(cls):
     if cls.stage == "load":
         assert r.checkpoint_exact, r
     assert r.unrefused == [], f"{cls.__name__}: table_error lets these planted entries through: {r.unrefused}"
+    assert r.unsaved == [], f"{cls.__name__}: its checkpoint leaves out the accounts {r.unsaved}"
 
 
 def test_the_conservative_effects_are_checked():

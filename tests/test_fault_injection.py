@@ -66,7 +66,7 @@ def one_error_line(stderr: str) -> str:
 
 
 def assert_same_run(a: Path, b: Path):
-    """Every frame, the probes and the checkpoint of two runs are identical."""
+    """Every frame, the probes, the energy budget and the checkpoint of two runs are identical."""
     ra, rb = read_output(a), read_output(b)
     np.testing.assert_array_equal(ra.times, rb.times)
     for k in range(len(ra.times)):
@@ -76,6 +76,7 @@ def assert_same_run(a: Path, b: Path):
         for f, arr in fa["nodes"].items():
             np.testing.assert_array_equal(arr, fb["nodes"][f], err_msg=f"frame {k} {f}")
     assert (a / "probes.csv").read_text() == (b / "probes.csv").read_text()
+    assert (a / "energy.csv").read_text() == (b / "energy.csv").read_text()
     with np.load(a / "checkpoint.npz") as ca, np.load(b / "checkpoint.npz") as cb:
         assert ca.files == cb.files
         for key in ca.files:

@@ -210,6 +210,9 @@ class MuscleTorque(_Travelling):
     def work(self, sim) -> float:
         return float(self.params(sim).work[0])
 
+    def state_arrays(self, sim) -> dict:
+        return {"work": self.params(sim).work}
+
     def describe(self):
         on = self.line.name if self.lines is None else [getattr(x, "name", x) for x in self.lines]
         return f"MuscleTorque({on!r}, moment={self.values[:, 0].tolist()})"
@@ -293,6 +296,10 @@ class ActiveCurvature(_Travelling):
 
     def work(self, sim) -> float:
         return float(self.params(sim).work[0])
+
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"work": p.work, "last": p.last, "strain_last": p.strain_last}
 
     def describe(self):
         given = [(n, a.tolist()) for n, a in (("curvature", self.values),

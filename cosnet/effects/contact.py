@@ -250,9 +250,9 @@ class Contact(Effect):
         return float(contact_energy(p, on.model, on.state))
 
     def state_arrays(self, sim) -> dict:
-        if self.k_t == 0:
-            return {}
         p = self.params(sim)
+        if self.k_t == 0:       # no friction: no pairs kept, the dampers' account all the same
+            return {"dissipated": p.dissipated}
         return {"pair_key": p.pair_key, "pair_data": p.pair_data, "pair_used": p.pair_used,
                 "pair_state": p.pair_state, "dissipated": p.dissipated}
 

@@ -281,6 +281,10 @@ class Drive(Effect):
     def drives(self, node) -> bool:
         return node is self.node
 
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"work": p.work, "reaction": p.reaction}
+
     def work(self, sim) -> float:
         """Work done by the driver so far (J): the kicks' quadrature of R.v + T.w, plus the
         kinetic energy damping took from the components it holds (it puts that back)."""

@@ -265,6 +265,10 @@ class Damping(Effect):
         part of sim.driver_work())."""
         return float(self.params(sim).dissipated[0])
 
+    def state_arrays(self, sim) -> dict:
+        p = self.params(sim)
+        return {"dissipated": p.dissipated, "node_dissipated": p.node_dissipated}
+
     def node_dissipated(self, sim, node: Node) -> tuple[np.ndarray, float]:
         """((3, 3), float): of dissipated(sim), what was taken from ``node``'s translation,
         sum 1/2 m (1 - c^2) v v^T (its trace the energy; a drive pays the components it

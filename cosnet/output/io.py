@@ -28,10 +28,14 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from .fields import ENERGY_COLUMNS, FIELD_UNITS  # noqa: F401  (the output's names, kept importable here)
+
 LINE_FIELDS = ("velocity", "d1", "d2", "d3", "force", "torque", "strain", "curvature")
 NODE_FIELDS = ("velocity", "angular_velocity", "d1", "d2", "d3", "reaction", "reaction_torque")
 PVD = "series.pvd"
 META = "meta.json"
+PROBES = "probes.csv"
+ENERGY = "energy.csv"
 
 
 def frame_files(k: int) -> tuple[str, str]:
@@ -231,12 +235,50 @@ class Output:
         _known("line field", field, ("position",) + LINE_FIELDS)
         return np.stack([self.frame(k)["lines"][name][field] for k in range(len(self.times))])
 
+    def probes(self) -> dict:
+        """{probe: (nf, 3)} from probes.csv, the probes named as written ("tip",
+        "rod@0.5:force"); {} for a run without probes."""
+        header, rows = _csv(self.directory / PROBES)
+        names = [c[:-2] for c in header[2::3]]
+        return {name: rows[:, 2 + 3 * j:5 + 3 * j] for j, name in enumerate(names)}
+
+    def probe_times(self) -> np.ndarray:
+        """(nf,) the times of the rows of probes.csv."""
+        return _csv(self.directory / PROBES)[1][:, 1]
+
+    def energy(self) -> dict:
+        """{"time": (nf,), and each of ENERGY_COLUMNS: (nf,)} from energy.csv (J)."""
+        header, rows = _csv(self.directory / ENERGY)
+        return {name: rows[:, j] for j, name in enumerate(header) if name != "frame"}
+
+    def plot(self, *probes, energy: bool = False):
+        """A matplotlib Figure: a panel of x, y, z over time for each probe named (all of
+        probes.csv when none is), and with ``energy`` the energy budget (cosnet.output.plots)."""
+        from .plots import plot_output
+        return plot_output(self, probes, energy)
+
     def node_series(self, name: str, field: str = "position") -> np.ndarray:
         """(nf, 3) history of one field of a node."""
         _known("node", name, self.node_names)
         _known("node field", field, ("position",) + NODE_FIELDS)
         i = self.node_names.index(name)
         return np.stack([self.frame(k)["nodes"][field][i] for k in range(len(self.times))])
+
+
+def _csv(path: Path) -> tuple[list, np.ndarray]:
+    """(header, rows (n, columns)) of a CSV file the recorder wrote; ValueError naming it."""
+    try:
+        text = path.read_text().splitlines()
+    except OSError:
+        raise ValueError(f"{path}: missing (a run writes it at every frame)") from None
+    header = text[0].split(",") if text else []
+    try:
+        rows = np.array([[float(x) for x in ln.split(",")] for ln in text[1:] if ln], dtype=float)
+    except ValueError:
+        raise ValueError(f"{path}: not the numbers a run writes") from None
+    if header[:2] != ["frame", "time"] or (rows.size and rows.shape[1] != len(header)):
+        raise ValueError(f"{path}: not the table a run writes (frame, time, ...)")
+    return header, rows.reshape(-1, len(header))
 
 
 def read_output(directory) -> Output:

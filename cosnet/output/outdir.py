@@ -20,12 +20,12 @@ from pathlib import Path
 
 LOCK = ".cosnet.lock"
 # what a run writes (with the .tmp of its atomic rewrites)
-RUN_FILES = ("series.pvd", "meta.json", "probes.csv", "checkpoint.npz")
+RUN_FILES = ("series.pvd", "meta.json", "probes.csv", "energy.csv", "checkpoint.npz")
 FRAME_GLOBS = ("lines_*.vtu", "nodes_*.vtu")
 
 
 def run_files(out: Path) -> list[Path]:
-    """The files of an earlier run in ``out`` (frames, series, probes, checkpoint)."""
+    """The files of an earlier run in ``out`` (frames, series, probes, energy, checkpoint)."""
     found = [out / n for n in RUN_FILES if (out / n).exists()]
     found += [p for n in RUN_FILES if (p := out / f"{n}.tmp").exists()]
     for g in FRAME_GLOBS:

@@ -1,5 +1,5 @@
-"""The output of a run, written while it runs: a VTK series (cosnet.output.io), probes.csv and a
-checkpoint, every output interval. ``cosnet run`` and ``Simulation.run(out=...)`` both write
+"""The output of a run, written while it runs: a VTK series (cosnet.output.io), probes.csv,
+energy.csv and a checkpoint, every output interval. ``cosnet run`` and ``Simulation.run(out=...)`` both write
 through ``Recorder``, so their files are the same.
 
 Frame k sits at t_k = min(t_0 + k * interval, until), t_0 the time of frame 0 (0 for a
@@ -20,6 +20,10 @@ frame, time, then the columns PROBE_x, PROBE_y, PROBE_z of each probe (PROBE as 
 ``rod@0.5:force_x``). A jointed end also has the fields joint_angle and joint_rate (its
 coordinates in the columns _x, _y, _z; zero past the joint's own) and joint_reaction (the
 torque the line exerts on the node through the joint, lab).
+
+energy.csv holds the energy budget at every frame (J): frame, time, then kinetic, strain,
+potential (energy() is their sum), dissipated, driver, actuation and supplied (the accounts of
+sim.dissipated(), driver_work(), actuation_work() and supplied()).
 """
 
 from __future__ import annotations
@@ -33,11 +37,11 @@ import numpy as np
 
 from ..core import checks
 from ..effects.articulations import joint_state
-from .io import LINE_FIELDS, NODE_FIELDS, PVD, SeriesWriter, node_point_fields, read_pvd, replace_atomically
+from .io import (ENERGY, ENERGY_COLUMNS, LINE_FIELDS, NODE_FIELDS, PROBES, PVD, SeriesWriter, node_point_fields,
+                 read_pvd, replace_atomically)
 from ..kernels.stepping import CHUNK_STEPS, steps_to
 
 CHECKPOINT = "checkpoint.npz"
-PROBES = "probes.csv"
 PROBE_LINE_FIELDS = ("position",) + LINE_FIELDS
 PROBE_NODE_FIELDS = ("position",) + NODE_FIELDS
 JOINT_FIELDS = {"joint_angle": "angle", "joint_rate": "rate", "joint_reaction": "reaction"}
@@ -122,6 +126,17 @@ def probe_header(probes) -> str:
 def probe_row(k, sim, probes) -> str:
     vals = [repr(float(x)) for p in probes for x in p.value(sim)]
     return ",".join([str(k), repr(sim.time)] + vals) + "\n"
+
+
+def energy_header() -> str:
+    return ",".join(("frame", "time", *ENERGY_COLUMNS)) + "\n"
+
+
+def energy_row(k, sim) -> str:
+    parts = sim.energy_parts()
+    values = (parts["kinetic"], parts["strain"], parts["potential"], sim.dissipated(), sim.driver_work(),
+              sim.actuation_work(), sim.supplied())
+    return ",".join([str(k), repr(sim.time)] + [repr(float(v)) for v in values]) + "\n"
 
 
 def keep_probe_rows(path: Path, header: str, last_frame: int):
@@ -286,9 +301,11 @@ class Recorder:
                                  f"(same scene and until needed to resume)")
             self.writer = SeriesWriter(self.out, sim.net, resume_after=self.k)
             keep_probe_rows(self.out / PROBES, self.header, self.k)
+            keep_probe_rows(self.out / ENERGY, energy_header(), self.k)
         else:
             self.writer = SeriesWriter(self.out, sim.net)
             (self.out / PROBES).write_text(self.header)
+            (self.out / ENERGY).write_text(energy_header())
             self.k = -1
             self.write()
 
@@ -311,6 +328,8 @@ class Recorder:
         self.k = self.writer.write(sim)
         with open(self.out / PROBES, "a") as f:
             f.write(probe_row(self.k, sim, self.probes))
+        with open(self.out / ENERGY, "a") as f:
+            f.write(energy_row(self.k, sim))
         sim.save_checkpoint(self.out / CHECKPOINT)
         if self.callback is not None:
             self.callback(sim)

@@ -19,10 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .fields import FIELD_UNITS as UNITS
 from .io import LINE_FIELDS, frame_files, read_output, read_pvd
-
-UNITS = {"velocity": "m/s", "force": "N", "torque": "N m", "strain": "", "curvature": "1/m",
-         "displacement": "m", "d1": "", "d2": "", "d3": ""}
 VIEWS = ("iso", "xy", "xz", "yz")
 MOVIE_EXTRA = "pip install 'cosnet[movie]'"
 

@@ -50,6 +50,7 @@ class Report:
     moment_sum: float | None = None       # |sum of moments about the origin| / sum of their sizes
     checkpoint_exact: bool | None = None  # a round trip continues the kernel bit for bit
     unrefused: list = field(default_factory=list)   # integer tables whose corruption passed
+    unsaved: list = field(default_factory=list)     # accounts of its record a checkpoint leaves out
     energy_order: float | None = None     # observed order of the energy balance's drift
 
 
@@ -285,6 +286,18 @@ def balance(sim) -> float:
     return sim.energy() - sim.driver_work() - sim.actuation_work() - sim.supplied() + sim.dissipated()
 
 
+# record fields that accumulate over a run (work and energy accounts): a checkpoint must carry
+# them (Effect.state_arrays), or a resumed run's budget starts them again from zero
+ACCOUNTS = ("work", "dissipated", "node_dissipated", "supplied")
+
+
+def unsaved_accounts(sim, effect) -> list[str]:
+    """The account arrays of the effect's record (ACCOUNTS) its state_arrays leave out."""
+    p = sim.effect_params(effect)
+    saved = [id(a) for a in effect.state_arrays(sim).values()]
+    return [n for n in ACCOUNTS if n in p._fields and id(getattr(p, n)) not in saved]
+
+
 def energy_order(sim_of, until: float) -> float:
     """Observed order of the largest drift of energy() - driver_work() - actuation_work() -
     supplied() + dissipated() over ``until``, at a tenth of the stable step and at half of that (well
@@ -318,6 +331,7 @@ def check_effect(cls, *, dynamics: bool = False, until: float = 2e-3, seed: int 
     if effect.internal and callable_kernel:
         report.force_sum, report.moment_sum = momentum_sums(cls, sim, effect)
     report.unrefused = unrefused_tables(cls, sim, effect)
+    report.unsaved = unsaved_accounts(sim, effect)
     if callable_kernel:
         report.checkpoint_exact = checkpoint_exact(cls, sim, effect, rng)
     if dynamics:
