@@ -232,7 +232,7 @@ def cmd_render(args) -> int:
     import contextlib
 
     from .output import outdir
-    from .output.render import render
+    from .output.render import choose, render
     kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
     src = Path(args.dir)
     # a picture written into a run's directory is a write: not while a run or sweep holds it
@@ -240,9 +240,14 @@ def cmd_render(args) -> int:
     held = (outdir.locked(src, "render") if args.output is None and (src / outdir.LOCK).exists()
             else contextlib.nullcontext())
     with held:
-        path = render(args.dir, kind=kind, field=args.field, output=args.output, frame=args.frame,
+        field, frame, why = args.field, args.frame, None
+        if kind == "png" and (field is None or frame is None):
+            field, frame, why = choose(args.dir, field, frame, args.mode)
+        path = render(args.dir, kind=kind, field=field, output=args.output, frame=frame,
                       every=args.every, clim=args.clim, view=args.view, warp=args.warp,
                       min_radius=args.min_radius, window_size=args.size, mode=args.mode)
+    if why:
+        print(f"frame {frame}, coloured by {field}: {why}", file=sys.stderr)
     print(path)
     return 0
 
@@ -382,10 +387,11 @@ def parser() -> argparse.ArgumentParser:
     g.add_argument("--png", action="store_true", help="one picture (default: the last frame)")
     g.add_argument("--gif", action="store_true", help="an animated GIF (needs the movie extra)")
     g.add_argument("--mp4", action="store_true", help="an MP4 movie (needs the movie extra)")
-    v.add_argument("--field", default="velocity",
-                   help="line field to colour by, as its magnitude (default velocity; displacement "
-                        "is from the first frame)")
-    v.add_argument("--frame", type=int, default=-1, help="frame for --png (default: last)")
+    v.add_argument("--field", help="line field to colour by, as its magnitude (displacement is from the "
+                                   "first frame; default velocity, or for a picture where velocity "
+                                   "hardly varies, displacement)")
+    v.add_argument("--frame", type=int, help="frame for --png, -1 the last (default: the frame where the lines "
+                                             "are farthest from frame 0; a mode at a quarter period)")
     v.add_argument("--every", type=_positive_int, default=1, help="use every n-th frame for --gif/--mp4")
     v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4)")
     v.add_argument("--clim", type=float, nargs=2, metavar=("LO", "HI"),

@@ -177,6 +177,41 @@ def test_mode_series_render_with_displacement_and_radius(tmp_path):
     assert len(res) == 2
 
 
+def farthest(out) -> int:
+    """The frame whose line vertices are farthest (r.m.s.) from frame 0, the last on a tie."""
+    pos = [np.concatenate([out.frame(k)["lines"][n]["position"] for n in out.line_names])
+           for k in range(len(out.times))]
+    rms = np.array([np.sqrt(np.mean(np.sum((p - pos[0]) ** 2, axis=1))) for p in pos])
+    return len(rms) - 1 - int(np.argmax(rms[::-1]))
+
+
+def test_a_picture_shows_the_frame_where_the_lines_moved_most(run, tmp_path, capsys):
+    """Without --frame the PNG is the frame farthest from frame 0; without --field it is
+    coloured by velocity where velocity spans half its colour range in that frame, else by
+    the displacement; the command says which, on stderr, after the picture is written."""
+    from cosnet.output.render import AUTO_SHARE, Picture, choose
+    out = read_output(run)
+    field, k, why = choose(run)
+    assert k == farthest(out) and 0 < k
+    share = Picture(run, field="velocity", window_size=(W, H)).colour_share(k)
+    assert field == ("velocity" if share >= AUTO_SHARE else "displacement")
+    assert choose(run, field="force") == ("force", k, "the lines farthest (r.m.s.) from frame 0")
+    assert choose(run, frame=-1)[1] == len(out.times) - 1
+    assert main(["render", str(run), "--size", str(W), str(H), "--output", str(tmp_path / "a.png")]) == 0
+    assert capsys.readouterr().err.strip() == f"frame {k}, coloured by {field}: {why}"
+
+
+def test_the_default_case_is_drawn_as_the_lorry_crosses(tmp_path):
+    """The bridge run to 4 s: the picture is a frame of the lorry's crossing (it is on the
+    bridge from 1.5 to 4.5 s), its colours spanning more than half of their range."""
+    from cosnet.output.render import Picture, choose
+    assert main(["run", "--out", str(tmp_path / "bridge"), "--until", "4"]) == 0
+    field, k, _ = choose(tmp_path / "bridge")
+    t = read_output(tmp_path / "bridge").times[k]
+    assert 1.5 < t <= 4.0
+    assert Picture(tmp_path / "bridge", field=field, window_size=(W, H)).colour_share(k) > 0.5
+
+
 def test_bad_options_give_one_line(run, capsys):
     for args, words in ((["--view", "sideways"], "AZIMUTH,ELEVATION"),
                         (["--view=10,95"], "elevation"),

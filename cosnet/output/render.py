@@ -160,11 +160,15 @@ class Picture:
         _, first, self.ref_nodes, _ = self.series.frame(0)
         self.ref = first["position"]
         lo, hi, box, sample = math.inf, -math.inf, None, []
+        self.motion = np.zeros(n)            # r.m.s. distance of the line vertices from frame 0
+        self.spread = np.zeros((n, 2))       # the field's (min, max) in each frame
         for k in self.frames:      # one colour range and one camera for every frame drawn
             _, lines, nodes, _ = self.series.frame(k)
             v = self.values(lines)
             if v.size:
                 lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))
+                self.spread[k] = float(v.min()), float(v.max())
+                self.motion[k] = math.sqrt(float(np.mean(np.sum((lines["position"] - self.ref) ** 2, axis=-1))))
             pts = np.concatenate([self.warped(lines["position"], self.ref),
                                   self.warped(nodes, self.ref_nodes)])
             if len(pts):
@@ -192,6 +196,16 @@ class Picture:
     def _font(self, points: int) -> int:
         """A font size that keeps its share of a window smaller or larger than 1024 x 768."""
         return max(6, round(points * self._scale))
+
+    def busiest(self) -> int:
+        """The frame where the lines are farthest (r.m.s.) from where they were in frame 0,
+        the last of them on a tie (the last frame of a series that does not move)."""
+        m = self.motion[self.frames]
+        return self.frames[len(m) - 1 - int(np.argmax(m[::-1]))]
+
+    def colour_share(self, k) -> float:
+        """The share of the colour range the field spans in frame k."""
+        return float(self.spread[k, 1] - self.spread[k, 0]) / (self.clim[1] - self.clim[0])
 
     def warped(self, x, ref):
         return ref + self.warp * (x - ref) if self.warp != 1.0 else x
@@ -323,17 +337,45 @@ def _movie_check(kind: str):
         raise ValueError(f"--{kind} needs {' and '.join(missing)}: {MOVIE_EXTRA}")
 
 
-def render(directory, kind="png", field="velocity", output=None, frame=-1, every=1, clim=None,
+AUTO_FIELD = "velocity"    # the colour of a picture whose field is not named, where it varies
+AUTO_SHARE = 0.5           # ... over at least this share of its range in the frame drawn
+
+
+def choose(directory, field=None, frame=None, mode=None) -> tuple[str, int, str]:
+    """(field, frame, why) of a PNG whose field or frame is not given: the frame where the
+    lines are farthest from frame 0 (a mode's quarter period, at full amplitude), coloured by
+    velocity if it spans at least AUTO_SHARE of its range there, else by the displacement
+    from frame 0 (a run come to rest is one colour of velocity)."""
+    pic = Picture(directory, field=field or AUTO_FIELD, mode=mode, window_size=(16, 16))
+    n = len(pic.series.times)
+    if frame is not None:
+        k, why = (frame if frame >= 0 else n + frame), "as asked"
+    elif isinstance(pic.series, _ModeSeries):
+        k, why = n // 4, "a quarter period: the mode at full amplitude"
+    else:
+        k, why = pic.busiest(), "the lines farthest (r.m.s.) from frame 0"
+    if not 0 <= k < n:
+        raise ValueError(f"--frame {frame}: the series has frames 0..{n - 1}")
+    if field is None and pic.colour_share(k) < AUTO_SHARE:
+        field = "displacement"
+        why += f"; coloured by displacement, as velocity spans {pic.colour_share(k):.0%} of its range there"
+    pic.plotter.close()
+    return field or AUTO_FIELD, k, why
+
+
+def render(directory, kind="png", field=None, output=None, frame=None, every=1, clim=None,
            view="iso", warp=1.0, min_radius=None, window_size=(1024, 768), mode=None, fps=20) -> Path:
-    """Render the series in ``directory`` to a PNG (one frame: default the last, or a quarter
-    period of a mode), GIF or MP4; return the path.
-    The colour range spans every frame of the series (PNG) or every frame drawn (movies)
-    unless ``clim`` = (lo, hi) is given."""
+    """Render the series in ``directory`` to a PNG (one frame), GIF or MP4; return the path.
+    A PNG's frame and field default to ``choose``'s (the frame where most has happened); a
+    movie's field to velocity. The colour range spans every frame of the series (PNG) or
+    every frame drawn (movies) unless ``clim`` = (lo, hi) is given."""
     if kind not in ("png", "gif", "mp4"):
         raise ValueError(f"unknown picture kind {kind!r}: png, gif or mp4")
     if kind != "png":
         _movie_check(kind)
-    pic = Picture(directory, field=field, every=1 if kind == "png" else every, clim=clim, view=view,
+    elif field is None or frame is None:
+        field, frame, _ = choose(directory, field, frame, mode)
+    pic = Picture(directory, field=field or AUTO_FIELD, every=1 if kind == "png" else every, clim=clim, view=view,
                   warp=warp, min_radius=min_radius, window_size=window_size, mode=mode)
     src = Path(directory)
     stem = src.parent if src.suffix == ".pvd" else src
@@ -341,8 +383,6 @@ def render(directory, kind="png", field="velocity", output=None, frame=-1, every
     path = Path(output) if output else stem / f"{name}.{kind}"
     n = len(pic.series.times)
     if kind == "png":
-        if frame == -1 and isinstance(pic.series, _ModeSeries):
-            frame = n // 4                  # a quarter period: the mode at full amplitude
         k = frame if frame >= 0 else n + frame
         if not 0 <= k < n:
             raise ValueError(f"--frame {frame}: the series has frames 0..{n - 1}")
