@@ -37,6 +37,21 @@ class Articulations(Effect):
     def conservative(self) -> bool:
         return not any(np.any(j.damping) or np.any(j.static) or np.any(j.kinetic) for _, j, _ in self.ends)
 
+    # the probes of a jointed line end ("LINE@start:joint_angle"): its coordinates in the
+    # columns _x, _y, _z (zero past the joint's own), and the torque it passes (lab)
+    PROBES = {"joint_angle": "angle", "joint_rate": "rate", "joint_reaction": "reaction"}
+
+    @classmethod
+    def end_probe_fields(cls, line, end: str) -> tuple:
+        return tuple(cls.PROBES) if getattr(line, f"{end}_joint") is not None else ()
+
+    @classmethod
+    def end_probe(cls, sim, line, end: str, field: str):
+        value = np.zeros(3)
+        got = joint_state(sim, line, end)[cls.PROBES[field]]
+        value[:got.shape[0]] = got
+        return value
+
     @classmethod
     def implied(cls, net, grids):
         return articulations(net, grids)

@@ -133,6 +133,17 @@ class Effect:
         return False
 
     @classmethod
+    def end_probe_fields(cls, line, end: str) -> tuple:
+        """The probe fields this effect offers at ``end`` ("start" or "end") of ``line``
+        ("LINE@end:FIELD"); none by default."""
+        return ()
+
+    @classmethod
+    def end_probe(cls, sim, line, end: str, field: str):
+        """(3,) the value now of one of end_probe_fields (lab frame, SI)."""
+        raise NotImplementedError
+
+    @classmethod
     def implied(cls, net, grids):
         """The instance of this effect that ``net`` implies by what it declares (see
         IMPLIED), for its flattened line grids; None for effects a scene declares."""
@@ -320,6 +331,16 @@ def implied_classes() -> list:
         module, _, name = spec.partition(":")
         out.append(getattr(importlib.import_module(module), name))
     return out
+
+
+def end_probe_owners(line, end: str) -> dict:
+    """{field: the effect class offering it} of the probe fields at ``end`` of ``line`` that
+    effects declare (Effect.end_probe_fields), cosnet's own, implied and installed."""
+    owners: dict = {}
+    for cls in (*implied_classes(), *catalogue().values()):
+        for name in cls.end_probe_fields(line, end):
+            owners.setdefault(name, cls)
+    return owners
 
 
 def implied_effects(net, grids) -> list:

@@ -32,11 +32,12 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..core import checks
-from ..effects.articulations import joint_state
+from ..engine.registry import end_probe_owners
 from .io import (ENERGY, ENERGY_COLUMNS, LINE_FIELDS, NODE_FIELDS, PROBES, PVD, SeriesWriter, node_point_fields,
                  read_pvd, replace_atomically)
 from ..kernels.stepping import CHUNK_STEPS, steps_to
@@ -44,7 +45,6 @@ from ..kernels.stepping import CHUNK_STEPS, steps_to
 CHECKPOINT = "checkpoint.npz"
 PROBE_LINE_FIELDS = ("position",) + LINE_FIELDS
 PROBE_NODE_FIELDS = ("position",) + NODE_FIELDS
-JOINT_FIELDS = {"joint_angle": "angle", "joint_rate": "rate", "joint_reaction": "reaction"}
 
 
 @dataclass
@@ -59,6 +59,7 @@ class Probe:
     vertex: int = 0
     field: str = "position"
     end: str = ""       # "start" or "end" for a probe of a line's end ("LINE@start")
+    owner: Any = None   # the effect class whose end_probe gives the field (a joint's angle, ...)
 
     def position(self, sim) -> np.ndarray:
         if self.node is not None:
@@ -71,11 +72,8 @@ class Probe:
             return self.position(sim)
         if self.node is not None:
             return node_point_fields(sim, self.node)[self.field]
-        if self.field in JOINT_FIELDS:
-            value = np.zeros(3)
-            got = joint_state(sim, self.line, self.end)[JOINT_FIELDS[self.field]]
-            value[:got.shape[0]] = got
-            return value
+        if self.owner is not None:
+            return np.asarray(self.owner.end_probe(sim, self.line, self.end, self.field), dtype=float)
         return np.asarray(sim.line_fields(self.line)[self.field][self.vertex], dtype=float)
 
     def columns(self) -> list[str]:
@@ -89,6 +87,7 @@ def parse_probe(text: str, net) -> Probe:
         raise ValueError(f"a probe must be a string such as 'tip' or 'rod@0.5:velocity', got {text!r}")
     point, colon, field = text.partition(":")
     nodes = {n.name for n in net.nodes}
+    owners: dict = {}   # the fields effects offer at a line end, and which effect
     if point in nodes:
         probe = Probe(text, node=net.node(point))
         valid: tuple[str, ...] = PROBE_NODE_FIELDS
@@ -109,13 +108,15 @@ def parse_probe(text: str, net) -> Probe:
         valid = PROBE_LINE_FIELDS
         if frac in ("start", "end"):
             probe.end = frac
-            if getattr(line, f"{frac}_joint") is not None:
-                valid += tuple(JOINT_FIELDS)
+            owners = end_probe_owners(line, frac)
+            valid += tuple(owners)
     if colon:
         if field not in valid:
             kind = "node" if probe.node is not None else "line point"
             raise ValueError(f"{text!r}: unknown field {field!r}; a {kind} has {', '.join(valid)}")
         probe.field = field
+        if probe.end and field in owners:
+            probe.owner = owners[field]
     return probe
 
 
