@@ -54,6 +54,7 @@ from scipy.special import ellipk
 import cosnet
 from cosnet.core.fast_modes import FAST_MODES
 from cosnet.core.rotations import matrix_from_quat
+from cosnet.core.samples import free_net, smooth_motion
 from cosnet.studies.lincos import analytic_modes
 from harness import table, write_json
 
@@ -310,40 +311,6 @@ def transient_case(dt_divs, n=8):
     return out
 
 
-def free_net(n=4):
-    mat = cosnet.Material(E=5e6, G=2e6, density=1000.0, name="rubber")
-    net = cosnet.Net()
-    body = net.add_node((0.0, 0.0, 0.0), mass=0.5, inertia=np.diag([2e-3, 3e-3, 4e-3]), name="body")
-    a = net.add_node((1.0, 0.0, 0.0), name="a")
-    b = net.add_node((0.0, 1.0, 0.2), mass=0.05, inertia=np.diag([1e-5, 1e-5, 1e-5]), name="b")
-    net.add_line(body, a, material=mat, section=cosnet.Circle(0.02), elements=n,
-                 start_offset=(0.1, 0.0, 0.0), name="l1")
-    net.add_line(a, b, material=mat, section=cosnet.Rectangle(0.03, 0.02), elements=n, name="l2")
-    net.add_line(b, body, material=mat, section=cosnet.Circle(0.015), elements=n,
-                 end_offset=(0.0, 0.1, 0.05), name="l3")
-    return net
-
-
-def smooth_start(sim, amplitude=0.05, spin=0.5):
-    """A half-sine lateral velocity along every line (elements turning with the tangent) and
-    a spin of every node."""
-    m, s = sim.model, sim.state
-    for line in sim.net.lines:
-        v0, v1 = m.line_vertex_offsets[line.index], m.line_vertex_offsets[line.index + 1]
-        e0 = m.line_element_offsets[line.index]
-        x = s.x[v0:v1]
-        n = v1 - v0 - 1
-        side = np.cross(x[-1] - x[0], (0.3, 0.5, 0.8))
-        side *= amplitude / np.linalg.norm(side)
-        vel = np.sin(np.pi * np.arange(n + 1) / n)[:, None] * side
-        s.v[v0 + 1:v1 - 1] = vel[1:-1]
-        for i in range(n):
-            seg = x[i + 1] - x[i]
-            w_lab = np.cross(seg, vel[i + 1] - vel[i]) / np.dot(seg, seg)
-            s.w[e0 + i] = matrix_from_quat(s.q[e0 + i]).T @ w_lab
-    s.node_w[:] = spin * (m.node_locked == 0)
-
-
 def energy_case(dt_divs, periods=100.0):
     net = free_net()
     omega_slow = float(analytic_modes(net, count=1, shapes=False).omega[0])
@@ -354,7 +321,7 @@ def energy_case(dt_divs, periods=100.0):
         warm(lambda: cosnet.Simulation(net, stepper=stepper))
         for div in dt_divs:
             sim = cosnet.Simulation(net, stepper=stepper, dt=h0 / div)
-            smooth_start(sim)
+            smooth_motion(sim, amplitude=0.05, spin=0.5)
             e0 = sim.energy()
             samples = 400
             sub = max(1, int(T / samples / sim.dt))

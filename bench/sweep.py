@@ -26,34 +26,16 @@ from pathlib import Path
 import numpy as np
 from harness import table, write_json
 
+from cosnet.core.samples import cantilever_scene
 from cosnet.studies.sweep import local_cluster, sweep
 
-SCENE = """title = "bench cantilever"
-[materials.steel]
-E = 2.1e11
-G = 8.1e10
-density = 7850.0
-[sections.rod]
-kind = "circle"
-radius = 0.01
-[nodes.root]
-position = [0.0, 0.0, 0.0]
-fixed = true
-[nodes.tip]
-position = [0.5, 0.0, 0.0]
-[lines.rod]
-start = "root"
-end = "tip"
-material = "steel"
-section = "rod"
-elements = 4
-[[effects]]
+SCENE = cantilever_scene("bench cantilever", rest="""[[effects]]
 kind = "gravity"
 g = [0.0, 0.0, -9.81]
 [run]
 until = {until}
 probes = ["tip"]
-"""
+""")
 
 
 LONG = 16  # variants of about 1 s: eight per worker
