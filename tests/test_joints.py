@@ -155,9 +155,19 @@ def test_stiff_fixed_joint_converges_to_the_exact_junction():
 
 
 def test_stable_step_shrinks_with_the_joint_stiffness():
-    dts = [pair("fixed", k, kt=1e-3 * k)[0].stable_dt() for k in (1e2, 1e10, 1e12)]
+    """The joint's squared frequency k (1/m_a + 1/m_b) + kt (1/J_a + 1/J_b) adds to the net's
+    own bound, so 1/dt^2 = own + c k is linear in k (kt = k / 1000): its values at k = 1e2,
+    1e10 and 1e12 lie on one line, to round-off; and dt falls as 1/sqrt(k) once the joint
+    rules: dt(1e10) / dt(1e12) = 10 sqrt((1 + own / c 1e12) / (1 + own / c 1e10)), which is 10
+    less at most own / (2 c 1e10)."""
+    ks = (1e2, 1e10, 1e12)
+    dts = [pair("fixed", k, kt=1e-3 * k)[0].stable_dt() for k in ks]
     assert dts[0] >= dts[1] > dts[2]
-    assert dts[1] / dts[2] == pytest.approx(10.0, rel=0.2)  # dt ~ 1/sqrt(k) once the joint rules
+    inv = [1.0 / dt ** 2 for dt in dts]
+    c = (inv[2] - inv[0]) / (ks[2] - ks[0])
+    own = inv[0] - c * ks[0]
+    assert inv[1] == pytest.approx(own + c * ks[1], rel=1e-9)
+    assert 0 <= 10.0 - dts[1] / dts[2] <= 10.0 * own / (2 * c * ks[1]) * (1 + 1e-9)
 
 
 def test_joint_keywords_and_bad_input():
