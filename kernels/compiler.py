@@ -224,6 +224,14 @@ def _describe(value):
     return (py.__module__, py.__qualname__, hashlib.sha256(code.co_code).hexdigest(), cells)
 
 
+def in_cache(dispatcher, sig) -> bool:
+    """Whether numba's cache on disk holds ``dispatcher`` compiled for the argument types
+    ``sig`` (read from its index, which numba keeps private: an index absent or stale reads
+    as empty)."""
+    index = dispatcher._cache._cache_file._load_index()
+    return any(key[0] == sig for key in index)
+
+
 def stable_cache_key(dispatcher):
     """Give a closure compiled by ``njit(cache=True)`` a cache key that is the same in every
     process, and return it. Numba keys a closure by the pickle of its cells; a cell holding

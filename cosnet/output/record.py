@@ -40,6 +40,7 @@ from ..core import checks
 from ..engine.registry import end_probe_owners
 from .io import (ENERGY, ENERGY_COLUMNS, LINE_FIELDS, NODE_FIELDS, PROBES, PVD, SeriesWriter, node_point_fields,
                  read_pvd, replace_atomically)
+from ..kernels.compiler import in_cache
 from ..kernels.stepping import CHUNK_STEPS, steps_to
 
 CHECKPOINT = "checkpoint.npz"
@@ -222,9 +223,7 @@ def kernels_compiled(sim) -> bool:
             return True
         args = (sim.model, sim.state, sim.loads, sim.step_records, sim.dt, 1,
                 sim.backend)
-        sig = tuple(disp.typeof_pyval(a) for a in args)
-        index = disp._cache._cache_file._load_index()   # {} when absent or stale
-        return any(key[0] == sig for key in index)
+        return in_cache(disp, tuple(disp.typeof_pyval(a) for a in args))
     except Exception:   # another numba: no way to tell, say nothing
         return True
 
