@@ -1,1 +1,2 @@
-"""What a run writes: frames, probes, checkpoints on the output schedule, VTK files, pictures."""
+"""What a run writes: frames, probes, the energy budget, checkpoints on the output schedule, VTK
+files; pictures and plots of it."""
