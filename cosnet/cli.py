@@ -450,6 +450,26 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+INTERNAL = 70   # EX_SOFTWARE: an error cosnet did not mean to raise
+
+
+def _raised_outside(e: BaseException) -> str | None:
+    """The module an exception was raised in when that is not cosnet's own (numpy, scipy, the
+    standard library: an error no check of cosnet's refused), else None. cosnet's refusals are
+    raised by its own code, which re-raises what it catches in its own words."""
+    tb = e.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    if tb is None:
+        return None
+    path = Path(tb.tb_frame.f_code.co_filename).resolve()
+    package = Path(__file__).resolve().parent
+    ours = (package, package.parent / "kernels")
+    if any(path.is_relative_to(p) for p in ours):
+        return None
+    return tb.tb_frame.f_globals.get("__name__", path.name)
+
+
 def main(argv=None) -> int:
     args = parser().parse_args(argv)
     if threading.current_thread() is threading.main_thread():
@@ -460,6 +480,11 @@ def main(argv=None) -> int:
         return {"run": cmd_run, "compile": cmd_compile, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
                 "plot": cmd_plot, "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
     except ValueError as e:
+        origin = _raised_outside(e)
+        if origin:    # not a refusal of cosnet's: a library's own error reached the command
+            print(f"cosnet: internal error: {one_line(e)} ({type(e).__name__} from {origin}; "
+                  f"please report it with the command)", file=sys.stderr)
+            return INTERNAL
         print(f"cosnet: error: {one_line(e)}", file=sys.stderr)
         return 2
     except (MemoryError, RecursionError) as e:

@@ -279,3 +279,21 @@ def test_compile_ahead_leaves_the_run_nothing_to_compile(tiny, tmp_path):
     assert again.returncode == 0 and again.stderr == f"{tiny}: all kernels cached\n", again.stderr
     bad = cosnet("compile", tmp_path / "nothing.toml")
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "nothing.toml" in bad.stderr
+
+
+def test_an_error_no_check_of_cosnet_raised_is_an_internal_error(monkeypatch, capsys):
+    """A ValueError raised inside a library (numpy's LinAlgError here) is not a refusal of
+    bad input: the command says "internal error", names where it came from and exits 70
+    (EX_SOFTWARE), so that a fuzzer counting refusals (exit 2) fails on it."""
+    import cosnet.scene.loader as loader
+    from cosnet.cli import main
+
+    assert main(["info", "no_such_scene_file.toml"]) == 2              # a refusal stays one
+    assert capsys.readouterr().err.startswith("cosnet: error: ")
+
+    def broken(*args, **kw):
+        return np.linalg.inv(np.zeros((2, 2)))      # singular: raised in numpy
+    monkeypatch.setattr(loader, "load_scene", broken)
+    assert main(["info", "cantilever"]) == 70
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cosnet: internal error: Singular matrix (LinAlgError from numpy") and "\n" not in err
