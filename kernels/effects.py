@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from .backend import STEP
-from .compose import flow_kernel, load_kernel
+from .compose import account_kernel, flow_kernel, load_kernel
 from .compiler import CACHED
 from .rotations import cross, quat_rotate, quat_rotate_inv
 
@@ -31,6 +31,7 @@ class NodeLoadParams(NamedTuple):
                          # constant amplitude 1)
     omega: np.ndarray    # (k,) harmonic factor sin(omega t + phase) where omega != 0
     phase: np.ndarray    # (k,)
+    work: np.ndarray     # (k,) work each row's load has done on the net so far (J)
 
 
 class LineLoadParams(NamedTuple):
@@ -43,6 +44,7 @@ class LineLoadParams(NamedTuple):
     table: np.ndarray
     omega: np.ndarray
     phase: np.ndarray
+    work: np.ndarray
 
 
 class DampingParams(NamedTuple):
@@ -166,6 +168,70 @@ def add_line_loads(p, model, state, loads):
             loads.tau[e, 0] += bx
             loads.tau[e, 1] += by
             loads.tau[e, 2] += bz
+
+
+@account_kernel(NodeLoadParams)
+@njit(**STEP)
+def account_node_load_work(p, model, state, hh):
+    """Update p.work by hh times each row's power at the current velocities: F . v at the
+    node's reference point (v_com + w x r, r = ref - com) plus L . w (lab): taken on both
+    sides of a kick of 2 hh, the work the kick's share of the load gives the kinetic energy."""
+    t = state.clock[0]
+    nn = model.node_mass.shape[0]
+    for j in range(p.nodes.shape[0]):
+        nd = p.nodes[j]
+        if nd < 0 or nd >= nn:
+            continue
+        a = row_amplitude(p, j, t)
+        q = state.node_q[nd]
+        wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.node_w[nd, 0], state.node_w[nd, 1],
+                                 state.node_w[nd, 2])
+        c = model.node_com_offset[nd]
+        rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], -c[0], -c[1], -c[2])
+        ux, uy, uz = cross(wx, wy, wz, rx, ry, rz)
+        v = state.node_v[nd]
+        f, m = p.force[j], p.torque[j]
+        power = (f[0] * (v[0] + ux) + f[1] * (v[1] + uy) + f[2] * (v[2] + uz)
+                 + m[0] * wx + m[1] * wy + m[2] * wz)
+        p.work[j] += hh * a * power
+
+
+@account_kernel(LineLoadParams)
+@njit(**STEP)
+def account_line_load_work(p, model, state, hh):
+    """Update p.work by hh times each row's power at the current velocities: f l_k . v_k over
+    the line's vertices and the torque per length's l . R w over its elements (1.4), as the
+    node loads' account. An end vertex moves with its node (r = com + R xi, (1.1)): its
+    velocity is the node's there, which a kick changes before the end is placed again."""
+    t = state.clock[0]
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        a = row_amplitude(p, j, t)
+        f, m = p.force[j], p.torque[j]
+        power = 0.0
+        for vt in range(model.line_vertex_offsets[l] + 1, model.line_vertex_offsets[l + 1] - 1):
+            v = state.v[vt]
+            power += model.voronoi_rest_length[vt] * (f[0] * v[0] + f[1] * v[1] + f[2] * v[2])
+        for end in range(2):
+            at = 2 * l + end
+            vt, nd = model.attach_vertex[at], model.attach_node[at]
+            q = state.node_q[nd]
+            wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.node_w[nd, 0], state.node_w[nd, 1],
+                                     state.node_w[nd, 2])
+            o = model.attach_offset[at]
+            rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+            ux, uy, uz = cross(wx, wy, wz, rx, ry, rz)
+            v = state.node_v[nd]
+            power += model.voronoi_rest_length[vt] * (f[0] * (v[0] + ux) + f[1] * (v[1] + uy)
+                                                      + f[2] * (v[2] + uz))
+        for e in range(model.line_element_offsets[l], model.line_element_offsets[l + 1]):
+            q = state.q[e]
+            wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.w[e, 0], state.w[e, 1], state.w[e, 2])
+            power += model.element_rest_length[e] * (m[0] * wx + m[1] * wy + m[2] * wz)
+        p.work[j] += hh * a * power
 
 
 @flow_kernel(DampingParams)

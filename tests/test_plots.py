@@ -31,7 +31,7 @@ def test_energy_rows_are_the_budget_at_each_frame(run):
     parts = sim.energy_parts()
     last = {"kinetic": parts["kinetic"], "strain": parts["strain"], "potential": parts["potential"],
             "dissipated": sim.dissipated(), "driver": sim.driver_work(), "actuation": sim.actuation_work(),
-            "supplied": sim.supplied()}
+            "loads": sim.load_work(), "supplied": sim.supplied()}
     assert {k: float(e[k][-1]) for k in last} == last
     assert e["dissipated"][-1] > 0.0 and e["potential"][-1] < 0.0     # damped, and it sagged
 

@@ -92,8 +92,8 @@ def _load_error(what, p, field, table, size):
     k = table.shape[0]
     if p.force.shape != (k, 3) or p.torque.shape != (k, 3):
         return f"{what}: force and torque need one row of 3 per entry"
-    if p.omega.shape != (k,) or p.phase.shape != (k,):
-        return f"{what}: omega and phase need one entry per row"
+    if p.omega.shape != (k,) or p.phase.shape != (k,) or p.work.shape != (k,):
+        return f"{what}: omega, phase and work need one entry per row"
     if p.values.shape != p.times.shape:
         return f"{what}: the amplitude table's times and values differ in length"
     o, m = p.table, p.times.shape[0]
@@ -176,6 +176,15 @@ class NodeLoad(Effect):
     def table_error(p, model):
         return _load_error("node load", p, "nodes", p.nodes, model.node_mass.shape[0])
 
+    work_kind = "load"
+
+    def work(self, sim) -> float:
+        """Work this load has done on the net so far (J), part of sim.load_work()."""
+        return float(np.sum(self.params(sim).work))
+
+    def state_arrays(self, sim) -> dict:
+        return {"work": self.params(sim).work}
+
     def __init__(self, node: Node, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), *,
                  times=None, values=None, omega=0.0, phase=0.0):
         who = f"NodeLoad on {node!r}"
@@ -192,7 +201,7 @@ class NodeLoad(Effect):
     def bind(self, on: Binding):
         on.check_node(self.node, "NodeLoad")
         return NodeLoadParams(np.array([self.node.index], dtype=np.int64), self.force[None].copy(),
-                              self.torque[None].copy(), *(a.copy() for a in self.amp))
+                              self.torque[None].copy(), *(a.copy() for a in self.amp), np.zeros(1))
 
 
 class LineLoad(Effect):
@@ -216,6 +225,15 @@ class LineLoad(Effect):
     def table_error(p, model):
         return _load_error("line load", p, "lines", p.lines, model.line_vertex_offsets.shape[0] - 1)
 
+    work_kind = "load"
+
+    def work(self, sim) -> float:
+        """Work this load has done on the net so far (J), part of sim.load_work()."""
+        return float(np.sum(self.params(sim).work))
+
+    def state_arrays(self, sim) -> dict:
+        return {"work": self.params(sim).work}
+
     def __init__(self, line: Line, force_per_length=(0.0, 0.0, 0.0), torque_per_length=(0.0, 0.0, 0.0),
                  *, times=None, values=None, omega=0.0, phase=0.0):
         if not isinstance(line, Line):
@@ -232,7 +250,7 @@ class LineLoad(Effect):
     def bind(self, on: Binding):
         on.check_line(self.line, "LineLoad")
         return LineLoadParams(np.array([self.line.index], dtype=np.int64), self.force[None].copy(),
-                              self.torque[None].copy(), *(a.copy() for a in self.amp))
+                              self.torque[None].copy(), *(a.copy() for a in self.amp), np.zeros(1))
 
 
 class Damping(Effect):

@@ -105,7 +105,8 @@ class Effect:
     # integer arrays in which a negative entry means none (the kernel skips it)
     none_if_negative: tuple = ()
     # what its work() counts, part of which account of sim: "driver" (sim.driver_work(): a
-    # prescribed motion) or "actuation" (sim.actuation_work(): active lines); None: no work account
+    # prescribed motion), "actuation" (sim.actuation_work(): active lines) or "load"
+    # (sim.load_work(): declared loads); None: no work account
     work_kind: str | None = None
     # whether the loads evaluated at an output time are read through it (a drive's reaction):
     # the compile step then compiles the loads on their own as well

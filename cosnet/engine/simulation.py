@@ -394,10 +394,15 @@ class Simulation:
         of an active curvature adds, and the muscle moments' work in the kicks."""
         return sum(e.work(self) for e in self.effects if e.work_kind == "actuation")
 
+    def load_work(self) -> float:
+        """Work done on the net by the declared node and line loads so far (J): the kicks'
+        quadrature of their power, F . v + L . w."""
+        return sum(e.work(self) for e in self.effects if e.work_kind == "load")
+
     def dissipated(self) -> float:
         """Energy taken out of the net so far (J) by the effects that account for it (damping,
         an obstacle's friction, a fluid's drag): energy() - driver_work() - actuation_work()
-        - supplied() + dissipated() is conserved to the scheme's order."""
+        - load_work() - supplied() + dissipated() is conserved to the scheme's order."""
         return sum(e.dissipated(self) for e in self.effects)
 
     def supplied(self) -> float:

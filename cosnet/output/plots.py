@@ -30,10 +30,11 @@ def _label(quantity: str) -> str:
 
 def budget(energy: dict) -> dict:
     """The energy budget's curves over time (J): energy() = kinetic + strain + potential,
-    each account with something in it, and the balance's drift from its first value
-    (energy - driver - actuation - supplied + dissipated: constant but for the scheme's error)."""
+    each account with something in it, and the balance's drift from its first value (energy -
+    driver - actuation - loads - supplied + dissipated: constant but for the scheme's error)."""
     total = energy["kinetic"] + energy["strain"] + energy["potential"]
-    balance = total - energy["driver"] - energy["actuation"] - energy["supplied"] + energy["dissipated"]
+    balance = (total - energy["driver"] - energy["actuation"] - energy["loads"] - energy["supplied"]
+               + energy["dissipated"])
     curves = {name: energy[name] for name in ENERGY_COLUMNS if np.any(energy[name] != 0.0)}
     return {"energy": total, **curves, "balance drift": balance - balance[0]}
 

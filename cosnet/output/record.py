@@ -22,8 +22,8 @@ coordinates in the columns _x, _y, _z; zero past the joint's own) and joint_reac
 torque the line exerts on the node through the joint, lab).
 
 energy.csv holds the energy budget at every frame (J): frame, time, then kinetic, strain,
-potential (energy() is their sum), dissipated, driver, actuation and supplied (the accounts of
-sim.dissipated(), driver_work(), actuation_work() and supplied()).
+potential (energy() is their sum), dissipated, driver, actuation, loads and supplied (the
+accounts of sim.dissipated(), driver_work(), actuation_work(), load_work() and supplied()).
 """
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ def energy_header() -> str:
 def energy_row(k, sim) -> str:
     parts = sim.energy_parts()
     values = (parts["kinetic"], parts["strain"], parts["potential"], sim.dissipated(), sim.driver_work(),
-              sim.actuation_work(), sim.supplied())
+              sim.actuation_work(), sim.load_work(), sim.supplied())
     return ",".join([str(k), repr(sim.time)] + [repr(float(v)) for v in values]) + "\n"
 
 

@@ -282,9 +282,10 @@ def unrefused_tables(cls, sim, effect) -> list[str]:
 
 
 def balance(sim) -> float:
-    """energy() - driver_work() - actuation_work() - supplied() + dissipated(): constant but
-    for the scheme's error."""
-    return sim.energy() - sim.driver_work() - sim.actuation_work() - sim.supplied() + sim.dissipated()
+    """energy() - driver_work() - actuation_work() - load_work() - supplied() + dissipated():
+    constant but for the scheme's error."""
+    return (sim.energy() - sim.driver_work() - sim.actuation_work() - sim.load_work() - sim.supplied()
+            + sim.dissipated())
 
 
 # record fields that accumulate over a run (work and energy accounts): a checkpoint must carry
@@ -300,11 +301,11 @@ def unsaved_accounts(sim, effect) -> list[str]:
 
 
 def energy_order(sim_of, until: float) -> float:
-    """Observed order of the largest drift of energy() - driver_work() - actuation_work() -
-    supplied() + dissipated() over ``until``, the example's lines set swinging, at a tenth of
-    the stable step and at half of that (well inside the scheme's asymptotic range);
-    ``sim_of(dt)`` builds the example at a step dt (None: its stable step). An order near 0
-    is a drift the step does not shrink: work no account holds."""
+    """Observed order of the largest drift of the energy balance (``balance``) over ``until``,
+    the example's lines set swinging, at a tenth of the stable step and at half of that (well
+    inside the scheme's asymptotic range); ``sim_of(dt)`` builds the example at a step dt
+    (None: its stable step). An order near 0 is a drift the step does not shrink: work no
+    account holds."""
     dt = 0.1 * sim_of(None).stable_dt()
     steps = max(1, math.ceil(until / dt))
     every = max(1, steps // SAMPLED)
