@@ -154,7 +154,21 @@ class Gravity(Effect):
         return f"Gravity(g={self.g.tolist()})"
 
 
-class NodeLoad(Effect):
+class _RowLoad(Effect):
+    """A declared load of rows (node or line loads, joined when declared one after another):
+    the work each row has done is its account, part of sim.load_work(), and the checkpoint's."""
+
+    work_kind = "load"
+
+    def work(self, sim) -> float:
+        """Work this load has done on the net so far (J), part of sim.load_work()."""
+        return float(np.sum(self.params(sim).work))
+
+    def state_arrays(self, sim) -> dict:
+        return {"work": self.params(sim).work}
+
+
+class NodeLoad(_RowLoad):
     """External force F (at the node's reference point) and torque L on a node, lab frame
     (1.5)/(1.7), scaled by amplitude(t) = interp(t, times, values) * sin(omega t + phase)
     (each factor 1 when not given)."""
@@ -176,14 +190,6 @@ class NodeLoad(Effect):
     def table_error(p, model):
         return _load_error("node load", p, "nodes", p.nodes, model.node_mass.shape[0])
 
-    work_kind = "load"
-
-    def work(self, sim) -> float:
-        """Work this load has done on the net so far (J), part of sim.load_work()."""
-        return float(np.sum(self.params(sim).work))
-
-    def state_arrays(self, sim) -> dict:
-        return {"work": self.params(sim).work}
 
     def __init__(self, node: Node, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), *,
                  times=None, values=None, omega=0.0, phase=0.0):
@@ -204,7 +210,7 @@ class NodeLoad(Effect):
                               self.torque[None].copy(), *(a.copy() for a in self.amp), np.zeros(1))
 
 
-class LineLoad(Effect):
+class LineLoad(_RowLoad):
     """Distributed force f and torque l per unit rest length on a line, lab frame (1.4)."""
 
     kind = "line_load"
@@ -225,14 +231,6 @@ class LineLoad(Effect):
     def table_error(p, model):
         return _load_error("line load", p, "lines", p.lines, model.line_vertex_offsets.shape[0] - 1)
 
-    work_kind = "load"
-
-    def work(self, sim) -> float:
-        """Work this load has done on the net so far (J), part of sim.load_work()."""
-        return float(np.sum(self.params(sim).work))
-
-    def state_arrays(self, sim) -> dict:
-        return {"work": self.params(sim).work}
 
     def __init__(self, line: Line, force_per_length=(0.0, 0.0, 0.0), torque_per_length=(0.0, 0.0, 0.0),
                  *, times=None, values=None, omega=0.0, phase=0.0):
