@@ -170,6 +170,18 @@ def add_line_loads(p, model, state, loads):
             loads.tau[e, 2] += bz
 
 
+@njit(**CACHED, inline="always")
+def offset_velocity(state, nd, ox, oy, oz):
+    """Return (v, w): the lab velocity of node nd's material point at body offset o from its
+    centre of mass, v_com + w x R o, and the node's lab angular velocity w (1.1)."""
+    q = state.node_q[nd]
+    wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.node_w[nd, 0], state.node_w[nd, 1], state.node_w[nd, 2])
+    rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], ox, oy, oz)
+    ux, uy, uz = cross(wx, wy, wz, rx, ry, rz)
+    v = state.node_v[nd]
+    return (v[0] + ux, v[1] + uy, v[2] + uz), (wx, wy, wz)
+
+
 @account_kernel(NodeLoadParams)
 @njit(**STEP)
 def account_node_load_work(p, model, state, hh):
@@ -183,16 +195,10 @@ def account_node_load_work(p, model, state, hh):
         if nd < 0 or nd >= nn:
             continue
         a = row_amplitude(p, j, t)
-        q = state.node_q[nd]
-        wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.node_w[nd, 0], state.node_w[nd, 1],
-                                 state.node_w[nd, 2])
         c = model.node_com_offset[nd]
-        rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], -c[0], -c[1], -c[2])
-        ux, uy, uz = cross(wx, wy, wz, rx, ry, rz)
-        v = state.node_v[nd]
+        v, w = offset_velocity(state, nd, -c[0], -c[1], -c[2])
         f, m = p.force[j], p.torque[j]
-        power = (f[0] * (v[0] + ux) + f[1] * (v[1] + uy) + f[2] * (v[2] + uz)
-                 + m[0] * wx + m[1] * wy + m[2] * wz)
+        power = (f[0] * v[0] + f[1] * v[1] + f[2] * v[2] + m[0] * w[0] + m[1] * w[1] + m[2] * w[2])
         p.work[j] += hh * a * power
 
 
@@ -217,16 +223,9 @@ def account_line_load_work(p, model, state, hh):
             power += model.voronoi_rest_length[vt] * (f[0] * v[0] + f[1] * v[1] + f[2] * v[2])
         for end in range(2):
             at = 2 * l + end
-            vt, nd = model.attach_vertex[at], model.attach_node[at]
-            q = state.node_q[nd]
-            wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.node_w[nd, 0], state.node_w[nd, 1],
-                                     state.node_w[nd, 2])
             o = model.attach_offset[at]
-            rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
-            ux, uy, uz = cross(wx, wy, wz, rx, ry, rz)
-            v = state.node_v[nd]
-            power += model.voronoi_rest_length[vt] * (f[0] * (v[0] + ux) + f[1] * (v[1] + uy)
-                                                      + f[2] * (v[2] + uz))
+            v, _ = offset_velocity(state, model.attach_node[at], o[0], o[1], o[2])
+            power += model.voronoi_rest_length[model.attach_vertex[at]] * (f[0] * v[0] + f[1] * v[1] + f[2] * v[2])
         for e in range(model.line_element_offsets[l], model.line_element_offsets[l + 1]):
             q = state.q[e]
             wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.w[e, 0], state.w[e, 1], state.w[e, 2])
