@@ -226,10 +226,11 @@ def account_line_load_work(p, model, state, hh):
             o = model.attach_offset[at]
             v, _ = offset_velocity(state, model.attach_node[at], o[0], o[1], o[2])
             power += model.voronoi_rest_length[model.attach_vertex[at]] * (f[0] * v[0] + f[1] * v[1] + f[2] * v[2])
-        for e in range(model.line_element_offsets[l], model.line_element_offsets[l + 1]):
-            q = state.q[e]
-            wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.w[e, 0], state.w[e, 1], state.w[e, 2])
-            power += model.element_rest_length[e] * (m[0] * wx + m[1] * wy + m[2] * wz)
+        if m[0] != 0.0 or m[1] != 0.0 or m[2] != 0.0:    # most line loads are forces alone
+            for e in range(model.line_element_offsets[l], model.line_element_offsets[l + 1]):
+                q = state.q[e]
+                wx, wy, wz = quat_rotate(q[0], q[1], q[2], q[3], state.w[e, 0], state.w[e, 1], state.w[e, 2])
+                power += model.element_rest_length[e] * (m[0] * wx + m[1] * wy + m[2] * wz)
         p.work[j] += hh * a * power
 
 
