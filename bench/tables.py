@@ -1,5 +1,4 @@
-"""The tables of docs/performance.md, docs/accuracy.md, docs/faults.md and docs/fluid.md, made from the
-benchmarks' JSON.
+"""The tables and figures of README.md and docs/, made from the benchmarks' JSON.
 
 A page holds each table between two markers:
 
@@ -7,10 +6,19 @@ A page holds each table between two markers:
     | ... generated rows ... |
     <!-- end bench table -->
 
-`python bench/tables.py` rewrites every such table from the JSON files beside this script
-(after a benchmark has been rerun); `python bench/tables.py --check` exits 1, naming the
-tables, when a page differs from its JSON (tests/test_docs.py runs the check), so a figure
-quoted in a table cannot drift from the run that produced it.
+and each figure quoted in its prose between two markers naming where it comes from:
+
+    one thread: <!-- fig: sci(many_snakes.rows.where(snakes=100).rate) -->4.0 × 10^5<!-- /fig --> rod-steps/s
+
+The expression reads the JSON files beside this script by their names (bench/many_snakes.json
+is ``many_snakes``; a key is an attribute, ``rows.where(key=value)`` picks the one row of a list
+that matches) and formats with the helpers of FORMATS. The source of a figure is thus in the
+page's own text, next to the figure.
+
+`python bench/tables.py [PAGE ...]` rewrites every table and figure (of the pages named, else
+of all) from the JSON files (after a benchmark has been rerun); `python bench/tables.py --check`
+exits 1, naming the pages, when one differs from its JSON (tests/test_docs.py runs the check),
+so a figure cannot drift from the run that produced it.
 """
 
 from __future__ import annotations
@@ -23,8 +31,9 @@ from pathlib import Path
 
 BENCH = Path(__file__).resolve().parent
 DOCS = BENCH.parent / "docs"
-PAGES = ("performance.md", "accuracy.md", "faults.md", "fluid.md")
 BLOCK = re.compile(r"(<!-- bench table (\w+) -->\n)(.*?)(<!-- end bench table -->)", re.S)
+# a figure: its expression, then its text (one line at most)
+FIGURE = re.compile(r"(<!-- fig: (.+?) -->)([^\n]*?)(<!-- /fig -->)")
 
 
 def _json(name: str) -> dict:
@@ -291,6 +300,90 @@ def joints_accuracy() -> str:
                   rows) + measured_on(d["machine"], f", one thread, over {d['until']} s, `{d['command']}`")
 
 
+class Data(dict):
+    """A JSON object whose keys read as attributes (``many_snakes.machine.cores``)."""
+
+    def __getattr__(self, key):
+        try:
+            return self[key]
+        except KeyError:
+            raise AttributeError(f"no key {key!r}; keys: {sorted(self)}") from None
+
+
+class Rows(list):
+    """A JSON list; ``where(key=value, ...)`` is its one element with those values."""
+
+    def where(self, **match):
+        found = [r for r in self if all(r.get(k) == v for k, v in match.items())]
+        if len(found) != 1:
+            raise LookupError(f"{len(found)} rows match {match}")
+        return found[0]
+
+    def each(self, key):
+        """The values of ``key`` in every row."""
+        return [r[key] for r in self]
+
+
+def _wrap(value):
+    if isinstance(value, dict):
+        return Data({k: _wrap(v) for k, v in value.items()})
+    if isinstance(value, list):
+        return Rows(_wrap(v) for v in value)
+    return value
+
+
+def sci(x: float, digits: int = 2) -> str:
+    """x as a × 10^n, `digits` significant digits (4.0 × 10^5)."""
+    mantissa, exponent = f"{x:.{digits - 1}e}".split("e")
+    return f"{mantissa} × 10^{int(exponent)}"
+
+
+def pct(x: float, digits: int = 2) -> str:
+    """A fraction as a percentage (0.022 -> 2.2 %)."""
+    return f"{_g(100 * x, digits)} %"
+
+
+def span(values, digits: int = 2, fmt=None) -> str:
+    """The range of values, low–high (one value when they round alike)."""
+    fmt = fmt or (lambda v: _g(v, digits))
+    low, high = fmt(min(values)), fmt(max(values))
+    return low if low == high else f"{low}–{high}"
+
+
+def fixed(x: float, decimals: int = 1) -> str:
+    """x with a fixed number of decimals."""
+    return f"{x:.{decimals}f}"
+
+
+def on(d: dict) -> str:
+    """Where a bench ran: CPU, cores, load average at its end, commit (a JSON written before
+    the harness recorded them all is refused: rerun its bench)."""
+    m = d["machine"]
+    missing = [k for k in ("cpu_model", "cores", "load_average_1min", "commit") if k not in m]
+    if missing:
+        raise KeyError(f"the bench's machine lacks {missing}: rerun it")
+    return f"{m['cpu_model']}, {m['cores']} cores, load {m['load_average_1min']:.1f}, commit {m['commit']}"
+
+
+FORMATS = {"g": _g, "sci": sci, "pct": pct, "span": span, "fixed": fixed, "on": on, "count": _count,
+           "min": min, "max": max, "round": round, "len": len, "sum": sum, "abs": abs}
+
+
+def figures() -> dict:
+    """The namespace of the figures' expressions: every bench JSON by name, and FORMATS."""
+    names = {p.stem: _wrap(json.loads(p.read_text(encoding="utf-8"))) for p in sorted(BENCH.glob("*.json"))}
+    return {**names, **FORMATS}
+
+
+def figure(expression: str, namespace: dict, where: str) -> str:
+    """The text of one figure: its expression evaluated over the bench JSON."""
+    try:
+        # the pages' own expressions; the namespace as globals, so that comprehensions see it
+        return str(eval(expression, {**namespace, "__builtins__": {}}))
+    except Exception as e:
+        raise ValueError(f"{where}: figure {expression!r}: {type(e).__name__}: {e}") from None
+
+
 TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy,
           "rings_cost": rings_cost, "moordyn": moordyn,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
@@ -299,31 +392,51 @@ TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy
           "cosseratbench": cosseratbench}
 
 
-def render(page: Path) -> str:
-    """The page's text with every marked table made anew from its JSON."""
+def render(page: Path, namespace: dict | None = None) -> str:
+    """The page's text with every marked table and figure made anew from its JSON."""
     def fill(m: re.Match) -> str:
         name = m.group(2)
         if name not in TABLES:
             raise KeyError(f"{page.name}: unknown bench table {name!r}; known: {sorted(TABLES)}")
         return m.group(1) + TABLES[name]() + m.group(4)
-    return BLOCK.sub(fill, page.read_text(encoding="utf-8"))
+
+    text = page.read_text(encoding="utf-8")
+    if "<!-- bench table" in text:
+        text = BLOCK.sub(fill, text)
+    if "<!-- fig:" in text:
+        ns = figures() if namespace is None else namespace
+        text = FIGURE.sub(lambda m: m.group(1) + figure(m.group(2), ns, page.name) + m.group(4), text)
+    return text
+
+
+def pages() -> list[Path]:
+    """Every page that may quote a bench: README.md and docs/*.md."""
+    return [DOCS.parent / "README.md", *sorted(DOCS.glob("*.md"))]
 
 
 def stale() -> list[str]:
-    """Pages whose tables differ from the JSON."""
-    return [p for p in PAGES if render(DOCS / p) != (DOCS / p).read_text(encoding="utf-8")]
+    """Pages whose tables or figures differ from the JSON."""
+    ns = figures()
+    return [p.name for p in pages() if render(p, ns) != p.read_text(encoding="utf-8")]
 
 
 def main(argv: list[str]) -> int:
     if "--check" in argv:
         bad = stale()
         for page in bad:
-            print(f"docs/{page}: tables differ from bench/*.json; run python bench/tables.py", file=sys.stderr)
+            print(f"{page}: tables or figures differ from bench/*.json; run python bench/tables.py", file=sys.stderr)
         return 1 if bad else 0
-    for p in PAGES:
-        (DOCS / p).write_text(render(DOCS / p), encoding="utf-8")
+    ns = figures()
+    chosen = [Path(a).resolve() for a in argv if not a.startswith("--")]   # pages named, else all
+    for p in chosen or pages():
+        text = render(p, ns)
+        if text != p.read_text(encoding="utf-8"):
+            p.write_text(text, encoding="utf-8")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except (ValueError, KeyError) as e:   # a page's figure or table that its JSON cannot give
+        sys.exit(f"bench/tables.py: {e}")

@@ -109,13 +109,37 @@ def test_readme_setup_is_what_ci_runs():
     assert os.path.isfile(REPO / "cases" / "bridge.toml")
 
 
-def test_bench_tables_are_made_from_the_bench_json():
-    """The tables of the performance and accuracy pages are bench/tables.py's rendering of
-    the committed JSON: a figure edited by hand, or JSON rerun without the pages, fails."""
+def _bench_tables():
     spec = importlib.util.spec_from_file_location("bench_tables", REPO / "bench" / "tables.py")
     tables = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(tables)
-    assert tables.stale() == [], "pages differ from bench/*.json: run python bench/tables.py"
+    return tables
+
+
+def test_bench_tables_are_made_from_the_bench_json():
+    """The tables and the marked figures of README.md and docs/ are bench/tables.py's
+    rendering of the committed JSON: a figure edited by hand, or JSON rerun without the pages,
+    fails."""
+    assert _bench_tables().stale() == [], "pages differ from bench/*.json: run python bench/tables.py"
+
+
+def test_a_figure_edited_by_hand_is_rendered_back_and_a_bad_source_named(tmp_path):
+    """A marked figure is its expression over the JSON, whatever the page says; an expression
+    naming a key the JSON lacks fails with the page and the expression."""
+    tables = _bench_tables()
+    ns = {"run": tables._wrap({"rows": [{"n": 10, "rate": 41_417.4}, {"n": 100, "rate": 40_375.6}],
+                              "error": 0.0010337})} | tables.FORMATS
+    page = tmp_path / "page.md"
+    page.write_text("rate <!-- fig: sci(run.rows.where(n=100).rate, 3) -->5.0 × 10^4<!-- /fig --> rod-steps/s, "
+                    "error <!-- fig: pct(run.error) -->0.01 %<!-- /fig -->, "
+                    "<!-- fig: span([r.rate / 1000 for r in run.rows], 3) -->x<!-- /fig --> k\n", encoding="utf-8")
+    assert tables.render(page, ns) == (
+        "rate <!-- fig: sci(run.rows.where(n=100).rate, 3) -->4.04 × 10^4<!-- /fig -->"
+        " rod-steps/s, error <!-- fig: pct(run.error) -->0.10 %<!-- /fig -->, "
+        "<!-- fig: span([r.rate / 1000 for r in run.rows], 3) -->40.4–41.4<!-- /fig --> k\n")
+    page.write_text("<!-- fig: run.rows.where(n=7).rate -->1<!-- /fig -->\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"page.md: figure 'run.rows.where\(n=7\).rate': LookupError: 0 rows"):
+        tables.render(page, ns)
 
 
 def test_the_site_lists_every_page():
