@@ -356,13 +356,17 @@ def fixed(x: float, decimals: int = 1) -> str:
 
 
 def on(d: dict) -> str:
-    """Where a bench ran: CPU, cores, load average at its end, commit (a JSON written before
-    the harness recorded them all is refused: rerun its bench)."""
+    """Where a bench ran: CPU, cores, load average at its end, commit (what a JSON written
+    before the harness recorded them all lacks is said to be missing)."""
     m = d["machine"]
-    missing = [k for k in ("cpu_model", "cores", "load_average_1min", "commit") if k not in m]
-    if missing:
-        raise KeyError(f"the bench's machine lacks {missing}: rerun it")
-    return f"{m['cpu_model']}, {m['cores']} cores, load {m['load_average_1min']:.1f}, commit {m['commit']}"
+    cpu = m.get("cpu_model") or m.get("cpu", "an unrecorded CPU")
+    known = [f"{cpu}, {m.get('cores', '?')} cores"]
+    if "load_average_1min" in m:
+        known.append(f"load {m['load_average_1min']:.1f}")
+    if "commit" in m:
+        known.append(f"commit {m['commit']}")
+    missing = [w for w, k in (("load", "load_average_1min"), ("commit", "commit")) if k not in m]
+    return ", ".join(known) + (f" ({' and '.join(missing)} not recorded)" if missing else "")
 
 
 FORMATS = {"g": _g, "sci": sci, "pct": pct, "span": span, "fixed": fixed, "on": on, "count": _count,
