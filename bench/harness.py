@@ -90,16 +90,19 @@ def cpu_model() -> str:
 
 
 def commit() -> str:
-    """The checkout's commit (with "+changes" when the tree differs from it), or "unknown"."""
+    """The checkout's commit (with "+changes" when its code differs from it), or "unknown".
+    Changed outputs (the bench JSON and figures, the pages rendered from them) do not count:
+    bench/run_all.py --full rewrites them script by script, all on one commit."""
     import subprocess
     here = Path(__file__).resolve().parent
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True,
                               text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
+        changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                                 capture_output=True, text=True, timeout=10).stdout.splitlines()
     except (OSError, subprocess.SubprocessError):
         return "unknown"
+    dirty = [line for line in changed if not line.rstrip().endswith((".json", ".png", ".md"))]
     return (head + ("+changes" if dirty else "")) or "unknown"
 
 

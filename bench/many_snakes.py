@@ -91,32 +91,42 @@ def pe_snakes(count):
     return sim, rods
 
 
-def _half(count, rotary, rounds, start, out):
-    """One of two processes: time count snakes on one thread, each round started with the
-    other process's."""
-    sim = cn_snakes(count, 1, rotary)
-    sim.run(steps=STEPS)
-    times = []
-    for _ in range(rounds):
-        start.wait()
-        t0 = time.perf_counter()
+def _half(count, rotaries, rounds, start, out):
+    """One of two processes: time count snakes on one thread for each rotary inertia scale in
+    turn, round after round, each timing started with the other process's (alternation: a
+    slow spell of the machine falls on both variants, not on one)."""
+    sims = [cn_snakes(count, 1, r) for r in rotaries]
+    for sim in sims:
         sim.run(steps=STEPS)
-        times.append(time.perf_counter() - t0)
+    times = [[] for _ in sims]
+    for _ in range(rounds):
+        for sim, t in zip(sims, times):
+            start.wait()
+            t0 = time.perf_counter()
+            sim.run(steps=STEPS)
+            t.append(time.perf_counter() - t0)
     out.put(times)
 
 
-def two_processes(count, rounds, rotary=1.0):
-    """rod-steps/s of count snakes split over two single-threaded processes run at once
-    (best round; a round lasts as long as its slower process)."""
+def two_processes(count, rounds, rotaries=(1.0, ROTARY)):
+    """For each rotary scale: (rod-steps/s, spread) of count snakes split over two
+    single-threaded processes run at once, the scales timed in alternation; the rate is the
+    best round's (a round lasts as long as its slower process), the spread (worst - best) /
+    best over the rounds."""
     ctx = multiprocessing.get_context("spawn")
     start, out = ctx.Barrier(2), ctx.Queue()
-    procs = [ctx.Process(target=_half, args=(n, rotary, rounds, start, out)) for n in (count // 2, count - count // 2)]
+    procs = [ctx.Process(target=_half, args=(n, rotaries, rounds, start, out))
+             for n in (count // 2, count - count // 2)]
     for p in procs:
         p.start()
     times = [out.get() for _ in procs]
     for p in procs:
         p.join()
-    return count * STEPS / min(max(pair) for pair in zip(*times))
+    result = []
+    for k in range(len(rotaries)):
+        rounds_wall = [max(pair) for pair in zip(times[0][k], times[1][k])]
+        result.append((count * STEPS / min(rounds_wall), (max(rounds_wall) - min(rounds_wall)) / min(rounds_wall)))
+    return result
 
 
 def rate(count, pe_too, rounds):
@@ -136,24 +146,27 @@ def rate(count, pe_too, rounds):
                 t = stepper.step(pe, t, np.float64(DT))
             clock[0] = t
         runs["PyElastica"], step["PyElastica"] = pe_run, DT
-    best = {name: math.inf for name in runs}
+    walls: dict = {name: [] for name in runs}
     for fn in runs.values():
         fn()                     # compilation, caches, PyElastica's own warm-up
-    for _ in range(rounds):
+    for _ in range(rounds):      # in alternation
         for name, fn in runs.items():
             t0 = time.perf_counter()
             fn()
-            best[name] = min(best[name], time.perf_counter() - t0)
+            walls[name].append(time.perf_counter() - t0)
     finite = all(np.isfinite(s.state.x).all() for s in sims.values())
-    rates = {name: count * STEPS / b for name, b in best.items()}
+    rates = {name: count * STEPS / min(w) for name, w in walls.items()}
+    spread = {name: (max(w) - min(w)) / min(w) for name, w in walls.items()}
     if count >= 2:
-        rates["cosnet 2 processes"] = two_processes(count, rounds)
-        rates[f"cosnet 2 processes x{ROTARY:g} rotary"] = two_processes(count, rounds, ROTARY)
+        (plain, spread["cosnet 2 processes"]), (scaled, spread[f"cosnet 2 processes x{ROTARY:g} rotary"]) = \
+            two_processes(count, rounds)
+        rates["cosnet 2 processes"], rates[f"cosnet 2 processes x{ROTARY:g} rotary"] = plain, scaled
         step["cosnet 2 processes"] = DT
         step[f"cosnet 2 processes x{ROTARY:g} rotary"] = step[f"cosnet 1 thread x{ROTARY:g} rotary"]
     return {"snakes": count, "steps": STEPS, "dt": step, "finite": bool(finite),
             **{f"rod_steps_per_s[{name}]": r for name, r in rates.items()},
-            **{f"rod_s_per_s[{name}]": r * step[name] for name, r in rates.items()}}
+            **{f"rod_s_per_s[{name}]": r * step[name] for name, r in rates.items()},
+            **{f"spread[{name}]": v for name, v in spread.items()}}
 
 
 def accuracy(rotary=ROTARY, until=10.0, settle=4.0):

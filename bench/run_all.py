@@ -3,10 +3,13 @@
 Scripts that are absent are reported as missing. By default the quick settings are used
 (the whole set stays under 15 minutes on a 2-core machine) and each script's JSON and any
 figure it writes in bench/ go to --out DIR (default: a temporary folder, printed), leaving the
-full-size figures in bench/ alone; --full runs each script at its own default size, writes
-bench/NAME.json and remakes the tables
-of docs/ from it (bench/tables.py). Each
-script's output goes to stdout as it runs (and to LOGDIR/NAME.txt with --logs LOGDIR).
+full-size figures in bench/ alone. --full runs every bench whose JSON the README and docs quote,
+at the size they quote, on one commit: each script waits for the machine to be idle first
+(load average below IDLE per core, for at most WAIT seconds; the load it started at is
+recorded), writes bench/NAME.json, and the pages are then rendered anew from the JSON
+(bench/tables.py); bench/run_all.json records the machine, the commit, each script's load and
+seconds, and the whole run's wall time. Each script's output goes to stdout as it runs (and to
+LOGDIR/NAME.txt with --logs LOGDIR).
 
 Usage: python bench/run_all.py [--full] [--out DIR] [--logs DIR] [--only NAME ...]
 """
@@ -43,7 +46,14 @@ SCRIPTS = [
     ("fluid", ["--quick"], [], 180),
     ("moordyn_compare", None, [], None),          # needs moordyn (the bench extra)
     ("joints", ["--quick"], [], 180),
+    ("sweep", None, [], None),                    # Dask clusters of 1 and 2 workers
+    ("contact_scaling@friction", ["--quick"], [], 180),
+    ("snake", ["--quick"], [], 300),                # PyElastica side by side
+    ("many_snakes", ["--quick"], ["--quick"], 600),  # the pages quote 1-100 snakes (--quick)
+    ("startup", None, [], None),                  # about 8 minutes: every case cold and warm
+    ("soak", None, [], None),                     # about 13 minutes: 10^7 steps of two cases
 ]
+IDLE, WAIT = 0.25, 300.0   # a core counts as idle below this load average; the longest wait
 
 
 def snapshot() -> dict:
@@ -69,6 +79,15 @@ def set_aside(before: dict, out: Path):
 
 def accepts_quick(path: Path) -> bool:
     return "--quick" in path.read_text(errors="replace")
+
+
+def wait_idle(cores: int) -> float:
+    """Wait until the 1-minute load average falls below IDLE per core, at most WAIT seconds;
+    return the load the script starts at (recorded beside its result: a busy start shows)."""
+    t0 = time.monotonic()
+    while os.getloadavg()[0] > IDLE * cores and time.monotonic() - t0 < WAIT:
+        time.sleep(5)
+    return os.getloadavg()[0]
 
 
 def run(name, args, limit, logs, env):
@@ -134,14 +153,15 @@ def main(argv=None):
         if opts.only and name not in opts.only:
             continue
         before = None if opts.full else snapshot()
+        load = wait_idle(os.cpu_count() or 1) if opts.full else os.getloadavg()[0]
         results.append(run(name, full if opts.full else quick, None if opts.full else limit,
-                           opts.logs, env))
+                           opts.logs, env) | {"load_before": load})
         if before is not None:
             set_aside(before, out)
     total = time.perf_counter() - t_all
     if opts.full:   # the pages quote the JSON just written
         subprocess.run([sys.executable, str(HERE / "tables.py")], check=False)
-        print("docs/performance.md and docs/accuracy.md: tables remade from the new JSON")
+        print("README.md and docs/: tables and figures remade from the new JSON")
     others = sorted(p.stem for p in HERE.glob("*.py")
                     if p.stem not in known | {"harness", "run_all", "tables"}
                     and "__main__" in p.read_text(errors="replace"))
@@ -154,8 +174,12 @@ def main(argv=None):
     if others:
         print(f"not in the benchmark list (run by hand): {', '.join(others)}")
     print(f"JSON files in {out}")
-    (out / "run_all.json").write_text(json.dumps({"mode": "full" if opts.full else "quick",
-                                                  "total_s": total, "scripts": results}, indent=2))
+    sys.path.insert(0, str(HERE))
+    from harness import machine
+    command = "python bench/run_all.py " + " ".join(argv or sys.argv[1:])
+    (out / "run_all.json").write_text(json.dumps({"machine": machine(), "mode": "full" if opts.full else "quick",
+                                                  "command": command, "total_s": total, "scripts": results},
+                                                 indent=2))
     return 0 if all(r["status"] == "ok" or r["status"] == "missing" or r["status"].startswith("skipped")
                     for r in results) else 1
 
