@@ -5,11 +5,11 @@ Scripts that are absent are reported as missing. By default the quick settings a
 figure it writes in bench/ go to --out DIR (default: a temporary folder, printed), leaving the
 full-size figures in bench/ alone. --full runs every bench whose JSON the README and docs quote,
 at the size they quote, on one commit: each script waits for the machine to be idle first
-(load average below IDLE per core, for at most WAIT seconds; the load it started at is
-recorded), writes bench/NAME.json, and the pages are then rendered anew from the JSON
-(bench/tables.py); bench/run_all.json records the machine, the commit, each script's load and
-seconds, and the whole run's wall time. Each script's output goes to stdout as it runs (and to
-LOGDIR/NAME.txt with --logs LOGDIR).
+(its cores busy less than IDLE of the time, for at most WAIT seconds; how busy they were and
+the load average when it started are recorded), writes bench/NAME.json, and the pages are
+then rendered anew from the JSON (bench/tables.py); bench/run_all.json records the machine,
+the commit, each script's start and seconds, and the whole run's wall time. Each script's
+output goes to stdout as it runs (and to LOGDIR/NAME.txt with --logs LOGDIR).
 
 Usage: python bench/run_all.py [--full] [--out DIR] [--logs DIR] [--only NAME ...]
 """
@@ -53,7 +53,7 @@ SCRIPTS = [
     ("startup", None, [], None),                  # about 8 minutes: every case cold and warm
     ("soak", None, [], None),                     # about 13 minutes: 10^7 steps of two cases
 ]
-IDLE, WAIT = 0.25, 300.0   # a core counts as idle below this load average; the longest wait
+IDLE, WAIT = 0.1, 300.0   # the machine counts as idle below this busy share; the longest wait
 
 
 def snapshot() -> dict:
@@ -81,13 +81,30 @@ def accepts_quick(path: Path) -> bool:
     return "--quick" in path.read_text(errors="replace")
 
 
-def wait_idle(cores: int) -> float:
-    """Wait until the 1-minute load average falls below IDLE per core, at most WAIT seconds;
-    return the load the script starts at (recorded beside its result: a busy start shows)."""
+def busy(seconds: float = 2.0) -> float:
+    """The share of all cores' time spent running anything over the next `seconds`
+    (/proc/stat; 0 where it is unavailable). Unlike the load average, which lags a minute
+    behind, it tells at once whether the bench just finished left the machine idle."""
+    def sample():
+        try:
+            with open("/proc/stat") as f:
+                v = [int(x) for x in f.readline().split()[1:]]
+        except OSError:
+            return 0, 0
+        return sum(v[:8]) - v[3] - v[4], sum(v[:8])   # all but idle and iowait; total
+    (b0, t0), _ = sample(), time.sleep(seconds)
+    b1, t1 = sample()
+    return (b1 - b0) / max(t1 - t0, 1)
+
+
+def wait_idle() -> float:
+    """Wait until the cores are idle (busy below IDLE), at most WAIT seconds; return how busy
+    they were when the script starts (recorded beside its result: a busy start shows)."""
     t0 = time.monotonic()
-    while os.getloadavg()[0] > IDLE * cores and time.monotonic() - t0 < WAIT:
-        time.sleep(5)
-    return os.getloadavg()[0]
+    share = busy()
+    while share > IDLE and time.monotonic() - t0 < WAIT:
+        share = busy()
+    return share
 
 
 def run(name, args, limit, logs, env):
@@ -153,9 +170,9 @@ def main(argv=None):
         if opts.only and name not in opts.only:
             continue
         before = None if opts.full else snapshot()
-        load = wait_idle(os.cpu_count() or 1) if opts.full else os.getloadavg()[0]
+        share = wait_idle() if opts.full else busy(0.5)
         results.append(run(name, full if opts.full else quick, None if opts.full else limit,
-                           opts.logs, env) | {"load_before": load})
+                           opts.logs, env) | {"busy_before": share, "load_before": os.getloadavg()[0]})
         if before is not None:
             set_aside(before, out)
     total = time.perf_counter() - t_all
