@@ -11,6 +11,9 @@ then rendered anew from the JSON (bench/tables.py); bench/run_all.json records t
 the commit, each script's start and seconds, and the whole run's wall time. Each script's
 output goes to stdout as it runs (and to LOGDIR/NAME.txt with --logs LOGDIR).
 
+With --full and --only, the rows of the scripts named replace theirs in bench/run_all.json,
+which lists the rerun (command, machine, commit, seconds) beside the full run it amends.
+
 Usage: python bench/run_all.py [--full] [--out DIR] [--logs DIR] [--only NAME ...]
 """
 
@@ -49,7 +52,7 @@ SCRIPTS = [
     ("sweep", None, [], None),                    # Dask clusters of 1 and 2 workers
     ("contact_scaling@friction", ["--quick"], [], 180),
     ("snake", ["--quick"], [], 300),                # PyElastica side by side
-    ("many_snakes", ["--quick"], ["--quick"], 600),  # the pages quote 1-100 snakes (--quick)
+    ("many_snakes", ["--quick"], ["--quick", "--profile"], 600),  # the pages quote 1-100 snakes
     ("startup", None, [], None),                  # about 8 minutes: every case cold and warm
     ("soak", None, [], None),                     # about 13 minutes: 10^7 steps of two cases
 ]
@@ -194,9 +197,22 @@ def main(argv=None):
     sys.path.insert(0, str(HERE))
     from harness import machine
     command = "python bench/run_all.py " + " ".join(argv or sys.argv[1:])
-    (out / "run_all.json").write_text(json.dumps({"machine": machine(), "mode": "full" if opts.full else "quick",
-                                                  "command": command, "total_s": total, "scripts": results},
-                                                 indent=2))
+    record = {"machine": machine(), "mode": "full" if opts.full else "quick", "command": command,
+              "total_s": total, "scripts": results}
+    last = out / "run_all.json"
+    if opts.full and opts.only and last.exists():
+        # a partial rerun updates the record of the last full run: its scripts' rows replaced,
+        # the rerun itself (machine, commit, seconds) listed beside it
+        full = json.loads(last.read_text())
+        if full.get("mode") == "full":
+            rerun = {r["script"] for r in results}
+            full["scripts"] = [next((r for r in results if r["script"] == old["script"]), old)
+                               for old in full["scripts"]]
+            full["scripts"] += [r for r in results if r["script"] not in {o["script"] for o in full["scripts"]}]
+            full.setdefault("reruns", []).append({"command": command, "machine": record["machine"],
+                                                  "seconds": total, "scripts": sorted(rerun)})
+            record = full
+    last.write_text(json.dumps(record, indent=2))
     return 0 if all(r["status"] == "ok" or r["status"] == "missing" or r["status"].startswith("skipped")
                     for r in results) else 1
 

@@ -208,7 +208,7 @@ def startup():
         # as a user's Python: bytecode of the modules written on the first run, read after
         env.pop("PYTHONDONTWRITEBYTECODE", None)
         runs = [("cold (empty cache)", ["-m", "cosnet.cli", "run", str(scene), "--out",
-                                        str(Path(tmp) / "out"), "--until", "1e-4"])]
+                                        str(Path(tmp) / "out"), "--until", "1e-4", "--overwrite"])]
         runs += [(label, runs[0][1]) for label in ("warm (cache)", "warm again")]
         runs += [("python + import cosnet", ["-c", "import cosnet"])]
         for label, args in runs:

@@ -71,7 +71,7 @@ def timed_sweep(path, n, client, out, until, cpu=None):
     c0 = cpu_times(client) if cpu is not None else None
     t = time.perf_counter()
     ds = sweep(path, vary=[f"materials.steel.E=linspace(1e11, 3e11, {n})"], until=until, out=out,
-               client=client, name=f"b{n}")
+               client=client, name=f"b{n}", overwrite=True)   # each round replaces the last
     assert all(str(s) == "ok" for s in ds.status.values)
     wall = time.perf_counter() - t
     if cpu is not None:
