@@ -77,6 +77,14 @@ class Binding(NamedTuple):
         return line.index
 
 
+# The accounts of the energy budget: each the Simulation method reading it and its sign in the
+# balance energy() - driver - actuation - loads - supplied + dissipated, constant but for the
+# scheme's error (read by Simulation.balance(), the output's energy.csv and its plots).
+ACCOUNTS: dict[str, tuple[str, float]] = {
+    "dissipated": ("dissipated", 1.0), "driver": ("driver_work", -1.0), "actuation": ("actuation_work", -1.0),
+    "loads": ("load_work", -1.0), "supplied": ("supplied", -1.0)}
+
+
 class Effect:
     """Base of all declared effects. A concrete effect states ``kind`` (its scene name),
     ``keys`` (a tuple of Key), ``record`` (its kernel's parameter NamedTuple) and implements

@@ -14,7 +14,7 @@ from .. import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, measure
 from ..core import fast_modes as _fast
 from .checkpoint import fingerprint
-from .registry import Binding, Effect, implied_effects
+from .registry import ACCOUNTS, Binding, Effect, implied_effects
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
@@ -409,6 +409,11 @@ class Simulation:
         """Work done on the net so far (J) by the medium around it (a fluid's current, wind,
         waves), as the effects that feel it account for it."""
         return sum(e.supplied(self) for e in self.effects)
+
+    def balance(self) -> float:
+        """energy() - driver_work() - actuation_work() - load_work() - supplied() + dissipated()
+        (J): constant but for the scheme's error (ACCOUNTS)."""
+        return self.energy() + sum(sign * getattr(self, read)() for read, sign in ACCOUNTS.values())
 
     def momentum(self) -> np.ndarray:
         """(3,) total linear momentum of everything with finite mass."""

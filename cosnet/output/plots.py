@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..engine.registry import ACCOUNTS
 from .fields import ENERGY_COLUMNS, FIELD_UNITS
 
 PLOT_EXTRA = "pip install 'cosnet[plot]'"
@@ -33,8 +34,7 @@ def budget(energy: dict) -> dict:
     each account with something in it, and the balance's drift from its first value (energy -
     driver - actuation - loads - supplied + dissipated: constant but for the scheme's error)."""
     total = energy["kinetic"] + energy["strain"] + energy["potential"]
-    balance = (total - energy["driver"] - energy["actuation"] - energy["loads"] - energy["supplied"]
-               + energy["dissipated"])
+    balance = total + sum(sign * energy[name] for name, (_, sign) in ACCOUNTS.items())
     curves = {name: energy[name] for name in ENERGY_COLUMNS if np.any(energy[name] != 0.0)}
     return {"energy": total, **curves, "balance drift": balance - balance[0]}
 

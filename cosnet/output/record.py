@@ -38,6 +38,7 @@ import numpy as np
 
 from ..core import checks
 from ..engine.registry import end_probe_owners
+from ..engine.registry import ACCOUNTS
 from .io import (ENERGY, ENERGY_COLUMNS, LINE_FIELDS, NODE_FIELDS, PROBES, PVD, SeriesWriter, node_point_fields,
                  read_pvd, replace_atomically)
 from ..kernels.compiler import in_cache
@@ -136,8 +137,8 @@ def energy_header() -> str:
 
 def energy_row(k, sim) -> str:
     parts = sim.energy_parts()
-    values = (parts["kinetic"], parts["strain"], parts["potential"], sim.dissipated(), sim.driver_work(),
-              sim.actuation_work(), sim.load_work(), sim.supplied())
+    values = (parts["kinetic"], parts["strain"], parts["potential"],
+              *(getattr(sim, read)() for read, _ in ACCOUNTS.values()))
     return ",".join([str(k), repr(sim.time)] + [repr(float(v)) for v in values]) + "\n"
 
 

@@ -281,13 +281,6 @@ def unrefused_tables(cls, sim, effect) -> list[str]:
     return missed
 
 
-def balance(sim) -> float:
-    """energy() - driver_work() - actuation_work() - load_work() - supplied() + dissipated():
-    constant but for the scheme's error."""
-    return (sim.energy() - sim.driver_work() - sim.actuation_work() - sim.load_work() - sim.supplied()
-            + sim.dissipated())
-
-
 # record fields that accumulate over a run (work and energy accounts): a checkpoint must carry
 # them (Effect.state_arrays), or a resumed run's budget starts them again from zero
 ACCOUNTS = ("work", "dissipated", "node_dissipated", "supplied")
@@ -301,7 +294,7 @@ def unsaved_accounts(sim, effect) -> list[str]:
 
 
 def energy_order(sim_of, until: float) -> float:
-    """Observed order of the largest drift of the energy balance (``balance``) over ``until``,
+    """Observed order of the largest drift of the energy balance (``sim.balance()``) over ``until``,
     the example's lines set swinging, at a tenth of the stable step and at half of that (well
     inside the scheme's asymptotic range); ``sim_of(dt)`` builds the example at a step dt
     (None: its stable step). An order near 0 is a drift the step does not shrink: work no
@@ -317,12 +310,12 @@ def energy_order(sim_of, until: float) -> float:
         nodes = sim.state.node_w.copy()
         smooth_motion(sim, amplitude=0.05, spin=0.0)
         sim.state.node_w[:] = nodes
-        start, worst = balance(sim), 0.0
+        start, worst = sim.balance(), 0.0
         # the largest drift at the same times for both steps: the balance's error oscillates,
         # its size is what falls with the step
         for _ in range(0, steps, every):
             sim.run(steps=every * halves)
-            worst = max(worst, abs(balance(sim) - start))
+            worst = max(worst, abs(sim.balance() - start))
         drifts.append(worst)
     return math.log2(drifts[0] / drifts[1]) if drifts[1] > 0 else math.inf
 
