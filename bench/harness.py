@@ -61,19 +61,21 @@ def best_interleaved(fns, rounds=9):
 
 
 def cpu_times():
-    """Return (steal, total) CPU jiffies of all cores from /proc/stat, or (0, 0) where it is
-    unavailable. On a virtual machine, steal is time the hypervisor gave to other guests."""
+    """Return (steal, total, busy) CPU jiffies of all cores from /proc/stat, or zeros where it
+    is unavailable. On a virtual machine, steal is time the hypervisor gave to other guests;
+    busy is all but idle and iowait."""
     try:
         with open("/proc/stat") as f:
             fields = [int(v) for v in f.readline().split()[1:]]
     except OSError:
-        return 0, 0
-    return (fields[7] if len(fields) > 7 else 0), sum(fields[:8])
+        return 0, 0, 0
+    total = sum(fields[:8])
+    return (fields[7] if len(fields) > 7 else 0), total, total - fields[3] - fields[4]
 
 
 def stolen_since(start) -> float:
     """Fraction of CPU time stolen by the hypervisor since cpu_times() returned start."""
-    steal, total = cpu_times()
+    steal, total, _ = cpu_times()
     return (steal - start[0]) / max(total - start[1], 1)
 
 

@@ -31,6 +31,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from harness import cpu_times, machine  # noqa: E402  (beside this script)
 
 # name, quick arguments (None: full runs only), full arguments, time limit (s) in quick mode;
 # a name SCRIPT@PANEL runs SCRIPT.py with --PANEL added to both argument lists
@@ -88,15 +90,9 @@ def busy(seconds: float = 2.0) -> float:
     """The share of all cores' time spent running anything over the next `seconds`
     (/proc/stat; 0 where it is unavailable). Unlike the load average, which lags a minute
     behind, it tells at once whether the bench just finished left the machine idle."""
-    def sample():
-        try:
-            with open("/proc/stat") as f:
-                v = [int(x) for x in f.readline().split()[1:]]
-        except OSError:
-            return 0, 0
-        return sum(v[:8]) - v[3] - v[4], sum(v[:8])   # all but idle and iowait; total
-    (b0, t0), _ = sample(), time.sleep(seconds)
-    b1, t1 = sample()
+    _, t0, b0 = cpu_times()
+    time.sleep(seconds)
+    _, t1, b1 = cpu_times()
     return (b1 - b0) / max(t1 - t0, 1)
 
 
@@ -194,8 +190,6 @@ def main(argv=None):
     if others:
         print(f"not in the benchmark list (run by hand): {', '.join(others)}")
     print(f"JSON files in {out}")
-    sys.path.insert(0, str(HERE))
-    from harness import machine
     command = "python bench/run_all.py " + " ".join(argv or sys.argv[1:])
     record = {"machine": machine(), "mode": "full" if opts.full else "quick", "command": command,
               "total_s": total, "scripts": results}
@@ -208,7 +202,8 @@ def main(argv=None):
             rerun = {r["script"] for r in results}
             full["scripts"] = [next((r for r in results if r["script"] == old["script"]), old)
                                for old in full["scripts"]]
-            full["scripts"] += [r for r in results if r["script"] not in {o["script"] for o in full["scripts"]}]
+            kept = {o["script"] for o in full["scripts"]}
+            full["scripts"] += [r for r in results if r["script"] not in kept]
             full.setdefault("reruns", []).append({"command": command, "machine": record["machine"],
                                                   "seconds": total, "scripts": sorted(rerun)})
             record = full
