@@ -236,6 +236,11 @@ class Effect:
         """Raise ValueError (one line) if the state contradicts this effect (a driven node
         moving against its drive); run() asks before it steps."""
 
+    def start(self, sim):
+        """Make the state consistent with this effect before a simulation's first step (a
+        constraint's velocities: a ring takes its line's motion across it); run() calls it
+        once, before step 0. Most effects have nothing to do."""
+
     def state_arrays(self, sim) -> dict:
         """The arrays of its parameter record that change as the net moves (friction anchors):
         a checkpoint saves and restores them with the state. Empty for most effects."""

@@ -244,6 +244,9 @@ class Simulation:
             e.check_state(self)
         self.watch.check_tables("Simulation.run")
         place_line_ends(self.model, self.state)
+        if self.steps == 0:
+            for e in self.effects:
+                e.start(self)
         while steps > 0:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
