@@ -171,6 +171,15 @@ def add_split(a, cn, dc, t):
 
 
 @njit(**CACHED, inline="always")
+def has_added_mass(p):
+    """Whether any line in the medium carries an added mass."""
+    for j in range(p.added_n.shape[0]):
+        if p.added_n[j] != 0.0 or p.added_t[j] != 0.0:
+            return True
+    return False
+
+
+@njit(**CACHED, inline="always")
 def still_medium(p):
     """Whether the medium is the same everywhere and always (a steady uniform current, no
     waves): then only the free surface decides where it acts."""
@@ -538,15 +547,54 @@ def drag_nodes(p, model, state, h):
     p.supplied[0] += supplied
 
 
+@njit(**INNER)
+def entrained_energy(p, model, state):
+    """Return the kinetic energy of the fluid the lines carry, 1/2 v^T M_a v summed over the
+    vertices of the lines in the medium (line ends included, at their placed velocities),
+    M_a = wet l (a_n (1 - t t^T) + a_t t t^T) with the wetness and tangent of p.sample: the
+    added mass the step holds now."""
+    v, S = columns(state.v), sample_rows(p)
+    vlen = model.voronoi_rest_length
+    nl = model.line_vertex_offsets.shape[0] - 1
+    e = 0.0
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        an, at = p.added_n[j], p.added_t[j]
+        for i in range(lo, hi):
+            if (i == lo or i == hi - 1) and not node_free(p, model, model.attach_node[2 * l + (0 if i == lo else 1)]):
+                continue
+            vt = v[0][i] * S[7][i] + v[1][i] * S[8][i] + v[2][i] * S[9][i]
+            vv = v[0][i] * v[0][i] + v[1][i] * v[1][i] + v[2][i] * v[2][i]
+            e += 0.5 * S[0][i] * vlen[i] * (an * (vv - vt * vt) + at * vt * vt)
+    return e
+
+
+@njit(**CACHED)
+def sample_fluid(p, model, state):
+    """Update p.sample given the positions and the clock, as a kick's first half flow does
+    (the added mass a simulation holds before its first step)."""
+    sample_medium(p, model, state)
+
+
 @flow_kernel(FluidParams)
 @njit(**STEP)
 def flow_fluid(p, model, state, h):
     """Update state.v, state.node_v, state.node_w by half of what the medium does over a kick
     of 2 h: drag then the forces of position and time before the kick, the reverse after it;
     p.dissipated and p.supplied by their work (the medium's own kinetic energy through the
-    added mass counted as the line's)."""
+    added mass counted as the line's). A new sample changes the added mass (the lines turned,
+    entered or left the water since the last kick) at the velocities of the drift between:
+    the entrained fluid's kinetic energy then changes by work Morison's M v' = f leaves out
+    of its forces, counted in p.supplied, so the energy balance still closes."""
     if p.turn[0] == 0:
+        added = has_added_mass(p)
+        before = entrained_energy(p, model, state) if added else 0.0
         sample_medium(p, model, state)
+        if added:
+            p.supplied[0] += entrained_energy(p, model, state) - before
         drag_vertices(p, model, state, h)
         drag_nodes(p, model, state, h)
         push_vertices(p, model, state, h)

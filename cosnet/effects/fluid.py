@@ -14,7 +14,7 @@ from ..core import checks
 from .contact import chosen_lines
 from .drives import Drive
 from .loads import Gravity, checked_table
-from ..kernels.fluid import LINEAR, MORISON, FluidParams
+from ..kernels.fluid import LINEAR, MORISON, FluidParams, sample_fluid
 from ..engine.registry import Binding, Effect, Key
 from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
                           pair, positive)
@@ -257,7 +257,7 @@ class Fluid(Effect):
         heading = np.radians(hd)
         zp, fp = self.profile
         tt, tv = self.time_table
-        return FluidParams(LINEAR if self.resistance is not None else MORISON,
+        p = FluidParams(LINEAR if self.resistance is not None else MORISON,
                            np.array([ln.index for ln in lines], dtype=np.int64), line_row, **rows,
                            surface=self.surface, depth=self.depth, stretch=int(self.stretching == "wheeler"),
                            current=self.velocity.copy(), profile_z=zp.copy(), profile_f=fp.copy(),
@@ -266,12 +266,16 @@ class Fluid(Effect):
                            wave_phase=ph.copy(), node_skip=skip,
                            sample=np.zeros((14, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1))
+        if np.any(rows["added_n"]) or np.any(rows["added_t"]):   # the entrained fluid's energy from the start
+            sample_fluid(p, on.model, on.state)
+        return p
 
     # ------------------------------------------------------------------ energy
     def potential(self, p, on: Binding) -> float:
         """Buoyancy's potential, -rho g A times the integral of min(z, surface) over each line's
         elements, plus the kinetic energy of the entrained fluid, 1/2 v^T M_a v over the wet
-        vertices and the free nodes' wet line ends (M_a the added mass)."""
+        vertices and the free nodes' wet line ends (M_a the added mass the step holds: as the
+        last kick, or the start, sampled it)."""
         m, x, v = on.model, on.state.x, on.state.v
         e = 0.0
         for j, l in enumerate(p.lines):
@@ -282,17 +286,16 @@ class Fluid(Effect):
                 e -= p.buoyancy[j] * float(np.sum(m.element_rest_length[e0:e0 + hi - lo - 1]
                                                   * _mean_min(za, zb, p.surface)))
             if p.added_n[j] or p.added_t[j]:
-                xs, vs = x[lo:hi], v[lo:hi]     # line ends placed on their nodes
-                k = np.arange(hi - lo)
-                chord = xs[np.minimum(k + 1, hi - lo - 1)] - xs[np.maximum(k - 1, 0)]
-                t = chord / np.maximum(np.linalg.norm(chord, axis=1), 1e-300)[:, None]
+                # the added mass the step holds (kernels/fluid.entrained_energy): wetness and
+                # tangents as the last kick sampled them
+                vs, t = v[lo:hi], p.sample[7:10, lo:hi].T     # line ends placed on their nodes
                 # einsum, not BLAS (see Gravity.potential)
                 vt = np.einsum("ij,ij->i", vs, t)
                 vn2 = np.einsum("ij,ij->i", vs, vs) - vt * vt
-                wet = xs[:, 2] <= p.surface + _eta(p, xs, on.time)
+                wet = p.sample[0, lo:hi].copy()
                 for i, end in ((0, 0), (-1, 1)):   # a line end counts with a node the medium moves
                     nd = m.attach_node[2 * l + end]
-                    wet[i] &= bool(m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0)
+                    wet[i] *= float(m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0)
                 e += 0.5 * float(np.sum(m.voronoi_rest_length[lo:hi] * wet
                                         * (p.added_n[j] * vn2 + p.added_t[j] * vt * vt)))
         return e
@@ -331,12 +334,20 @@ class Fluid(Effect):
 
     def supplied(self, sim) -> float:
         """Work a moving or accelerating medium has done on the net so far (J): drag's share
-        from the medium's motion, and the inertia force's."""
+        from the medium's motion, the inertia force's, and the change of the entrained fluid's
+        kinetic energy as the added mass changes (a line turning, entering or leaving the
+        water), which Morison's M v' = f leaves out of its forces."""
         return float(self.params(sim).supplied[0])
+
+    def start(self, sim):
+        """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):
+        the added mass the first kick's account starts from."""
+        sample_fluid(self.params(sim), sim.model, sim.state)
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
-        return {"turn": p.turn, "dissipated": p.dissipated, "supplied": p.supplied}
+        # the sample: the added mass the step holds (the entrained fluid's energy and its account)
+        return {"turn": p.turn, "dissipated": p.dissipated, "supplied": p.supplied, "sample": p.sample}
 
     def describe(self):
         law = f"resistance={self.resistance.tolist()}" if self.resistance is not None else f"drag={self.drag.tolist()}"
@@ -354,9 +365,3 @@ def _mean_min(za, zb, s):
     f = np.where(cut, (s - lo) / span, 0.0)           # wet fraction
     wet_mean = np.where(cut, f * 0.5 * (lo + s) + (1 - f) * s, 0.0)
     return np.where(cut, wet_mean, out)
-
-
-def _eta(p, x, t) -> np.ndarray:
-    """The free surface's elevation above its still level at the points x (n, 3), time t."""
-    th = p.wave_k * (x[:, :1] * p.wave_cos + x[:, 1:2] * p.wave_sin) - p.wave_w * t + p.wave_phase
-    return np.sum(p.wave_a * np.cos(th), axis=1)
