@@ -12,34 +12,13 @@ import numpy as np
 import pytest
 
 from cosnet.cli import main
+from cosnet.core.samples import cantilever_scene
 from cosnet.output.io import read_output
 
 REPO = Path(__file__).resolve().parents[1]
-ROD = """# a cantilever sagging and swinging under gravity
-[materials.m]
-E = 1.0e8
-poisson = 0.3
-density = 1000.0
-[sections.s]
-kind = "circle"
-radius = 0.01
-[nodes.root]
-position = [0.0, 0.0, 0.0]
-fixed = true
-[nodes.tip]
-position = [0.5, 0.0, 0.0]
-[lines.rod]
-start = "root"
-end = "tip"
-material = "m"
-section = "s"
-elements = 6
-[[effects]]
-kind = "gravity"
-[run]
-until = 0.02
-output_interval = 0.005
-"""
+# a cantilever sagging and swinging under gravity (G = E / (2 (1 + 0.3)))
+ROD = cantilever_scene("rod", E="1.0e8", G=repr(1.0e8 / 2.6), density="1000.0", elements=6, material="m",
+                       rest='[[effects]]\nkind = "gravity"\n[run]\nuntil = 0.02\noutput_interval = 0.005\n')
 W, H = 200, 150
 
 
