@@ -8,13 +8,13 @@ import itertools
 
 import numpy as np
 
-from .friction import friction_keys
+from .friction import Frictional, friction_keys
 from .contact import chosen_lines, smallest_mass
 from ..core import samples
 from ..engine.bounds import index_error
 from ..core.net import Node
 from .obstacles import Obstacle, meets_elements
-from ..engine.registry import Binding, Effect, Key
+from ..engine.registry import Binding, Key
 from ..core.rotations import matrix_from_quat
 from ..core.units import LENGTH, choice, frame, positive, string_list, vec3
 from ..kernels import bodies as _body_kernels  # noqa: F401  (registers the body kernel)
@@ -31,7 +31,7 @@ def _shape(code, origin, axis, size, rot) -> BodyShape:
                      1.0, np.zeros(3, np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64))
 
 
-class Body(Effect):
+class Body(Frictional):
     """A collision shape on a node that meets lines, static obstacles and other bodies.
 
     The shape is fixed to ``node`` (a rigid body, a point mass or a driven node), given in
@@ -230,22 +230,12 @@ class Body(Effect):
         return float(np.max(np.linalg.norm(samples, axis=1) + srad))
 
     # ------------------------------------------------------------------ reports
-    def dissipated(self, sim) -> float:
-        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
-        is conserved (the friction spring's energy to the step's first order, see the kernel)."""
-        return float(self.params(sim).dissipated[0])
-
     def deepest(self, sim) -> float:
         """The largest overlap met so far, as a fraction of the touching sphere's radius."""
         return float(self.params(sim).deepest[0])
 
-    def active_contacts(self, sim) -> int:
-        """Contacts at the last force evaluation."""
-        return int(self.params(sim).active[0])
-
-    def sliding(self, sim) -> int:
-        """Of those, the ones sliding (the others stick)."""
-        return int(np.count_nonzero(self.params(sim).mode == SLIDE))
+    def sliding_flags(self, p) -> tuple:
+        return (p.mode == SLIDE,)
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:

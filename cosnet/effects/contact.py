@@ -8,13 +8,13 @@ import math
 
 import numpy as np
 
-from .friction import friction_keys
+from .friction import Frictional, friction_keys
 from ..core import samples
 from ..engine.bounds import index_error
 from ..core import checks
 from ..kernels.contact import SLIDE, ContactParams, contact_energy
 from ..core.net import Line
-from ..engine.registry import Binding, Effect, Key
+from ..engine.registry import Binding, Key
 from ..core.units import boolean, integer, nonnegative
 
 PAIRS_PER_ELEMENT = 4  # default friction-table capacity: touching pairs per element taking part
@@ -51,7 +51,7 @@ def smallest_mass(sim, lines) -> float:
     return float(min(masses)) if masses else 0.0
 
 
-class Contact(Effect):
+class Contact(Frictional):
     """Contact between the capsules (centre segment, radius r = section.radius) of the lines'
     elements: overlap eps = r_i + r_j - d_min gives the force max(0, k eps - gamma v_n) along
     the normal, equal and opposite at the closest points (Elastica's rod collision).
@@ -229,21 +229,10 @@ class Contact(Effect):
         """Number of narrow-phase pair tests made so far in sim (candidates passing the grid)."""
         return int(self.params(sim).narrow_tests[0])
 
-    def active_contacts(self, sim) -> int:
-        """Overlapping pairs found by the last force evaluation."""
-        return int(self.params(sim).active[0])
-
-    def dissipated(self, sim) -> float:
-        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
-        is conserved."""
-        return float(self.params(sim).dissipated[0])
-
-    def sliding(self, sim) -> int:
-        """Touching pairs (with friction) sliding at the last force evaluation; the others stick."""
-        p = self.params(sim)
-        side = int(p.pair_state[0])
+    def sliding_flags(self, p) -> tuple:
+        side = int(p.pair_state[0])    # the pairs with friction kept by the last evaluation
         slots = p.pair_used[side, :p.pair_state[1 + side]]
-        return int(np.count_nonzero(p.pair_key[side, slots, 2] == SLIDE))
+        return (p.pair_key[side, slots, 2] == SLIDE,)
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:

@@ -9,13 +9,13 @@ from collections import deque
 
 import numpy as np
 
-from .friction import friction_keys
+from .friction import Frictional, friction_keys
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..core import checks
 from .contact import chosen_lines, smallest_mass
 from ..core.net import Line
-from ..engine.registry import Binding, Effect, Key
+from ..engine.registry import Binding, Key
 from ..core.units import (LENGTH, choice, coefficients, direction, frame, positive, string, vec3)
 from ..kernels import segments as _obstacle_kernels  # noqa: F401  (registers the obstacle kernels)
 from ..kernels.obstacles import SHAPES, SLIDE, ObstacleParams, obstacle_energy
@@ -143,7 +143,7 @@ def meets_elements(shape: str, radius: float, m, line: int) -> bool:
     return shape != "plane" and e1 > e0 and float(np.max(m.element_rest_length[e0:e1])) > radius
 
 
-class Obstacle(Effect):
+class Obstacle(Frictional):
     """A static obstacle the vertices of the chosen lines (spheres of their section radius)
     cannot enter: penalty normal force max(0, k eps - gamma v_n) for an overlap eps, and
     Coulomb friction by a tangential spring of stiffness k_t anchored where the contact began,
@@ -332,23 +332,12 @@ class Obstacle(Effect):
             np.zeros((count, 3)))
 
     # ------------------------------------------------------------------ reports
-    def dissipated(self, sim) -> float:
-        """Energy dissipated by friction and the dashpots so far (J): sim.energy() plus this
-        is conserved."""
-        return float(self.params(sim).dissipated[0])
-
     def deepest(self, sim) -> float:
         """The largest overlap met so far, as a fraction of the vertex radius."""
         return float(self.params(sim).deepest[0])
 
-    def active_contacts(self, sim) -> int:
-        """Vertices and elements touching the obstacle at the last force evaluation."""
-        return int(self.params(sim).active[0])
-
-    def sliding(self, sim) -> int:
-        """Of those, the ones sliding (the others stick)."""
-        p = self.params(sim)
-        return int(np.count_nonzero(p.mode == SLIDE) + np.count_nonzero(p.emode == SLIDE))
+    def sliding_flags(self, p) -> tuple:
+        return p.mode == SLIDE, p.emode == SLIDE
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
