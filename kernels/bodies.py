@@ -44,6 +44,7 @@ from numba import njit
 from .compose import account_kernel, load_kernel
 from .obstacles import FREE, SLIDE, STICK, obstacle_distance
 from .compiler import CACHED
+from .effects import add_wrench
 from .rotations import cross, quat_rotate, quat_rotate_inv
 from .segments import deepest_point
 
@@ -134,13 +135,7 @@ def push_node(nd, state, loads, px, py, pz, fx, fy, fz):
     if nd < 0:
         return
     x = state.node_x[nd]
-    tx, ty, tz = cross(px - x[0], py - x[1], pz - x[2], fx, fy, fz)
-    loads.node_f[nd, 0] += fx
-    loads.node_f[nd, 1] += fy
-    loads.node_f[nd, 2] += fz
-    loads.node_tau[nd, 0] += tx
-    loads.node_tau[nd, 1] += ty
-    loads.node_tau[nd, 2] += tz
+    add_wrench(loads, nd, px - x[0], py - x[1], pz - x[2], fx, fy, fz)
 
 
 @njit(**CACHED)

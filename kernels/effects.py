@@ -117,12 +117,9 @@ def add_gravity(p, model, state, loads):
 
 
 @njit(**CACHED, inline="always")
-def add_node_force(model, state, loads, nd, fx, fy, fz):
-    """Update loads.node_f, loads.node_tau with a force applied at node nd's reference point
-    (its torque about the composite centre of mass included, (4.5))."""
-    q = state.node_q[nd]
-    c = model.node_com_offset[nd]
-    rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], -c[0], -c[1], -c[2])
+def add_wrench(loads, nd, rx, ry, rz, fx, fy, fz):
+    """Update loads.node_f, loads.node_tau of node nd with force f acting at the lab arm r from
+    its centre of mass (torque r x f, (4.5))."""
     tx, ty, tz = cross(rx, ry, rz, fx, fy, fz)
     loads.node_f[nd, 0] += fx
     loads.node_f[nd, 1] += fy
@@ -130,6 +127,16 @@ def add_node_force(model, state, loads, nd, fx, fy, fz):
     loads.node_tau[nd, 0] += tx
     loads.node_tau[nd, 1] += ty
     loads.node_tau[nd, 2] += tz
+
+
+@njit(**CACHED, inline="always")
+def add_node_force(model, state, loads, nd, fx, fy, fz):
+    """Update loads.node_f, loads.node_tau with a force applied at node nd's reference point
+    (its torque about the composite centre of mass included, (4.5))."""
+    q = state.node_q[nd]
+    c = model.node_com_offset[nd]
+    rx, ry, rz = quat_rotate(q[0], q[1], q[2], q[3], -c[0], -c[1], -c[2])
+    add_wrench(loads, nd, rx, ry, rz, fx, fy, fz)
 
 
 @load_kernel(NodeLoadParams)
