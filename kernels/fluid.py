@@ -547,12 +547,21 @@ def drag_nodes(p, model, state, h):
     p.supplied[0] += supplied
 
 
+@njit(**CACHED, inline="always")
+def entrained_at(v, S, vlen, i, an, at):
+    """Return 1/2 v^T M_a v at vertex i (M_a as p.sample holds it; see entrained_energy)."""
+    vt = v[0][i] * S[7][i] + v[1][i] * S[8][i] + v[2][i] * S[9][i]
+    vv = v[0][i] * v[0][i] + v[1][i] * v[1][i] + v[2][i] * v[2][i]
+    return 0.5 * S[0][i] * vlen[i] * (an * (vv - vt * vt) + at * vt * vt)
+
+
 @njit(**INNER)
 def entrained_energy(p, model, state):
     """Return the kinetic energy of the fluid the lines carry, 1/2 v^T M_a v summed over the
-    vertices of the lines in the medium (line ends included, at their placed velocities),
-    M_a = wet l (a_n (1 - t t^T) + a_t t t^T) with the wetness and tangent of p.sample: the
-    added mass the step holds now."""
+    vertices of the lines in the medium (line ends of nodes the medium moves included, at
+    their placed velocities), M_a = wet l (a_n (1 - t t^T) + a_t t t^T) with the wetness and
+    tangent of p.sample: the added mass the step holds now. (The interior loop is
+    branch-free over contiguous columns, which LLVM vectorises.)"""
     v, S = columns(state.v), sample_rows(p)
     vlen = model.voronoi_rest_length
     nl = model.line_vertex_offsets.shape[0] - 1
@@ -563,12 +572,12 @@ def entrained_energy(p, model, state):
             continue
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         an, at = p.added_n[j], p.added_t[j]
-        for i in range(lo, hi):
-            if (i == lo or i == hi - 1) and not node_free(p, model, model.attach_node[2 * l + (0 if i == lo else 1)]):
-                continue
-            vt = v[0][i] * S[7][i] + v[1][i] * S[8][i] + v[2][i] * S[9][i]
-            vv = v[0][i] * v[0][i] + v[1][i] * v[1][i] + v[2][i] * v[2][i]
-            e += 0.5 * S[0][i] * vlen[i] * (an * (vv - vt * vt) + at * vt * vt)
+        first = uint(lo + 1)
+        for k in range(hi - lo - 2):
+            e += entrained_at(v, S, vlen, first + uint(k), an, at)
+        for i, end in ((lo, 0), (hi - 1, 1)):
+            if node_free(p, model, model.attach_node[2 * l + end]):
+                e += entrained_at(v, S, vlen, uint(i), an, at)
     return e
 
 
