@@ -70,6 +70,14 @@ class FluidParams(NamedTuple):
     turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
+    buoy: np.ndarray         # (nn,) int64 each node's buoy row (a volume of its own in the medium), -1: none
+    buoy_node: np.ndarray    # (b,) int64 the node of each buoy row
+    buoy_volume: np.ndarray  # (b,) its displaced volume V when submerged (a sphere of radius buoy_radius)
+    buoy_radius: np.ndarray  # (b,) (3 V / 4 pi)^(1/3)
+    buoy_drag: np.ndarray    # (b,) 1/2 rho C_d A of its drag, -buoy_drag f |u| u
+    buoy_added: np.ndarray   # (b,) its added mass when submerged, C_a rho V
+    buoy_sample: np.ndarray  # (b, 7) as the kick's first half flow found it: the submerged fraction f, U, A
+    medium: np.ndarray       # (2,) rho and g
 
 
 @njit(**CACHED, inline="always")
@@ -172,11 +180,41 @@ def add_split(a, cn, dc, t):
 
 @njit(**CACHED, inline="always")
 def has_added_mass(p):
-    """Whether any line in the medium carries an added mass."""
+    """Whether any line or buoy in the medium carries an added mass."""
     for j in range(p.added_n.shape[0]):
         if p.added_n[j] != 0.0 or p.added_t[j] != 0.0:
             return True
+    for b in range(p.buoy_added.shape[0]):
+        if p.buoy_added[b] != 0.0:
+            return True
     return False
+
+
+@njit(**CACHED, inline="always")
+def submerged_fraction(depth, radius):
+    """Return the fraction of a sphere of the given radius below the still surface, its centre
+    ``depth`` below it: the cap (R + d)^2 (2R - d) / (4 R^3), d clamped to [-R, R]."""
+    d = min(max(depth, -radius), radius)
+    return (radius + d) ** 2 * (2.0 * radius - d) / (4.0 * radius ** 3)
+
+
+@njit(**CACHED, inline="always")
+def buoy_of(p, nd):
+    """Return node nd's buoy row, -1 when it has none."""
+    return p.buoy[nd] if nd < p.buoy.shape[0] else -1
+
+
+@njit(**INNER)
+def sample_buoys(p, state, t):
+    """Update p.buoy_sample given the buoys' centres and the clock: the submerged fraction (by
+    the still surface, as the lines' upthrust) and the medium's velocity and acceleration."""
+    for b in range(p.buoy_node.shape[0]):
+        x = state.node_x[p.buoy_node[b]]
+        p.buoy_sample[b, 0] = submerged_fraction(p.surface - x[2], p.buoy_radius[b])
+        _, um, acc = medium_at(p, x[0], x[1], x[2], t)
+        for k in range(3):
+            p.buoy_sample[b, 1 + k] = um[k]
+            p.buoy_sample[b, 4 + k] = acc[k]
 
 
 @njit(**CACHED, inline="always")
@@ -405,6 +443,9 @@ def node_mass_matrix(p, model, state, nd):
         j, wet, _, tan, lv, _, _ = node_end(p, model, state, model.node_attach_list[s])
         if wet:
             a = add_split(a, lv * p.added_n[j], lv * (p.added_t[j] - p.added_n[j]), tan)
+    b = buoy_of(p, nd)
+    if b >= 0:   # the buoy's own added mass, the same in every direction
+        a = add_split(a, p.buoy_added[b] * p.buoy_sample[b, 0], 0.0, (0.0, 0.0, 1.0))
     return a
 
 
@@ -459,6 +500,13 @@ def push_nodes(p, model, state, h):
             ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
             c = cross(r[0], r[1], r[2], gx, gy, gz)
             tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
+        b = buoy_of(p, nd)
+        if b >= 0:   # at the centre of mass: its upthrust, and the medium's inertia force rho V f (1 + C_a) A
+            f = p.buoy_sample[b, 0]
+            mi = f * (p.medium[0] * p.buoy_volume[b] + p.buoy_added[b])
+            ix, iy, iz = ix + mi * p.buoy_sample[b, 4], iy + mi * p.buoy_sample[b, 5], iz + mi * p.buoy_sample[b, 6]
+            fx, fy = fx + mi * p.buoy_sample[b, 4], fy + mi * p.buoy_sample[b, 5]
+            fz += mi * p.buoy_sample[b, 6] + f * p.medium[0] * p.medium[1] * p.buoy_volume[b]
         if fx == 0.0 and fy == 0.0 and fz == 0.0 and tx == 0.0 and ty == 0.0 and tz == 0.0:
             continue
         a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
@@ -484,12 +532,24 @@ def end_drag(p, j, tan, lv, ux, uy, uz):
     return cn, ct - cn
 
 
+@njit(**CACHED, inline="always")
+def buoy_drag(p, nd, v):
+    """Return the drag coefficient c of node nd's buoy, drag = -c (v - U): 1/2 rho C_d A f |v - U|
+    at the velocity v (0 without a buoy, or above the water)."""
+    b = buoy_of(p, nd)
+    if b < 0 or p.buoy_drag[b] == 0.0:
+        return 0.0
+    s = p.buoy_sample[b]
+    return p.buoy_drag[b] * s[0] * math.sqrt((v[0] - s[1]) ** 2 + (v[1] - s[2]) ** 2 + (v[2] - s[3]) ** 2)
+
+
 @njit(**INNER)
 def drag_nodes(p, model, state, h):
     """Update the free nodes' velocities by one linearly implicit step of the drag on their
     wet line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
-    step's start, M the mass with the added mass), and their angular velocities by the drag's
-    torque about the centre of mass at v'; p.dissipated and p.supplied by its work."""
+    step's start, M the mass with the added mass; a buoy's own drag 1/2 rho C_d A f |u| at
+    its centre added to D), and their angular velocities by the drag's torque about the centre
+    of mass at v'; p.dissipated and p.supplied by its work."""
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
@@ -512,6 +572,12 @@ def drag_nodes(p, model, state, h):
             d = add_split(d, cn, dc, tan)
             g = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
             b0, b1, b2 = b0 + g[0], b1 + g[1], b2 + g[2]
+        cb = buoy_drag(p, nd, vn)
+        if cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
+            touched = True
+            d = add_split(d, cb, 0.0, (0.0, 0.0, 1.0))
+            bs = p.buoy_sample[buoy_of(p, nd)]
+            b0, b1, b2 = b0 + cb * bs[1], b1 + cb * bs[2], b2 + cb * bs[3]
         if not touched:
             continue
         a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
@@ -534,6 +600,9 @@ def drag_nodes(p, model, state, h):
             given += h * (fx * um[0] + fy * um[1] + fz * um[2])
             c = cross(r[0], r[1], r[2], fx, fy, fz)
             tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
+        if cb > 0.0:
+            bs = p.buoy_sample[buoy_of(p, nd)]
+            given -= h * cb * ((v1[0] - bs[1]) * bs[1] + (v1[1] - bs[2]) * bs[2] + (v1[2] - bs[3]) * bs[3])
         dx, dy, dz = v1[0] - vn[0], v1[1] - vn[1], v1[2] - vn[2]
         mx = a00 * dx + a01 * dy + a02 * dz
         my = a01 * dx + a11 * dy + a12 * dz
@@ -578,6 +647,11 @@ def entrained_energy(p, model, state):
         for i, end in ((lo, 0), (hi - 1, 1)):
             if node_free(p, model, model.attach_node[2 * l + end]):
                 e += entrained_at(v, S, vlen, uint(i), an, at)
+    for b in range(p.buoy_node.shape[0]):
+        nd = p.buoy_node[b]
+        if node_free(p, model, nd):
+            vn = state.node_v[nd]
+            e += 0.5 * p.buoy_added[b] * p.buoy_sample[b, 0] * (vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2])
     return e
 
 
@@ -586,6 +660,7 @@ def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""
     sample_medium(p, model, state)
+    sample_buoys(p, state, state.clock[0])
 
 
 @flow_kernel(FluidParams)
@@ -602,6 +677,7 @@ def flow_fluid(p, model, state, h):
         added = has_added_mass(p)
         before = entrained_energy(p, model, state) if added else 0.0
         sample_medium(p, model, state)
+        sample_buoys(p, state, state.clock[0])
         if added:
             p.supplied[0] += entrained_energy(p, model, state) - before
         drag_vertices(p, model, state, h)

@@ -196,6 +196,12 @@ def test_checkpoint_round_trip_keeps_the_accounts(tmp_path):
     (dict(density=RHO, wave_amplitudes=[0.5], wave_periods=[3.0]), "surface"),
     (dict(density=RHO, times=[0.0, 2.0, 1.0], values=[1.0, 1.0, 1.0]), "increase"),
     (dict(density=RHO, profile_heights=[0.0, -1.0], profile_factors=[1.0, 1.0]), "increase"),
+    (dict(density=RHO, buoys=["a"]), "buoy_volumes"),
+    (dict(density=RHO, buoys=["a"], buoy_volumes=[0.0]), "buoy_volumes"),
+    (dict(density=RHO, buoys=["a", "b"], buoy_volumes=[1.0]), "buoy_volumes"),
+    (dict(density=RHO, buoys=["a"], buoy_volumes=[1.0], buoy_drag_areas=[-1.0]), "buoy_drag_areas"),
+    (dict(density=RHO, buoy_volumes=[1.0]), "need buoys"),
+    (dict(density=RHO, resistance=(1.0, 0.5), buoys=["a"], buoy_volumes=[1.0], buoy_drag_areas=[0.1]), "Stokes"),
 ])
 def test_bad_values_are_refused_in_one_line(kwargs, words):
     with pytest.raises(ValueError) as e:
@@ -251,6 +257,9 @@ velocity = [0.5, 0.0, 0.0]
 drag = [1.2, 0.1]
 buoyancy = true
 lines = ["rod"]
+buoys = ["b"]
+buoy_volumes = [2e-4]
+buoy_drag_areas = [0.01]
 [run]
 until = 0.1
 """
@@ -267,6 +276,79 @@ def test_the_scene_declares_the_fluid_and_refuses_a_bad_key_in_one_line(tmp_path
         cosnet.load_scene(bad).simulation()
     msg = str(e.value)
     assert "bad.toml" in msg and "density" in msg and "\n" not in msg
+    (fluid,) = [e for e in sim.effects if isinstance(e, cosnet.Fluid)]
+    assert [nd.name for nd in sim.net.nodes if sim.effect_params(fluid).buoy[nd.index] >= 0] == ["b"]
+    bad.write_text(SCENE.format(density=1000.0).replace('buoys = ["b"]', 'buoys = ["c"]'))
+    with pytest.raises(ValueError) as e:
+        cosnet.load_scene(bad)
+    msg = str(e.value)
+    assert "bad.toml" in msg and "buoys" in msg and "unknown node 'c'" in msg and "\n" not in msg
+
+
+# ------------------------------------------------------------------ buoys: nodes with a volume
+SPHERE = 0.1                                     # m^3, radius R
+R = (3.0 * SPHERE / (4.0 * math.pi)) ** (1.0 / 3.0)
+
+
+def buoy(mass, depth, drag_area=0.0, added=0.5, surface=0.0):
+    """A sphere buoy alone (a net of one node) with its centre ``depth`` below the surface."""
+    net = cosnet.Net()
+    nd = net.add_node((0.0, 0.0, surface - depth), mass=mass, inertia=(1.0, 1.0, 1.0))
+    fluid = cosnet.Fluid(RHO, buoyancy=True, surface=surface, buoys=[nd], buoy_volumes=[SPHERE],
+                         buoy_drag_areas=[drag_area], buoy_added_mass=[added])
+    return cosnet.Simulation(net, [cosnet.Gravity(), fluid], dt=1e-3), nd
+
+
+def submerged(depth):
+    """The volume of the sphere below the surface, its centre ``depth`` below it (a cap)."""
+    d = min(max(depth, -R), R)
+    return math.pi * (R + d) ** 2 * (2.0 * R - d) / 3.0
+
+
+def test_a_buoy_rises_at_the_terminal_velocity_of_its_drag():
+    # (rho V - m) g = 1/2 rho C_d A v^2, deep under the surface; the added mass slows the
+    # approach, not the end
+    sim, nd = buoy(50.0, 50.0, drag_area=0.05)
+    sim.run(until=5.0)
+    v = math.sqrt(2.0 * (RHO * SPHERE - 50.0) * G / (RHO * 0.05))
+    assert sim.node_velocity(nd)[2] == pytest.approx(v, rel=1e-4)
+
+
+def test_a_buoy_floats_where_it_displaces_its_weight():
+    # rho V_sub(d) = m: the cap's volume at the analytic draught holds the buoy still
+    from scipy.optimize import brentq
+    mass = 50.0
+    d = brentq(lambda d: submerged(d) - mass / RHO, -R, R, xtol=1e-15)
+    sim, nd = buoy(mass, d, drag_area=0.05)
+    sim.run(until=2.0)
+    assert abs(sim.node_position(nd)[2] + d) < 1e-12 * R
+    assert np.abs(sim.node_velocity(nd)).max() < 1e-12
+
+
+def test_a_buoy_heaves_at_its_waterplane_period_and_keeps_its_energy():
+    # small heave about the draught d: (m + C_a rho V_sub) z'' = -rho g pi (R^2 - d^2) z; without
+    # drag the energy (the upthrust's potential, the entrained water's kinetic energy whose
+    # mass changes with the draught, kept in supplied()) is conserved to the scheme's order
+    from scipy.optimize import brentq
+    mass = 50.0
+    d = brentq(lambda d: submerged(d) - mass / RHO, -R, R, xtol=1e-15)
+    sim, nd = buoy(mass, d - 1e-3)
+    b0 = sim.balance()
+    t, z = [], []
+    while sim.time < 6.0:
+        sim.run(steps=5)
+        t.append(sim.time)
+        z.append(sim.node_position(nd)[2] + d)
+    t, z = np.array(t), np.array(z)
+    k = np.where((z[:-1] < 0) & (z[1:] >= 0))[0]
+    ups = t[k] - z[k] * (t[k + 1] - t[k]) / (z[k + 1] - z[k])     # upward crossings, interpolated
+    period = (ups[-1] - ups[0]) / (len(ups) - 1)
+    expected = 2 * math.pi * math.sqrt((mass + 0.5 * RHO * submerged(d)) / (RHO * G * math.pi * (R * R - d * d)))
+    assert period == pytest.approx(expected, rel=1e-3)
+    # Verlet's energy error ~ (omega dt)^2 / 8 of the heave's energy 1/2 rho g A_w a^2
+    omega, heave = 2 * math.pi / expected, 0.5 * RHO * G * math.pi * (R * R - d * d) * 1e-6
+    assert sim.supplied() != 0.0
+    assert abs(sim.balance() - b0) < (omega * sim.dt) ** 2 / 8 * heave
 
 
 def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():

@@ -21,6 +21,8 @@ from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, 
 
 DENSITY = Unit("kg/m^3", -3, 1, 0)
 RESISTANCE = Unit("N s/m^2", -1, 1, -1)   # force per length per velocity
+VOLUME = Unit("m^3", 3)
+AREA = Unit("m^2", 2)
 
 
 def _finite(name: str, v) -> float:
@@ -110,17 +112,23 @@ class Fluid(Effect):
             Key("wave_headings", floats, doc="their directions of travel, degrees from +x towards +y"),
             Key("wave_phases", floats, doc="their phases (rad)"),
             Key("stretching", choice("wheeler", "none"), doc="wave kinematics above the still surface"),
-            Key("lines", "lines", doc="the lines in the medium (default: all)"))
+            Key("lines", "lines", doc="the lines in the medium (default: all)"),
+            Key("buoys", "nodes", doc="nodes with a volume of their own in the medium (buoys, floats)"),
+            Key("buoy_volumes", floats, VOLUME, doc="their displaced volumes when submerged (spheres)"),
+            Key("buoy_drag_areas", floats, AREA, doc="their drag areas C_d A (default 0)"),
+            Key("buoy_added_mass", floats, doc="their added-mass coefficients C_a (default 0)"))
     record = FluidParams
 
     free_integers = ("turn",)            # which half of the kick is next, compared
-    none_if_negative = ("line_row",)     # a line out of the fluid
+    none_if_negative = ("line_row", "buoy")     # a line out of the fluid, a node without a buoy
 
     @classmethod
     def example(cls):
         net, _ = samples.rod(start=(0.0, 0.0, -0.02), end=(samples.LENGTH, 0.0, 0.01))
+        # the end node a float of 1 cm radius, half out of the water
         return net, [Gravity(), cls(1025.0, velocity=(0.3, 0.0, 0.0), drag=(1.2, 0.008), added_mass=(1.0, 0.0),
-                                    buoyancy=True, surface=0.0)]
+                                    buoyancy=True, surface=0.0, buoys=[net.nodes[-1]], buoy_volumes=[4.19e-6],
+                                    buoy_drag_areas=[3e-4], buoy_added_mass=[0.5])]
 
     @staticmethod
     def table_error(p, model):
@@ -132,14 +140,20 @@ class Fluid(Effect):
             return f"fluid: {', '.join(rows)} need one entry per line of fluid.lines"
         if p.line_row.shape != (nl,) or p.node_skip.shape != (nn,) or p.sample.shape != (14, nv):
             return "fluid: line_row needs one entry per line, node_skip one per node, sample 14 rows of one per vertex"
-        return index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
+        b = p.buoy_node.shape[0]
+        if p.buoy.shape != (nn,) or p.buoy_sample.shape != (b, 7) or p.medium.shape != (2,) or any(
+                getattr(p, name).shape != (b,) for name in ("buoy_volume", "buoy_radius", "buoy_drag", "buoy_added")):
+            return "fluid: buoy needs one entry per node, the buoy rows one per buoy node, medium two"
+        return (index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
+                or index_error("fluid.buoy_node", p.buoy_node, nn) or index_error("fluid.buoy", p.buoy[p.buoy >= 0], b))
 
     def __init__(self, density: float, velocity=(0.0, 0.0, 0.0), *, profile_heights=None, profile_factors=None,
                  power_law: float = 0.0, reference_height: float = 10.0, ground: float = 0.0, times=None,
                  values=None, drag=(0.0, 0.0), resistance=None, diameter: float | None = None,
                  added_mass=(0.0, 0.0), buoyancy: bool = False, surface: float | None = None,
                  depth: float | None = None, wave_amplitudes=None, wave_periods=None, wave_headings=None,
-                 wave_phases=None, stretching: str = "wheeler", lines=None):
+                 wave_phases=None, stretching: str = "wheeler", lines=None, buoys=None, buoy_volumes=None,
+                 buoy_drag_areas=None, buoy_added_mass=None):
         who = "Fluid"
         self.density = checks.positive(who, "density", density)
         self.velocity = checks.vec3(who, "velocity", velocity)
@@ -170,8 +184,32 @@ class Fluid(Effect):
         if lines is not None:
             lines = list(lines)
         self.lines = lines
+        self.buoys = self._buoys(buoys, buoy_volumes, buoy_drag_areas, buoy_added_mass)
         # a medium that moves or accelerates feeds energy in
         self.adds_energy = bool(np.any(self.velocity) or self.waves[0].size)
+
+    def _buoys(self, nodes, volumes, areas, added):
+        """(nodes, V, C_d A, C_a) of the buoys, checked."""
+        if nodes is None:
+            if any(x is not None for x in (volumes, areas, added)):
+                raise ValueError("Fluid: buoy_volumes, buoy_drag_areas and buoy_added_mass need buoys")
+            return [], np.zeros(0), np.zeros(0), np.zeros(0)
+        nodes = list(nodes)
+        n = len(nodes)
+        if volumes is None:
+            raise ValueError("Fluid: buoys need buoy_volumes, one per buoy")
+        rows = []
+        for name, x in (("buoy_volumes", volumes), ("buoy_drag_areas", areas), ("buoy_added_mass", added)):
+            a = np.zeros(n) if x is None else np.atleast_1d(np.array(x, dtype=float))
+            if a.shape != (n,) or not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise ValueError(f"Fluid: {name} must be {n} finite numbers >= 0 (one per buoy), got {x!r}")
+            rows.append(a)
+        if np.any(rows[0] <= 0):
+            raise ValueError(f"Fluid: buoy_volumes must be > 0, got {volumes!r}")
+        if self.resistance is not None and np.any(rows[1]):
+            raise ValueError("Fluid: a buoy's drag is Morison's (quadratic); in Stokes flow (resistance) give no "
+                             "buoy_drag_areas")
+        return nodes, *rows
 
     @staticmethod
     def _table(x, y, xname, yname):
@@ -265,10 +303,32 @@ class Fluid(Effect):
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
                            wave_phase=ph.copy(), node_skip=skip,
                            sample=np.zeros((14, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
-                           dissipated=np.zeros(1), supplied=np.zeros(1))
-        if np.any(rows["added_n"]) or np.any(rows["added_t"]):   # the entrained fluid's energy from the start
+                           dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn))
+        # the entrained fluid's energy from the start
+        if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             sample_fluid(p, on.model, on.state)
         return p
+
+    def _buoy_rows(self, on: Binding, rho: float, g: float, nn: int) -> dict:
+        nodes, volume, area, added = self.buoys
+        found = []
+        for x in nodes:
+            if isinstance(x, str):
+                try:
+                    x = on.net.node(x)
+                except KeyError:
+                    raise ValueError(f"Fluid: unknown buoy node {x!r}; nodes are {[n.name for n in on.net.nodes]}") \
+                        from None
+            on.check_node(x, "Fluid")
+            found.append(x.index)
+        if len(set(found)) != len(found):
+            raise ValueError("Fluid: a node is named twice in buoys")
+        buoy = np.full(nn, -1, dtype=np.int64)
+        buoy[found] = np.arange(len(found))
+        return dict(buoy=buoy, buoy_node=np.array(found, dtype=np.int64), buoy_volume=volume.copy(),
+                    buoy_radius=np.cbrt(3.0 * volume / (4.0 * math.pi)), buoy_drag=0.5 * rho * area,
+                    buoy_added=rho * volume * added, buoy_sample=np.zeros((len(found), 7)),
+                    medium=np.array([rho, g if self.buoyancy else 0.0]))
 
     # ------------------------------------------------------------------ energy
     def potential(self, p, on: Binding) -> float:
@@ -298,6 +358,11 @@ class Fluid(Effect):
                     wet[i] *= float(m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0)
                 e += 0.5 * float(np.sum(m.voronoi_rest_length[lo:hi] * wet
                                         * (p.added_n[j] * vn2 + p.added_t[j] * vt * vt)))
+        for b, nd in enumerate(p.buoy_node):
+            e += p.medium[0] * p.medium[1] * _cap_integral(p.surface - on.state.node_x[nd, 2], p.buoy_radius[b])
+            if m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0:
+                vn = on.state.node_v[nd]
+                e += 0.5 * p.buoy_added[b] * p.buoy_sample[b, 0] * float(vn @ vn)
         return e
 
     def exchange(self, p, on: Binding) -> float:
@@ -352,6 +417,18 @@ class Fluid(Effect):
     def describe(self):
         law = f"resistance={self.resistance.tolist()}" if self.resistance is not None else f"drag={self.drag.tolist()}"
         return f"Fluid(density={self.density:g}, velocity={self.velocity.tolist()}, {law})"
+
+
+def _cap_integral(depth: float, radius: float) -> float:
+    """The integral of a sphere's submerged volume over its centre's depth below the still
+    surface, from fully out of the water: the buoy's upthrust potential per rho g (kernels/
+    fluid.submerged_fraction is its derivative over the volume)."""
+    if depth <= -radius:
+        return 0.0
+    if depth >= radius:
+        return 4.0 / 3.0 * math.pi * radius ** 3 * depth
+    u = radius + depth
+    return math.pi * (radius * u ** 3 / 3.0 - u ** 4 / 12.0)
 
 
 def _mean_min(za, zb, s):

@@ -31,7 +31,7 @@ ENTRY_POINTS = "cosnet.effects"
 # in the order kinds are listed
 BUILTIN_MODULES = tuple(f"cosnet.effects.{m}" for m in ("loads", "drives", "active", "contact", "obstacles", "joints",
                                                            "bodies", "fluid"))
-REFERENCES = ("node", "line", "lines", "path")   # converters naming parts of the net, or a file
+REFERENCES = ("node", "line", "lines", "nodes", "path")   # converters naming parts of the net, or a file
 
 
 @dataclass(frozen=True)

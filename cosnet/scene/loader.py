@@ -292,15 +292,16 @@ def _effect(t: Table, net: Net, units: Units, known: dict):
         elif key.convert in ("node", "line"):
             kw[key.name] = _ref(t, key.name, key.convert, net)
         else:
-            conv = string_list if key.convert == "lines" else key.convert
+            conv = string_list if key.convert in ("lines", "nodes") else key.convert
             kw[key.name] = units.si(key.unit, t.get(key.name, conv))
     t.done()
-    have = [x.name for x in net.lines]
     for key in cls.keys:
-        if key.convert == "lines" and kw.get(key.name) is not None:
+        if key.convert in ("lines", "nodes") and kw.get(key.name) is not None:
+            kind = key.convert[:-1]
+            have = [x.name for x in (net.lines if kind == "line" else net.nodes)]
             for name in kw[key.name]:
                 if name not in have:
-                    raise t.err(key.name, f"unknown line {name!r}; lines are {have}")
+                    raise t.err(key.name, f"unknown {kind} {name!r}; {kind}s are {have}")
     return _wrap(t, "kind", lambda: cls(**kw))
 
 

@@ -21,7 +21,8 @@ REGENERATE = "python -m cosnet.scene.reference > docs/scene_reference.md"
 _TYPES = {V.number: "number", V.positive: "number > 0", V.nonnegative: "number >= 0",
           V.vec3: "3 numbers", V.floats: "list of numbers", V.boolean: "true or false",
           V.string: "string", V.string_list: "list of strings", V.integer: "integer >= 1",
-          "node": "node name", "line": "line name", "lines": "list of line names"}
+          "node": "node name", "line": "line name", "lines": "list of line names",
+          "nodes": "list of node names"}
 
 
 def _type(conv) -> str:
