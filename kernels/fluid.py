@@ -105,7 +105,7 @@ def depth_factors(k, zs, d):
     return (e + r) / s, (e - r) / s
 
 
-@njit(**INNER)
+@njit(**INNER, inline="always")
 def medium_at(p, x, y, z, t):
     """Return (wet, U, A): whether point (x, y, z) is in the medium at time t (below the
     free surface, waves included), and the medium's velocity U and acceleration A there
