@@ -21,21 +21,28 @@ PAIRS_PER_ELEMENT = 4  # default friction-table capacity: touching pairs per ele
 MAX_NODE_GAP = 1e6  # exclusion factor at a node where two lines leave in the same direction
 
 
-def chosen_lines(sim, lines, who: str) -> list[Line]:
-    """The lines of sim an effect names (Line objects or names); None: all of them."""
-    if lines is None:
-        return list(sim.net.lines)
+def chosen_parts(sim, items, kind: str, who: str) -> list:
+    """The lines or nodes (``kind`` "line" or "node") of sim an effect names (the objects or
+    their names), each refused in one line unless it is the net's; None: all of them."""
+    parts = sim.net.lines if kind == "line" else sim.net.nodes
+    if items is None:
+        return list(parts)
+    find, check = (sim.net.line, sim.check_line) if kind == "line" else (sim.net.node, sim.check_node)
     out = []
-    for x in lines:
+    for x in items:
         if isinstance(x, str):
             try:
-                x = sim.net.line(x)
+                x = find(x)
             except KeyError:
-                have = [ln.name for ln in sim.net.lines]
-                raise ValueError(f"{who}: unknown line {x!r}; lines are {have}") from None
-        sim.check_line(x, who)
+                raise ValueError(f"{who}: unknown {kind} {x!r}; {kind}s are {[p.name for p in parts]}") from None
+        check(x, who)
         out.append(x)
     return out
+
+
+def chosen_lines(sim, lines, who: str) -> list[Line]:
+    """The lines of sim an effect names (Line objects or names); None: all of them."""
+    return chosen_parts(sim, lines, "line", who)
 
 
 def smallest_mass(sim, lines) -> float:

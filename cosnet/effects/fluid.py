@@ -11,7 +11,7 @@ import numpy as np
 from ..core import samples
 from ..engine.bounds import index_error
 from ..core import checks
-from .contact import chosen_lines
+from .contact import chosen_lines, chosen_parts
 from .drives import Drive
 from .loads import Gravity, checked_table
 from ..kernels.fluid import LINEAR, MORISON, FluidParams, sample_fluid
@@ -311,16 +311,7 @@ class Fluid(Effect):
 
     def _buoy_rows(self, on: Binding, rho: float, g: float, nn: int) -> dict:
         nodes, volume, area, added = self.buoys
-        found = []
-        for x in nodes:
-            if isinstance(x, str):
-                try:
-                    x = on.net.node(x)
-                except KeyError:
-                    raise ValueError(f"Fluid: unknown buoy node {x!r}; nodes are {[n.name for n in on.net.nodes]}") \
-                        from None
-            on.check_node(x, "Fluid")
-            found.append(x.index)
+        found = [nd.index for nd in chosen_parts(on, nodes, "node", "Fluid")]
         if len(set(found)) != len(found):
             raise ValueError("Fluid: a node is named twice in buoys")
         buoy = np.full(nn, -1, dtype=np.int64)
