@@ -234,3 +234,27 @@ def test_version_is_the_package_metadata(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--version"])
     assert e.value.code == 0 and capsys.readouterr().out.strip() == f"cosnet {version('cosnet')}"
+
+
+def test_bodies_and_obstacles_are_drawn_with_their_shapes(tmp_path):
+    """A static capsule (cases/capstan.toml's drum, start (0, -0.1, 0), end (0, 0.1, 0),
+    radius 0.1) is drawn where it is declared; a body's sphere (cases/net_catch.toml's ball,
+    radius 0.07) follows its node, frame by frame."""
+    from cosnet.output.render import Picture
+    for case in ("capstan", "net_catch"):
+        assert main(["run", str(REPO / "cases" / f"{case}.toml"), "--until", "0.02", "--out",
+                     str(tmp_path / case)]) == 0
+    ((drum, fixed),) = Picture(tmp_path / "capstan").shape_meshes(0)
+    assert fixed
+    # drawn as 32-sided spheres and cylinder: bounds within 1 % of the radius (the facets' chord)
+    np.testing.assert_allclose(drum.bounds, (-0.1, 0.1, -0.2, 0.2, -0.1, 0.1), atol=1e-3)
+    out = read_output(tmp_path / "net_catch")
+    picture = Picture(tmp_path / "net_catch")
+    ball = out.node_names.index("ball")
+    for k in (0, len(out.times) - 1):
+        ((sphere, fixed),) = picture.shape_meshes(k)
+        centre = out.frame(k)["nodes"]["position"][ball]
+        assert not fixed
+        # pyvista keeps points in single precision
+        np.testing.assert_allclose(np.reshape(sphere.bounds, (3, 2)).mean(axis=1), centre, atol=1e-6)
+        np.testing.assert_allclose(np.diff(np.reshape(sphere.bounds, (3, 2)), axis=1).ravel(), 0.14, rtol=1e-2)

@@ -230,6 +230,9 @@ class Body(Frictional):
         return float(np.max(np.linalg.norm(samples, axis=1) + srad))
 
     # ------------------------------------------------------------------ reports
+    def drawn_shapes(self) -> list:
+        return [self.geometry.geometry_record(self.node.index)]
+
     def deepest(self, sim) -> float:
         """The largest overlap met so far, as a fraction of the touching sphere's radius."""
         return float(self.params(sim).deepest[0])

@@ -291,6 +291,15 @@ class Obstacle(Frictional):
                 raise ValueError(f"{who}: needs file, or points and triangles")
             self.points, self.triangles = pts, orient_outwards(pts, tris, source)
 
+    def drawn_shapes(self) -> list:
+        return [self.geometry_record()]
+
+    def geometry_record(self, node: int | None = None) -> dict:
+        """Its geometry as plain lists (Effect.drawn_shapes), moving with ``node`` or fixed."""
+        return {"shape": self.shape, "node": node, "origin": self.origin.tolist(), "axis": self.axis.tolist(),
+                "size": self.size.tolist(), "rot": self.rot.tolist(), "points": self.points.tolist(),
+                "triangles": self.triangles.tolist()}
+
     # ------------------------------------------------------------------ binding
     def _lines(self, sim):
         return chosen_lines(sim, self.lines, self.who)

@@ -246,6 +246,14 @@ class Effect:
         a checkpoint saves and restores them with the state. Empty for most effects."""
         return {}
 
+    def drawn_shapes(self) -> list:
+        """The solid shapes it puts in the scene, for pictures (cosnet.output.render): each a
+        dict of "shape" (sphere, capsule, box, plane or mesh), "node" (the node index it moves
+        with, or None: fixed in the lab) and its geometry ("origin", "axis", "size", "rot",
+        "points", "triangles", in the node's frame about its reference point). Most effects
+        have none."""
+        return []
+
     def describe(self) -> str:
         return type(self).__name__
 

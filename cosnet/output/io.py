@@ -69,9 +69,10 @@ class SeriesWriter:
 
     ``write(sim)`` appends one frame at ``sim.time``. ``resume_after=k`` keeps the frames
     0..k of an existing series (and overwrites later ones) so a resumed run continues it.
+    ``shapes`` (the effects' Effect.drawn_shapes) go to meta.json for pictures.
     """
 
-    def __init__(self, directory, net, resume_after: int | None = None):
+    def __init__(self, directory, net, resume_after: int | None = None, shapes=()):
         self.dir = Path(directory)
         if self.dir.exists() and not self.dir.is_dir():
             raise ValueError(f"{self.dir}: exists and is not a directory")
@@ -91,7 +92,8 @@ class SeriesWriter:
         self._nodes_pts = np.zeros((len(net.nodes), 3))
         self._node_buf = {k: np.zeros((len(net.nodes), 3)) for k in NODE_FIELDS}
         meta = {"lines": [l.name for l in net.lines], "nodes": [n.name for n in net.nodes],
-                "vertices": counts, "node_mass": [str(n.mass) for n in net.nodes], "format": 1}
+                "vertices": counts, "node_mass": [str(n.mass) for n in net.nodes], "format": 1,
+                "shapes": list(shapes)}
         _atomic_write(self.dir / META, json.dumps(meta, ensure_ascii=False, indent=1))
         self.times: list[float] = []
         if resume_after is not None:
@@ -138,6 +140,11 @@ class SeriesWriter:
         # a generator: a list of every frame's entries, made anew per frame, grew the peak
         write_collection(self.dir / PVD, ((t, p, name) for k, t in enumerate(self.times)
                                           for p, name in enumerate(frame_files(k))))
+
+
+def drawn_shapes(sim) -> list:
+    """The solid shapes of sim's effects (Effect.drawn_shapes), for meta.json."""
+    return [shape for e in sim.effects for shape in e.drawn_shapes()]
 
 
 def write_collection(path: Path, datasets) -> None:

@@ -39,8 +39,8 @@ import numpy as np
 from ..core import checks
 from ..engine.registry import end_probe_owners
 from ..engine.registry import ACCOUNTS
-from .io import (ENERGY, ENERGY_COLUMNS, LINE_FIELDS, NODE_FIELDS, PROBES, PVD, SeriesWriter, node_point_fields,
-                 read_pvd, replace_atomically)
+from .io import (ENERGY, ENERGY_COLUMNS, LINE_FIELDS, NODE_FIELDS, PROBES, PVD, SeriesWriter, drawn_shapes,
+                 node_point_fields, read_pvd, replace_atomically)
 from ..kernels.compiler import in_cache
 from ..kernels.stepping import CHUNK_STEPS, steps_to
 
@@ -300,11 +300,11 @@ class Recorder:
             if self.k is None:
                 raise ValueError(f"{ckpt}: its time {sim.time!r} s is not an output frame of this run "
                                  f"(same scene and until needed to resume)")
-            self.writer = SeriesWriter(self.out, sim.net, resume_after=self.k)
+            self.writer = SeriesWriter(self.out, sim.net, resume_after=self.k, shapes=drawn_shapes(sim))
             keep_probe_rows(self.out / PROBES, self.header, self.k)
             keep_probe_rows(self.out / ENERGY, energy_header(), self.k)
         else:
-            self.writer = SeriesWriter(self.out, sim.net)
+            self.writer = SeriesWriter(self.out, sim.net, shapes=drawn_shapes(sim))
             (self.out / PROBES).write_text(self.header)
             (self.out / ENERGY).write_text(energy_header())
             self.k = -1

@@ -1,7 +1,8 @@
 """Off-screen pictures of a written series (``cosnet render``): the lines as tubes of their
 real radii (the ``radius`` point field, with a minimum visible size) coloured by the
 magnitude of a point field over one colour range for every frame, rigid-body nodes as
-spheres with their frames (d1 red, d2 green, d3 blue), fixed nodes as cubes, the time, the
+spheres with their frames (d1 red, d2 green, d3 blue), fixed nodes as cubes, bodies and
+obstacles with their shapes (meta.json's "shapes", Effect.drawn_shapes), the time, the
 quantity and its unit on the colour bar, an axes triad and a length scale. ``warp``
 exaggerates the motion from the first frame (the rest shape of a run built stress free, or
 of a mode series). Works on a run directory (``series.pvd``) and on the mode series written
@@ -50,6 +51,7 @@ class _RunSeries:
         self.times = self.out.times
         meta = json.loads((self.dir / "meta.json").read_text())
         self.node_mass = np.array([float(m) for m in meta.get("node_mass", ["0"] * len(self.out.node_names))])
+        self.shapes = meta.get("shapes", [])   # the effects' solid shapes (Effect.drawn_shapes)
         self.counts = list(self.out.vertices)
         self.fields = LINE_FIELDS
         pd = meshio.read(self.dir / frame_files(0)[0]).point_data if len(self.times) else {}
@@ -87,6 +89,7 @@ class _ModeSeries:
         self._on_line = lid >= 0
         self.counts = [int(c) for c in np.bincount(lid[self._on_line])] if self._on_line.any() else []
         self.node_mass = np.zeros(int((~self._on_line).sum()))
+        self.shapes: list = []   # a mode series carries no bodies' or obstacles' shapes
         self.fields = ("displacement",)
 
     def frame(self, k):
@@ -193,6 +196,22 @@ class Picture:
         self._depth_cue = False
         self._scale = min(window_size[0] / 1024, window_size[1] / 768)
 
+    def shape_meshes(self, k) -> list:
+        """(mesh, fixed) of each solid shape of the run's effects in frame k: a body's placed
+        by its node's reference point (warped as the nodes are) and frame, a static obstacle's
+        as declared (a plane as a square across the scene)."""
+        shapes = self.series.shapes
+        if not shapes:
+            return []
+        _, _, nodes, frames = self.series.frame(k)
+        x = self.warped(nodes, self.ref_nodes)
+        out = []
+        for s in shapes:
+            nd = s["node"]
+            place, turn = (np.zeros(3), np.eye(3)) if nd is None else (x[nd], frames[nd])
+            out.append((shape_mesh(self.pv, s, place, turn, self.box, 1.2 * self.size), nd is None))
+        return out
+
     def _font(self, points: int) -> int:
         """A font size that keeps its share of a window smaller or larger than 1024 x 768."""
         return max(6, round(points * self._scale))
@@ -255,6 +274,10 @@ class Picture:
             title = p.add_text(self.title, position=(w // 2, int(0.02 * h + 0.09 * h) + 4),
                                font_size=self._font(12), color="black")
             title.GetTextProperty().SetJustificationToCentered()
+        for (mesh, fixed), s in zip(self.shape_meshes(k), self.series.shapes):
+            # static obstacles see-through (a plane, the lightest, behind the net it carries)
+            opacity = 1.0 if not fixed else 0.2 if s["shape"] == "plane" else 0.4
+            p.add_mesh(mesh, color="lightgray" if fixed else "tan", opacity=opacity, smooth_shading=True)
         x = self.warped(nodes, self.ref_nodes)
         r = 2.5 * self.min_radius
         for i, m in enumerate(self.series.node_mass):
@@ -328,6 +351,40 @@ class Picture:
         reach = np.abs(hom[:, :2] / hom[:, 3:]).max(axis=0)
         p.camera.zoom(float(min(0.9 / max(reach[0], 1e-9), 0.64 / max(reach[1], 1e-9))))
         self._camera = p.camera_position
+
+
+def shape_mesh(pv, s: dict, x, r, box, span: float):
+    """The pyvista mesh of shape record ``s`` (Effect.drawn_shapes) whose frame is at x (3,)
+    turned by r (3, 3, columns its axes in the lab); a plane drawn as a square of side
+    ``span`` about the point of it nearest the centre of ``box``."""
+    def place(p):
+        return x + r @ np.asarray(p, float)
+    kind, size = s["shape"], s["size"]
+    if kind == "sphere":
+        return pv.Sphere(radius=size[0], center=place(s["origin"]), theta_resolution=32, phi_resolution=32)
+    if kind == "capsule":
+        a, b = place(s["origin"]), place(s["axis"])
+        ends = pv.Sphere(radius=size[0], center=a).merge(pv.Sphere(radius=size[0], center=b))
+        length = float(np.linalg.norm(b - a))
+        if length == 0.0:
+            return ends
+        return ends.merge(pv.Cylinder(center=(a + b) / 2, direction=b - a, radius=size[0], height=length,
+                                      resolution=32, capping=False))
+    if kind == "box":
+        h = size
+        mesh = pv.Box(bounds=(-h[0], h[0], -h[1], h[1], -h[2], h[2]))
+        m = np.eye(4)
+        m[:3, :3] = r @ np.asarray(s["rot"], float).T     # the box's axes: columns of rot^T in the node frame
+        m[:3, 3] = place(s["origin"])
+        return mesh.transform(m, inplace=False)
+    if kind == "plane":
+        n = r @ np.asarray(s["axis"], float)
+        o = place(s["origin"])
+        centre = np.mean(np.asarray(box, float), axis=0)
+        return pv.Plane(center=centre - ((centre - o) @ n) * n, direction=n, i_size=span, j_size=span)
+    points = np.array([place(p) for p in s["points"]]).reshape(-1, 3)
+    faces = np.column_stack([np.full(len(s["triangles"]), 3), np.asarray(s["triangles"], int).reshape(-1, 3)])
+    return pv.PolyData(points, faces=faces.ravel())
 
 
 def _movie_check(kind: str):

@@ -49,7 +49,7 @@ def run_probes(scene, until: float | None = None, threads: int | None = None,
     (instability, a refused dt, ...) ends the record early with its message as the status;
     frames not reached stay NaN. With ``vtk`` (a directory), each frame is also written there
     as a VTK series (cosnet.output.io.SeriesWriter: series.pvd, frames, meta.json)."""
-    from ..output.io import SeriesWriter
+    from ..output.io import SeriesWriter, drawn_shapes
     plan = schedule(scene, until)
     frames = plan.frames
     probes = scene.run.probes
@@ -62,7 +62,7 @@ def run_probes(scene, until: float | None = None, threads: int | None = None,
     try:
         sim = scene.simulation() if threads is None else scene.simulation(threads=threads)
         out.dt = plan.fit_step(sim)
-        writer = None if vtk is None else SeriesWriter(vtk, scene.net)
+        writer = None if vtk is None else SeriesWriter(vtk, scene.net, shapes=drawn_shapes(sim))
         for k in range(frames + 1):
             if k:
                 advance_to(sim, plan.time(k))
