@@ -4,8 +4,9 @@
                                                              run a scene, writing a VTK series
     cosnet info SCENE                                        net size, mass, stable dt, effects
     cosnet modes SCENE [--count K] [--out DIR] [--analytic]  normal modes: spectrum, VTK shapes
-    cosnet render DIR [--png|--gif|--mp4] [--field NAME] [--clim LO HI] [--view V] [--warp F]
+    cosnet render DIR [--png|--gif|--mp4|--html] [--field NAME] [--clim LO HI] [--view V] [--warp F]
                                                              pictures of a run or of modes
+    cosnet view DIR [--port P] [--no-browser]                the run's page (--html) on localhost
     cosnet plot DIR [PROBE ...] [--energy] [--output FILE]   probes and energy budget over time
     cosnet accuracy SCENE [--tol E] [--window T] [--probe P]  error and cost of refinements
     cosnet sweep SCENE [--vary KEY=VALUES] [--vtk] [--resume|--overwrite]
@@ -233,7 +234,7 @@ def cmd_render(args) -> int:
 
     from .output import outdir
     from .output.render import choose, render
-    kind = "gif" if args.gif else "mp4" if args.mp4 else "png"
+    kind = "gif" if args.gif else "mp4" if args.mp4 else "html" if args.html else "png"
     src = Path(args.dir)
     # a picture written into a run's directory is a write: not while a run or sweep holds it
     # (--output elsewhere renders the frames written so far)
@@ -241,6 +242,11 @@ def cmd_render(args) -> int:
             else contextlib.nullcontext())
     with held:
         field, frame, why = args.field, args.frame, None
+        if kind == "html":
+            from .output.webpage import write_html
+            print(write_html(args.dir, output=args.output, every=args.every, min_radius=args.min_radius,
+                             mode=args.mode))
+            return 0
         if kind == "png" and (field is None or frame is None):
             field, frame, why = choose(args.dir, field, frame, args.mode)
         path = render(args.dir, kind=kind, field=field, output=args.output, frame=frame,
@@ -249,6 +255,32 @@ def cmd_render(args) -> int:
     if why:
         print(f"frame {frame}, coloured by {field}: {why}", file=sys.stderr)
     print(path)
+    return 0
+
+
+def cmd_view(args) -> int:
+    """Serve the run's page (written first if it is missing or older than the series) on
+    localhost until interrupted."""
+    import contextlib
+
+    from .output import outdir
+    from .output.io import PVD
+    from .output.webpage import PAGE, serve, write_html
+    src = Path(args.dir)
+    if not (src / PVD).exists() and not sorted(src.glob("mode_*.pvd")):
+        raise ValueError(f"{src}: not a cosnet output directory (no {PVD} or mode_JJ.pvd)")
+    page = src / PAGE
+    series = src / PVD if (src / PVD).exists() else sorted(src.glob("mode_*.pvd"))[0]
+    if not page.exists() or page.stat().st_mtime < series.stat().st_mtime:
+        with outdir.locked(src, "view") if (src / outdir.LOCK).exists() else contextlib.nullcontext():
+            write_html(src)
+    try:
+        serve(src, port=args.port, browser=not args.no_browser,
+              ready=lambda url: print(f"serving {url} (Ctrl-C stops)", flush=True))
+    except OSError as e:
+        raise ValueError(f"--port {args.port}: {e.strerror or e}") from None
+    except KeyboardInterrupt:
+        pass
     return 0
 
 
@@ -387,13 +419,15 @@ def parser() -> argparse.ArgumentParser:
     g.add_argument("--png", action="store_true", help="one picture (default: the last frame)")
     g.add_argument("--gif", action="store_true", help="an animated GIF (needs the movie extra)")
     g.add_argument("--mp4", action="store_true", help="an MP4 movie (needs the movie extra)")
+    g.add_argument("--html", action="store_true",
+                   help="one self-contained web page: 3-D view, time slider, colour menu (default DIR/view.html)")
     v.add_argument("--field", help="line field to colour by, as its magnitude (displacement is from the "
                                    "first frame; default velocity, or for a picture where velocity "
                                    "hardly varies, displacement)")
     v.add_argument("--frame", type=int, help="frame for --png, -1 the last (default: the frame where the lines "
                                              "are farthest from frame 0; a mode at a quarter period)")
-    v.add_argument("--every", type=_positive_int, default=1, help="use every n-th frame for --gif/--mp4")
-    v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4)")
+    v.add_argument("--every", type=_positive_int, default=1, help="use every n-th frame for --gif/--mp4/--html")
+    v.add_argument("--output", help="file to write (default: DIR/render.png|gif|mp4, DIR/view.html)")
     v.add_argument("--clim", type=float, nargs=2, metavar=("LO", "HI"),
                    help="colour range (default: the field's range over all frames)")
     v.add_argument("--view", default="iso", help="iso, xy, xz, yz or AZIMUTH,ELEVATION in degrees")
@@ -404,6 +438,10 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--size", type=int, nargs=2, default=(1024, 768), metavar=("W", "H"),
                    help="picture size in pixels (default 1024 768)")
     v.add_argument("--mode", type=int, help="mode J of a `cosnet modes` directory (default: 0)")
+    w = sub.add_parser("view", help="serve a run's page (render --html) on localhost and open it")
+    w.add_argument("dir", help="output directory of `cosnet run` or `cosnet modes`")
+    w.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (default: any free one)")
+    w.add_argument("--no-browser", action="store_true", help="serve without opening a browser")
     pl = sub.add_parser("plot", help="plot a run's probes and its energy budget over time")
     pl.add_argument("dir", help="output directory of `cosnet run`")
     pl.add_argument("probes", nargs="*", help="probes to plot, as named in [run] probes (default: all)")
@@ -478,7 +516,7 @@ def main(argv=None) -> int:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return {"run": cmd_run, "compile": cmd_compile, "info": cmd_info, "modes": cmd_modes, "render": cmd_render,
-                "plot": cmd_plot, "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
+                "plot": cmd_plot, "view": cmd_view, "accuracy": cmd_accuracy, "sweep": cmd_sweep}[args.command](args)
     except ValueError as e:
         origin = _raised_outside(e)
         if origin:    # not a refusal of cosnet's: a library's own error reached the command

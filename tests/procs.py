@@ -71,3 +71,20 @@ def wait_until(predicate, timeout: float, every: float = 0.05) -> bool:
             return True
         time.sleep(every)
     return bool(predicate())
+
+
+def served_page(args, timeout=60.0) -> tuple[str, str]:
+    """(address, text) of the page that ``cosnet view ARGS --no-browser`` serves; the server
+    is stopped before this returns."""
+    import sys
+    import urllib.request
+    command = "import sys; from cosnet.cli import command; sys.exit(command())"
+    with started([sys.executable, "-c", command, "view", *args, "--no-browser"],
+                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
+        line = proc.stdout.readline()
+        if not line.startswith("serving http://127.0.0.1:"):
+            proc.kill()
+            raise AssertionError(f"cosnet view {' '.join(map(str, args))}: {line!r} {proc.stderr.read()!r}")
+        url = line.split()[1]
+        with urllib.request.urlopen(url, timeout=timeout) as r:
+            return url, r.read().decode()

@@ -14,6 +14,7 @@ import pytest
 from cosnet.cli import main
 from cosnet.core.samples import cantilever_scene
 from cosnet.output.io import read_output
+from procs import served_page
 
 REPO = Path(__file__).resolve().parents[1]
 # a cantilever sagging and swinging under gravity (G = E / (2 (1 + 0.3)))
@@ -218,6 +219,10 @@ def test_docs_commands_run(tmp_path, monkeypatch):
             argv = shlex.split(line)
             assert argv[0] == "cosnet"
             if ("--gif" in argv or "--mp4" in argv) and not movies:
+                continue
+            if argv[1] == "view":           # serves until stopped: fetch its page, then stop it
+                assert "window.cosnetView" in served_page(argv[2:])[1]
+                ran += 1
                 continue
             assert main(argv[1:]) == 0, line
             if "--output" in argv:
