@@ -38,8 +38,10 @@ def draw(case: Path, scratch: Path) -> dict:
     from cosnet.scene.loader import load_scene
     out = scratch / case.stem
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "import sys; from cosnet.cli import command; sys.exit(command())",
-                    "run", str(case), "--out", str(out)], check=True, stdout=subprocess.DEVNULL)
+    done = subprocess.run([sys.executable, "-c", "import sys; from cosnet.cli import command; sys.exit(command())",
+                           "run", str(case), "--out", str(out)], capture_output=True, text=True)
+    if done.returncode:
+        raise SystemExit(f"cosnet run {case.stem} failed: {done.stderr.strip().splitlines()[-1:]}")
     ran = time.perf_counter() - t0
     opts = OPTIONS.get(case.stem, {})
     field, frame, why = choose(out, opts.get("field"), None)

@@ -226,6 +226,23 @@ def measured_on(m: dict, extra: str = "") -> str:
     return f"\nMeasured on {where}{load}{extra}, commit {m.get('commit', 'unknown')}.\n"
 
 
+SEEN = {"iso": "", "xy": ", seen along z", "xz": ", seen along y", "yz": ", seen along x"}
+
+
+def gallery() -> str:
+    """docs/cases.md's gallery: each case's picture and GIF, with what they show."""
+    d = _json("gallery.json")
+    out = []
+    for r in d["rows"]:
+        seen = SEEN.get(r["view"], f", seen from {r['view']}")
+        every = "every frame" if r["gif_every"] == 1 else f"every {r['gif_every']} frames"
+        out.append(f"**{r['case']}** — {r['title']}\n\n"
+                   f"![{r['title']}: cosnet run {r['case']} at {_g(r['time'], 3)} s of {_g(r['until'], 3)} s, "
+                   f"coloured by {r['field']}{seen}](cases/{r['case']}.png)\n"
+                   f"![{r['title']}: the whole run, {every}](cases/{r['case']}.gif)\n")
+    return "\n".join(out) + f"\nDrawn by `{d['command']}` on commit {d['machine'].get('commit', 'unknown')}.\n"
+
+
 def soak() -> str:
     d = _json("soak.json")
     rows = [[r["case"], f"{r['steps']:,}", str(r["frames"]), f"{r['wall_s']:.0f}",
@@ -393,7 +410,7 @@ TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
-          "cosseratbench": cosseratbench}
+          "cosseratbench": cosseratbench, "gallery": gallery}
 
 
 def render(page: Path, namespace: dict | None = None) -> str:
