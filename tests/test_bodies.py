@@ -143,13 +143,26 @@ def resting(shape, frame, height, **geometry):
 
 def test_a_box_and_a_capsule_rest_on_their_corners_and_ends():
     """A box turned by its node's frame (its 5 cm half side vertical) and set off the node's
-    reference point rests on its four lower corners; a capsule on its two end spheres: the
-    centre sinks by the weight's share of each contact over k."""
+    reference point rests on its four lower corners, tilted; a capsule on its two end spheres.
+
+    The box's corners stand at x_i = 0.02 -/+ 0.1 from the centre of mass (the node). Tilted by
+    phi about y, corner i is pressed delta_i = delta0 + phi x_i into the floor (delta0 the node's
+    sink); its spring pushes k delta_i. Force balance sum k delta_i = W and moment balance
+    sum k delta_i x_i = 0 give phi = -delta0 S1 / S2 and delta0 = W / (k (4 - S1^2 / S2)) with
+    S1 = sum x_i, S2 = sum x_i^2: the nearer corners carry more, the box leans towards them.
+    Left out: second order in phi (phi ~ 5e-5: 1e-9 relative) and the dashpot's transient
+    (near-critical, 0.3 s = 30 periods of the 100 Hz bounce)."""
     turn = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])   # node y -> lab z
     sim, node, body = resting("box", turn, 0.05, half_size=(0.1, 0.05, 0.02), center=(0.02, 0.0, 0.0))
     assert body.active_contacts(sim) == 4
-    assert sim.node_position(node)[2] == pytest.approx(0.05 - MASS * G / (4 * 1e5), abs=2e-6)
-    np.testing.assert_allclose(sim.node_rotation(node), turn, atol=1e-4)
+    x = np.array([-0.08, -0.08, 0.12, 0.12])
+    s1, s2, k, w = x.sum(), (x ** 2).sum(), 1e5, MASS * G
+    delta0 = w / (k * (4 - s1 ** 2 / s2))
+    phi = -delta0 * s1 / s2
+    assert 0.05 - sim.node_position(node)[2] == pytest.approx(delta0, rel=1e-4)
+    tilt = sim.node_rotation(node) @ turn.T          # the turn since the box was set down
+    assert tilt[0, 2] == pytest.approx(phi, rel=1e-3)
+    np.testing.assert_allclose(tilt[[1, 1, 0, 2], [0, 2, 1, 1]], 0.0, atol=1e-3 * abs(phi))
     sim, node, body = resting("capsule", np.eye(3), 0.03, start=(-0.1, 0.0, 0.0), end=(0.1, 0.0, 0.0), radius=0.03)
     assert body.active_contacts(sim) == 2
     assert sim.node_position(node)[2] == pytest.approx(0.03 - MASS * G / (2 * 1e5), abs=1e-7)
