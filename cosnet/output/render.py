@@ -313,10 +313,16 @@ class Picture:
         a = np.array([lo[0], front[1], lo[2]]) if axis == 0 else np.array([front[0], lo[1], lo[2]])
         b = a.copy()
         b[axis] += length
-        self.plotter.add_ruler(a, b, number_labels=2, title=f"{length:g} m",
-                               label_format="%.0f" if length >= 1 else "%.2g",
-                               font_size_factor=0.7, tick_color="black", label_color="black",
-                               show_labels=False)
+        self.plotter.add_ruler(a, b, number_labels=2, title="", font_size_factor=0.7, tick_color="black",
+                               label_color="black", show_labels=False)
+        # the length as a label of its own, hung below the ruler's middle on the side away from
+        # the scene: the ruler's own title sits on its line once its tick labels are hidden
+        out = np.zeros(3)
+        out[1 - axis] = 1.0 if d[1 - axis] >= 0 else -1.0
+        self.plotter.add_point_labels([(a + b) / 2 + 0.02 * self.size * out], [f"{length:g} m"],
+                                      font_size=self._font(16), text_color="black", shape=None,
+                                      show_points=False, always_visible=True, bold=False,
+                                      justification_horizontal="center", justification_vertical="top")
 
     def _view_direction(self) -> np.ndarray:
         """Unit vector from the scene towards the camera."""
