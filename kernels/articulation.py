@@ -18,7 +18,8 @@ bending torque of the boundary point on G (3.22), the generalised torque
 (springs k, tables T of torque against angle, dampers d, phi^- the coordinates at the previous
 evaluation, dt before it) equals the friction torque: zero without friction, the kinetic torque
 against the motion while a coordinate slides; a coordinate sticks (phi_i = phi_i^-) while |Q_i(phi^-)| stays within the
-static torque (the kinetic one once sliding), and a limit holds phi_i in [lower_i, upper_i] (a
+static torque (the kinetic one once sliding) (a ball joint's friction is one torque on its rotation
+as a whole: start_turning), and a limit holds phi_i in [lower_i, upper_i] (a
 ball joint's cone holds the angle of G's d3 from X's within it).
 Without dampers and friction phi minimises the boundary bending energy plus the springs', so
 the loads are the exact gradient of that energy minimised over the joint (the envelope
@@ -170,6 +171,37 @@ def start_motion(p, j, i, torque, prev, dt):
     return True, math.copysign(p.kinetic[j, i], q0)
 
 
+@njit(**INNER)
+def start_turning(p, j, model, state, prev, dt):
+    """Return (moves, f0, f1, f2) of ball joint j at phi^- = prev: whether it may turn in this
+    evaluation and the friction's generalised torques f_i = c_i . F on its coordinates. A ball
+    joint's friction is one torque F on its rotation as a whole, not one per coordinate: the
+    joint sticks while the torque T it carries (in G's components, C^T T = q with q_i the
+    coordinates' generalised torques at phi^-, C's columns their axes c_i) stays within the
+    static torque (the kinetic one once turning), and turns against F = kinetic T / |T|."""
+    r, c0, c1, c2 = joint_turn(p, j, prev)
+    tau = boundary_torques(p, j, model, state, r)[0]
+    q0 = dot3(c0, tau) - p.stiffness[j, 0] * (prev[0] - p.rest[j, 0]) - spring_table(p, j, 0, prev[0])[0]
+    q1 = dot3(c1, tau) - p.stiffness[j, 1] * (prev[1] - p.rest[j, 1]) - spring_table(p, j, 1, prev[1])[0]
+    q2 = dot3(c2, tau) - p.stiffness[j, 2] * (prev[2] - p.rest[j, 2]) - spring_table(p, j, 2, prev[2])[0]
+    # T = (q0 (c1 x c2) + q1 (c2 x c0) + q2 (c0 x c1)) / det C (Cramer's rule)
+    a = cross(c1[0], c1[1], c1[2], c2[0], c2[1], c2[2])
+    b = cross(c2[0], c2[1], c2[2], c0[0], c0[1], c0[2])
+    c = cross(c0[0], c0[1], c0[2], c1[0], c1[1], c1[2])
+    det = dot3(c0, a)
+    tx = (q0 * a[0] + q1 * b[0] + q2 * c[0]) / det
+    ty = (q0 * a[1] + q1 * b[1] + q2 * c[1]) / det
+    tz = (q0 * a[2] + q1 * b[2] + q2 * c[2]) / det
+    size = math.sqrt(tx * tx + ty * ty + tz * tz)
+    turning = p.sliding[j, 0] + p.sliding[j, 1] + p.sliding[j, 2] != 0.0
+    limit = p.kinetic[j, 0] if turning else p.static[j, 0]
+    held = (p.damping[j, 0] + p.damping[j, 1] + p.damping[j, 2]) > 0.0 and not dt > 0.0
+    if not size > limit or held:
+        return False, 0.0, 0.0, 0.0
+    k = p.kinetic[j, 0] / size
+    return True, k * q0, k * q1, k * q2
+
+
 @njit(**INLINE)
 def table_segment(p, a0, a1, x):
     """Return (k, T, dT/dphi) at angle x of the spring table in p.table_angle / table_torque
@@ -280,6 +312,9 @@ def settle_joint(p, j, model, state, dt):
     n = p.dofs[j]
     if free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
+    elif n == BALL:
+        m0, f0, f1, f2 = start_turning(p, j, model, state, prev, dt)
+        m1, m2 = m0, m0
     else:
         r, c0, c1, c2 = joint_turn(p, j, prev)
         tau = boundary_torques(p, j, model, state, r)[0]
@@ -340,10 +375,10 @@ def add_articulations(p, model, state, loads):
             turned = phi[i] - p.phi[j, i]
             if moves[i] and dt > 0.0:
                 spent += p.damping[j, i] * turned * turned / dt
-            spent += abs(fric[i] * turned)
+            spent += fric[i] * turned     # the friction's work: it turns with the motion
             p.rate[j, i] = turned / dt if dt > 0.0 else 0.0
             p.phi[j, i] = phi[i]
-            p.sliding[j, i] = 1.0 if moves[i] and fric[i] != 0.0 else 0.0
+            p.sliding[j, i] = 1.0 if moves[i] and p.kinetic[j, i] != 0.0 else 0.0
     p.dissipated[0] += spent
 
 

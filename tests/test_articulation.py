@@ -451,3 +451,56 @@ def test_spring_table_gives_its_torque_and_stores_its_energy():
     assert abs(sim.energy() / e0 - 1.0) < 1e-3
     with pytest.raises(ValueError, match="spring_table's angles must increase"):
         cosnet.Hinge(spring_table=([0.0, 0.0], [0.0, 1.0]))
+
+
+def ball_arm(d1, friction):
+    """horizontal_arm's arm (1 m along x, gravity -z) on a ball joint with ``friction``, its
+    first director d1 (the joint's coordinates are the rotation vector in the end's frame as
+    built: d1 = y puts the weight's moment on one coordinate, d1 at 45 deg about x splits it
+    equally between two). Returns (sim, line, moment of the weight about the pivot)."""
+    net = cosnet.Net()
+    pivot = net.add_node((0.0, 0.0, 0.0), fixed=True, name="pivot")
+    tip = net.add_node((1.0, 0.0, 0.0), name="tip")
+    arm = net.add_line(pivot, tip, material=STIFF, section=SECTION, elements=10, d1=d1, name="arm",
+                       start_joint=cosnet.Ball(friction=friction))
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, -G))])
+    return sim, arm, G * (sim.model.vertex_mass * sim.state.x[:, 0]).sum()
+
+
+SPLIT = (0.0, math.sqrt(0.5), math.sqrt(0.5))
+
+
+def test_ball_joint_friction_is_one_torque_whatever_the_coordinates():
+    """A ball joint's friction resists its rotation as a whole: the arm falls the same with
+    its weight's moment on one coordinate or split between two (a friction per coordinate
+    would meet it with sqrt(2) times the torque in the split case), and what friction takes is
+    the kinetic torque times the angle turned."""
+    _, _, moment = ball_arm((0.0, 1.0, 0.0), (0.0, 0.0))
+    kinetic = 0.4 * moment
+    runs = []
+    for d1 in ((0.0, 1.0, 0.0), SPLIT):
+        sim, arm, _ = ball_arm(d1, (0.5 * moment, kinetic))
+        e0 = sim.energy()
+        sim.run(until=0.15)
+        angle = np.linalg.norm(cosnet.joint_state(sim, arm)["angle"])
+        assert angle > 0.02                                   # it slid
+        assert abs(sim.dissipated() / (kinetic * angle) - 1.0) < 1e-2
+        assert abs(sim.energy() + sim.dissipated() - e0) < 1e-2 * sim.dissipated()
+        runs.append((sim.state.x.copy(), sim.dissipated()))
+    (x1, w1), (x2, w2) = runs
+    np.testing.assert_allclose(x2, x1, rtol=0, atol=1e-9)     # round-off of two frames, 1 m arm
+    assert w2 == pytest.approx(w1, rel=1e-7)
+
+
+def test_ball_joint_friction_holds_below_its_static_torque_in_any_direction():
+    _, _, moment = ball_arm(SPLIT, (0.0, 0.0))
+    # released at rest the arm rings: its root moment reaches about twice the static one
+    sim, arm, _ = ball_arm(SPLIT, (2.5 * moment, 2.0 * moment))
+    sim.run(until=0.1)
+    assert np.all(cosnet.joint_state(sim, arm)["angle"] == 0.0) and sim.dissipated() == 0.0
+
+
+def test_ball_joint_friction_is_one_pair_of_torques():
+    with pytest.raises(ValueError, match="one static and one kinetic torque") as e:
+        cosnet.Ball(friction=((1.0, 2.0, 1.0), 0.5))
+    assert "\n" not in str(e.value)

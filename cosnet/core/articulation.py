@@ -13,7 +13,8 @@ joint). Per coordinate (one for a hinge, two for a universal joint, three for a 
 its rotation vector in the line end's frame as built): a spring ``stiffness`` (N m/rad) about
 ``rest`` (rad) or a ``spring_table`` = (angles, torques) of the torque resisting each angle
 (piecewise linear, its end segments carried on), a damper ``damping`` (N m s/rad), Coulomb
-``friction`` = (static, kinetic) torques (N m) that stick, and ``limits`` = (lower, upper)
+``friction`` = (static, kinetic) torques (N m) that stick (a ball joint's: one pair, resisting
+its rotation as a whole), and ``limits`` = (lower, upper)
 (rad) a coordinate cannot leave (a ball joint: ``cone``, the largest angle its line end's axis
 may turn from where it was built). A number applies to every coordinate, a list gives one
 per coordinate. The joint's relative rotation is restricted exactly (kernels/articulation.py),
@@ -194,6 +195,10 @@ class Ball(Joint):
     def __init__(self, cone=None, **kw):
         if kw.get("limits") is not None:
             raise ValueError("Ball: limits are per axis; a ball joint takes a cone (its largest tilt, rad)")
+        friction = kw.get("friction", (0.0, 0.0))
+        if isinstance(friction, (list, tuple)) and any(isinstance(v, (list, tuple, np.ndarray)) for v in friction):
+            raise ValueError(f"Ball: friction acts on the joint's rotation as a whole: give one static and one "
+                             f"kinetic torque (N m), got friction = {friction!r}")
         super().__init__(**kw)
         if cone is not None:
             c = checks.number(self.who, "cone", cone)
