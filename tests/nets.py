@@ -49,3 +49,11 @@ def write_sweep_scene(path, E="2.1e11", V="0.0", T="0.012"):
     """The tiny cantilever of the sweep tests (4 elements, a few hundred steps) at ``path``."""
     path.write_text(cantilever_scene("tiny cantilever", E=E, rest=SWEEP_REST.format(V=V, T=T)))
     return path
+
+
+def written_run(directory, scene: str):
+    """The output directory of `cosnet run` on ``scene`` (TOML text) written in ``directory``."""
+    from cosnet.cli import main
+    (directory / "scene.toml").write_text(scene)
+    assert main(["run", str(directory / "scene.toml"), "--out", str(directory / "out")]) == 0
+    return directory / "out"

@@ -14,6 +14,7 @@ import pytest
 from cosnet.cli import main
 from cosnet.core.samples import cantilever_scene
 from cosnet.output.io import read_output
+from nets import written_run
 from procs import served_page
 
 REPO = Path(__file__).resolve().parents[1]
@@ -30,10 +31,7 @@ def _no_display(monkeypatch):
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    d = tmp_path_factory.mktemp("render")
-    (d / "rod.toml").write_text(ROD)
-    assert main(["run", str(d / "rod.toml"), "--out", str(d / "out")]) == 0
-    return d / "out"
+    return written_run(tmp_path_factory.mktemp("render"), ROD)
 
 
 def magnitudes(out, field, frames):

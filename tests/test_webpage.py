@@ -18,6 +18,7 @@ from cosnet.cli import main
 from cosnet.core.samples import cantilever_scene
 from cosnet.output.io import read_output
 from cosnet.output.webpage import page_data, write_html
+from nets import written_run
 from procs import served_page
 
 REPO = Path(__file__).resolve().parents[1]
@@ -36,10 +37,7 @@ def decode(text, dtype=np.float32):
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    d = tmp_path_factory.mktemp("page")
-    (d / "rod.toml").write_text(ROD)
-    assert main(["run", str(d / "rod.toml"), "--out", str(d / "out")]) == 0
-    return d / "out"
+    return written_run(tmp_path_factory.mktemp("page"), ROD)
 
 
 def test_the_page_holds_the_runs_positions_radii_and_field_magnitudes(run):
