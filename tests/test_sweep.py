@@ -5,13 +5,14 @@ Clusters here are real: a LocalCluster of two worker processes, and a `dask sche
 few hundred steps) so that the whole file stays short.
 """
 
+import json
 import os
 import re
 import shlex
 import signal
-import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -209,27 +210,35 @@ def test_ensemble_spreads_the_seeded_perturbation(tmp_path, client):
 
 
 # ---------------------------------------------------------------------- a scheduler at an address
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def dask_exe():
     return str(Path(sys.executable).with_name("dask"))
+
+
+def listening(proc, file: Path, log: Path, timeout=120.0) -> str:
+    """The address the scheduler ``proc`` wrote to its scheduler file once it listened. It
+    picks its own port: a port picked here and handed over could be taken by another process
+    (a browser, a page server, another test's worker) before the scheduler binds it."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError(f"dask scheduler exited: {log.read_text()[-600:]}")
+        try:
+            return json.loads(file.read_text())["address"]
+        except (OSError, ValueError, KeyError):   # not written yet, or half written
+            time.sleep(0.1)
+    raise TimeoutError(f"dask scheduler did not listen within {timeout:g} s: {log.read_text()[-600:]}")
 
 
 @pytest.fixture(scope="module")
 def scheduler(tmp_path_factory):
     """(address, [worker processes]) of a `dask scheduler` and two `dask worker` processes
     without nannies (a killed worker stays dead), all killed with the test process."""
-    port = free_port()
-    addr = f"tcp://127.0.0.1:{port}"
     log = tmp_path_factory.mktemp("dask")
-    procs = [spawn([dask_exe(), "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                    "--dashboard-address", "127.0.0.1:0"], stdout=subprocess.DEVNULL,
-                   stderr=open(log / "scheduler.log", "w"))]
+    procs = [spawn([dask_exe(), "scheduler", "--host", "127.0.0.1", "--port", "0",
+                    "--scheduler-file", str(log / "scheduler.json"), "--dashboard-address", "127.0.0.1:0"],
+                   stdout=subprocess.DEVNULL, stderr=open(log / "scheduler.log", "w"))]
     try:
+        addr = listening(procs[0], log / "scheduler.json", log / "scheduler.log")
         workers = [spawn([dask_exe(), "worker", addr, "--nthreads", "1", "--no-nanny", "--death-timeout", "60",
                           "--host", "127.0.0.1", "--dashboard-address", "127.0.0.1:0", "--name", f"w{i}"],
                          stdout=subprocess.DEVNULL, stderr=open(log / f"w{i}.log", "w"))
