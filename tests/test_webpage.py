@@ -80,6 +80,25 @@ def test_a_bodys_shape_follows_its_node_in_the_page(tmp_path):
         np.testing.assert_allclose(place[k, :, 1], nodes["d1"][ball["node"]], atol=1e-6)
 
 
+def test_a_modes_page_holds_the_mode_shape(tmp_path):
+    """`cosnet modes` writes each mode as a series over one period; its page (mode_JJ.html,
+    as its picture is named) holds those frames, coloured by the displacement."""
+    import meshio
+    assert main(["modes", "cantilever", "--count", "2", "--frames", "4", "--out", str(tmp_path)]) == 0
+    assert main(["render", str(tmp_path), "--html", "--mode", "1"]) == 0
+    assert (tmp_path / "mode_01.html").exists() and not (tmp_path / "view.html").exists()
+    data = page_data(tmp_path, mode=1)
+    assert data["title"] == "mode_01" and list(data["fields"]) == ["displacement"]
+    x = decode(data["positions"]).reshape(len(data["times"]), -1, 3)
+    for k in range(len(data["times"])):
+        m = meshio.read(tmp_path / f"mode_01_{k:03d}.vtu")
+        on = np.asarray(m.point_data["line_id"]) >= 0
+        np.testing.assert_allclose(x[k], m.points[on], rtol=1e-6, atol=1e-7)
+        d = decode(data["fields"]["displacement"]["values"]).reshape(len(data["times"]), -1)[k]
+        np.testing.assert_allclose(d, np.linalg.norm(m.point_data["displacement"][on], axis=-1), rtol=1e-6,
+                                   atol=1e-9)
+
+
 def test_a_three_frame_page_is_small_and_names_no_outside_file(run, tmp_path):
     path = write_html(run, output=tmp_path / "page.html")
     text = path.read_text()

@@ -105,7 +105,7 @@ def page_data(directory, every: int = 1, min_radius: float | None = None, mode: 
     from matplotlib import colormaps
     lut = (colormaps["viridis"](np.linspace(0.0, 1.0, 256))[:, :3] * 255).round().astype(int)
     return {
-        "title": src.stem if src.suffix == ".pvd" else src.resolve().name,
+        "title": src.stem if src.suffix == ".pvd" else src.resolve().name,   # a mode's: mode_JJ
         "times": [float(t) for t in times],
         "counts": [int(c) for c in series.counts],
         "positions": _b64(xs),
@@ -134,9 +134,10 @@ def page(data: dict) -> str:
 def write_html(directory, output=None, every: int = 1, min_radius: float | None = None,
                mode: int | None = None) -> Path:
     """Write the series in ``directory`` as one self-contained HTML page (default
-    DIR/view.html); return its path."""
+    DIR/view.html; a mode's DIR/mode_JJ.html, as its picture is named); return its path."""
     src = Path(directory)
-    path = Path(output) if output else (src.parent if src.suffix == ".pvd" else src) / PAGE
+    name = f"{src.stem}.html" if src.suffix == ".pvd" else PAGE if mode is None else f"mode_{int(mode):02d}.html"
+    path = Path(output) if output else (src.parent if src.suffix == ".pvd" else src) / name
     text = page(page_data(directory, every=every, min_radius=min_radius, mode=mode))
     tmp = path.with_name(path.name + ".part")
     tmp.write_text(text)
