@@ -16,8 +16,9 @@ from .drives import Drive
 from .loads import Gravity, checked_table
 from ..kernels.fluid import LINEAR, MORISON, FluidParams, sample_fluid
 from ..engine.registry import Binding, Effect, Key
+from ..core.turbulence import IEC_LENGTH, turbulent_series
 from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
-                          pair, positive)
+                          pair, positive, seed)
 
 DENSITY = Unit("kg/m^3", -3, 1, 0)
 RESISTANCE = Unit("N s/m^2", -1, 1, -1)   # force per length per velocity
@@ -81,7 +82,8 @@ class Fluid(Effect):
     - buoyancy: rho g A times the submerged length of each element (cut at the still surface),
       shared by its vertices as the gradient of its potential.
     The current is ``velocity`` times a profile over height (a table, or a power law
-    ((z - ground) / reference_height)^power_law) times a factor over time (a table); waves are
+    ((z - ground) / reference_height)^power_law) times a factor over time (a table, or a seeded
+    turbulent series: ``turbulence_intensity`` and cosnet.core.turbulence); waves are
     linear (Airy) components over water of the given depth, their kinematics stretched to the
     instantaneous surface (Wheeler) or held above the still surface at its value ("none").
     Vertical is +z; above the free surface nothing acts. Drag and the added mass are solved
@@ -100,6 +102,12 @@ class Fluid(Effect):
             Key("ground", number, LENGTH, doc="z where the power-law profile is zero"),
             Key("times", floats, TIME, doc="times of the current's time factor (increasing)"),
             Key("values", floats, doc="the time factor at those times (a gust or tidal series)"),
+            Key("turbulence_intensity", nonnegative,
+                doc="a seeded turbulent time factor instead of times/values: sigma / |velocity| (Kaimal spectrum)"),
+            Key("turbulence_length", positive, LENGTH, doc="its integral length scale (default 340.2 m, IEC 61400-1)"),
+            Key("turbulence_duration", positive, TIME, doc="its record's length, repeated after (default 600 s)"),
+            Key("turbulence_step", positive, TIME, doc="its sampling step (default 0.1 s)"),
+            Key("turbulence_seed", seed, doc="its phases' seed (default 0)"),
             Key("drag", pair, doc="Morison drag coefficients [C_dn, C_dt]"),
             Key("resistance", pair, RESISTANCE, doc="Stokes-flow drag per length [c_n, c_t] (instead of drag)"),
             Key("diameter", positive, LENGTH, doc="hydrodynamic diameter (default: each line's section, 2 sqrt(A/pi))"),
@@ -149,7 +157,9 @@ class Fluid(Effect):
 
     def __init__(self, density: float, velocity=(0.0, 0.0, 0.0), *, profile_heights=None, profile_factors=None,
                  power_law: float = 0.0, reference_height: float = 10.0, ground: float = 0.0, times=None,
-                 values=None, drag=(0.0, 0.0), resistance=None, diameter: float | None = None,
+                 values=None, turbulence_intensity=None, turbulence_length=IEC_LENGTH, turbulence_duration=600.0,
+                 turbulence_step=0.1, turbulence_seed=0, drag=(0.0, 0.0), resistance=None,
+                 diameter: float | None = None,
                  added_mass=(0.0, 0.0), buoyancy: bool = False, surface: float | None = None,
                  depth: float | None = None, wave_amplitudes=None, wave_periods=None, wave_headings=None,
                  wave_phases=None, stretching: str = "wheeler", lines=None, buoys=None, buoy_volumes=None,
@@ -161,6 +171,14 @@ class Fluid(Effect):
         self.power = (checks.nonnegative(who, "power_law", power_law),
                       checks.positive(who, "reference_height", reference_height), _finite("ground", ground))
         self.time_table = self._table(times, values, "times", "values")
+        if turbulence_intensity is not None:
+            if times is not None or values is not None:
+                raise ValueError("Fluid: give a time table (times, values) or turbulence_intensity, not both")
+            speed = float(np.linalg.norm(self.velocity))
+            if speed == 0.0:
+                raise ValueError("Fluid: turbulence_intensity needs a velocity to fluctuate about")
+            self.time_table = turbulent_series(speed, turbulence_intensity, turbulence_length, turbulence_duration,
+                                               turbulence_step, turbulence_seed)
         self.drag = self._coefficients("drag", drag)
         self.resistance = None if resistance is None else self._coefficients("resistance", resistance)
         if self.resistance is not None and np.any(self.drag):
