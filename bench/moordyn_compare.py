@@ -5,7 +5,8 @@ periods) and the wall time per simulated second, each at its own step, at two re
 The line: 47 m of steel wire (r = 20 mm, EA = 1.26e8 N, EI = 1.26e4 N m^2) from an anchor on a
 frictionless seabed 20 m down to a fairlead at the surface 40 m away, in still water
 (rho = 1025, C_dn = 1.2, C_dt = 0.008, C_an = 1, C_at = 0). The fairlead surges 1 m at an 8 s
-period, ramped in over the first period. cosnet starts from its own static equilibrium
+period, ramped in over the first period. cosnet runs with fast_modes "auto" (its default for
+slender lines) and "resolve" (every mode of the line as it is). cosnet starts from its own static equilibrium
 (settled from MoorPy's catenary), MoorDyn from its own (its dynamic relaxation); MoorDyn's
 segments carry the internal damping it needs (BA = -1, critical), cosnet's line none.
 Run: python bench/moordyn_compare.py; writes bench/moordyn_compare.json (needs the extras
@@ -74,7 +75,7 @@ def harmonic(t, y) -> dict:
     return {"mean": float(c[0]), "amplitude": float(math.hypot(c[1], c[2])), "phase": float(math.atan2(c[2], c[1]))}
 
 
-def run_cosnet(n: int) -> dict:
+def run_cosnet(n: int, fast_modes: str = "auto") -> dict:
     from moorpy.Catenary import catenary
     w = (RHO_S - SEA) * 9.81 * AREA
     guess = catenary(SPAN, DEPTH, 47.0, E * AREA, w, CB=0.0, nNodes=n + 1, plots=1)[4]
@@ -91,13 +92,13 @@ def run_cosnet(n: int) -> dict:
     still = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(SEA, resistance=(40.0, 40.0), buoyancy=True,
                                                                    surface=0.0),
                                     seabed(), cosnet.Drive(fair, position={"rate": [0.0, 0.0, 0.0]})],
-                              fast_modes="auto")
+                              fast_modes=fast_modes)
     still.run(until=8.0)
     ts = np.arange(0.0, T_END + 1e-9, 0.05)
     path = {"times": ts.tolist(), "values": [[float(surge(t)), 0.0, 0.0] for t in ts]}
     sim = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(SEA, drag=DRAG, added_mass=ADDED, buoyancy=True,
                                                                  surface=0.0),
-                                  seabed(), cosnet.Drive(fair, position=path)], fast_modes="auto")
+                                  seabed(), cosnet.Drive(fair, position=path)], fast_modes=fast_modes)
     for mine, settled in zip(sim.state, still.state):
         mine[...] = settled
     sim.state.clock[0] = 0.0
@@ -108,7 +109,8 @@ def run_cosnet(n: int) -> dict:
         wall += time.perf_counter() - t0
         out.append([sim.time, *sim.reaction(fair)[0]])   # what holds the fairlead: the line's pull on it, reversed
     o = np.array(out)
-    return {"code": "cosnet", "elements": n, "dt": sim.dt, "wall_per_simulated_s": wall / sim.time,
+    return {"code": "cosnet", "fast_modes": fast_modes, "elements": n, "dt": sim.dt,
+            "wall_per_simulated_s": wall / sim.time,
             "H": harmonic(o[:, 0], o[:, 1]), "V": harmonic(o[:, 0], o[:, 3])}
 
 
@@ -145,10 +147,12 @@ def main():
     runs = []
     for n in (24, 48):
         runs.append(run_cosnet(n))
+        runs.append(run_cosnet(n, "resolve"))
         runs.append(run_moordyn(n, 1e-4 * 24 / n))
-    rows = [[r["code"], r["elements"], r["dt"], r["wall_per_simulated_s"], r["H"]["mean"], r["H"]["amplitude"],
+    rows = [[r["code"], r.get("fast_modes", "-"), r["elements"], r["dt"], r["wall_per_simulated_s"],
+             r["H"]["mean"], r["H"]["amplitude"],
              r["H"]["phase"], r["V"]["mean"], r["V"]["amplitude"], r["V"]["phase"]] for r in runs]
-    table("fairlead pull under a 1 m, 8 s surge", ["code", "elements", "dt (s)", "wall s per simulated s",
+    table("fairlead pull under a 1 m, 8 s surge", ["code", "fast modes", "elements", "dt (s)", "wall s per simulated s",
                                                    "H mean (N)", "H amplitude (N)", "H phase", "V mean (N)",
                                                    "V amplitude (N)", "V phase"], rows)
     write_json(__file__, {"command": " ".join(["python", "bench/moordyn_compare.py", *sys.argv[1:]]), "runs": runs})
