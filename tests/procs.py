@@ -78,8 +78,7 @@ def served_page(args, timeout=60.0) -> tuple[str, str]:
     is stopped before this returns."""
     import sys
     import urllib.request
-    command = "import sys; from cosnet.cli import command; sys.exit(command())"
-    with started([sys.executable, "-c", command, "view", *args, "--no-browser"],
+    with started([sys.executable, "-m", "cosnet", "view", *args, "--no-browser"],
                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
         line = proc.stdout.readline()
         if not line.startswith("serving http://127.0.0.1:"):

@@ -297,3 +297,9 @@ def test_an_error_no_check_of_cosnet_raised_is_an_internal_error(monkeypatch, ca
     assert main(["info", "cantilever"]) == 70
     err = capsys.readouterr().err.strip()
     assert err.startswith("cosnet: internal error: Singular matrix (LinAlgError from numpy") and "\n" not in err
+
+
+def test_python_dash_m_cosnet_is_the_command():
+    from importlib.metadata import version
+    out = subprocess.run([sys.executable, "-m", "cosnet", "--version"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == f"cosnet {version('cosnet')}"
