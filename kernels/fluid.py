@@ -656,6 +656,12 @@ def entrained_energy(p, model, state):
 
 
 @njit(**CACHED)
+def fluid_entrained_energy(p, model, state):
+    """Return entrained_energy(p, model, state), callable from Python (Fluid.potential)."""
+    return entrained_energy(p, model, state)
+
+
+@njit(**CACHED)
 def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""

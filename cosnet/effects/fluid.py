@@ -14,7 +14,7 @@ from ..core import checks
 from .contact import chosen_lines, chosen_parts
 from .drives import Drive
 from .loads import Gravity, checked_table
-from ..kernels.fluid import LINEAR, MORISON, FluidParams, sample_fluid
+from ..kernels.fluid import LINEAR, MORISON, FluidParams, fluid_entrained_energy, sample_fluid
 from ..engine.registry import Binding, Effect, Key
 from ..core.turbulence import IEC_LENGTH, turbulent_series
 from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
@@ -342,36 +342,22 @@ class Fluid(Effect):
     # ------------------------------------------------------------------ energy
     def potential(self, p, on: Binding) -> float:
         """Buoyancy's potential, -rho g A times the integral of min(z, surface) over each line's
-        elements, plus the kinetic energy of the entrained fluid, 1/2 v^T M_a v over the wet
-        vertices and the free nodes' wet line ends (M_a the added mass the step holds: as the
-        last kick, or the start, sampled it)."""
-        m, x, v = on.model, on.state.x, on.state.v
+        elements and the buoys' upthrust potential, plus the kinetic energy of the entrained
+        fluid (kernels/fluid.entrained_energy: 1/2 v^T M_a v with the added mass the step holds,
+        as the last kick, or the start, sampled it)."""
+        m, x = on.model, on.state.x
         e = 0.0
         for j, l in enumerate(p.lines):
-            lo, hi = m.line_vertex_offsets[l], m.line_vertex_offsets[l + 1]
-            e0 = m.line_element_offsets[l]
             if p.buoyancy[j]:
+                lo, hi = m.line_vertex_offsets[l], m.line_vertex_offsets[l + 1]
+                e0 = m.line_element_offsets[l]
                 za, zb = x[lo:hi - 1, 2], x[lo + 1:hi, 2]
                 e -= p.buoyancy[j] * float(np.sum(m.element_rest_length[e0:e0 + hi - lo - 1]
                                                   * _mean_min(za, zb, p.surface)))
-            if p.added_n[j] or p.added_t[j]:
-                # the added mass the step holds (kernels/fluid.entrained_energy): wetness and
-                # tangents as the last kick sampled them
-                vs, t = v[lo:hi], p.sample[7:10, lo:hi].T     # line ends placed on their nodes
-                # einsum, not BLAS (see Gravity.potential)
-                vt = np.einsum("ij,ij->i", vs, t)
-                vn2 = np.einsum("ij,ij->i", vs, vs) - vt * vt
-                wet = p.sample[0, lo:hi].copy()
-                for i, end in ((0, 0), (-1, 1)):   # a line end counts with a node the medium moves
-                    nd = m.attach_node[2 * l + end]
-                    wet[i] *= float(m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0)
-                e += 0.5 * float(np.sum(m.voronoi_rest_length[lo:hi] * wet
-                                        * (p.added_n[j] * vn2 + p.added_t[j] * vt * vt)))
         for b, nd in enumerate(p.buoy_node):
             e += p.medium[0] * p.medium[1] * _cap_integral(p.surface - on.state.node_x[nd, 2], p.buoy_radius[b])
-            if m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0:
-                vn = on.state.node_v[nd]
-                e += 0.5 * p.buoy_added[b] * p.buoy_sample[b, 0] * float(vn @ vn)
+        if np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added):
+            e += fluid_entrained_energy(p, m, on.state)
         return e
 
     def exchange(self, p, on: Binding) -> float:
