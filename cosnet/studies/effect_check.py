@@ -283,14 +283,14 @@ def unrefused_tables(cls, sim, effect) -> list[str]:
 
 # record fields that accumulate over a run (work and energy accounts): a checkpoint must carry
 # them (Effect.state_arrays), or a resumed run's budget starts them again from zero
-ACCOUNTS = ("work", "dissipated", "node_dissipated", "supplied")
+ACCOUNT_FIELDS = ("work", "dissipated", "node_dissipated", "supplied")
 
 
 def unsaved_accounts(sim, effect) -> list[str]:
-    """The account arrays of the effect's record (ACCOUNTS) its state_arrays leave out."""
+    """The account arrays of the effect's record (ACCOUNT_FIELDS) its state_arrays leave out."""
     p = sim.effect_params(effect)
     saved = [id(a) for a in effect.state_arrays(sim).values()]
-    return [n for n in ACCOUNTS if n in p._fields and id(getattr(p, n)) not in saved]
+    return [n for n in ACCOUNT_FIELDS if n in p._fields and id(getattr(p, n)) not in saved]
 
 
 def energy_order(sim_of, until: float) -> float:
