@@ -267,10 +267,10 @@ def cmd_view(args) -> int:
     from .output.io import PVD
     from .output.webpage import PAGE, serve, write_html
     src = Path(args.dir)
-    if not (src / PVD).exists() and not sorted(src.glob("mode_*.pvd")):
+    series = src / PVD if (src / PVD).exists() else min(src.glob("mode_*.pvd"), default=None)
+    if series is None:
         raise ValueError(f"{src}: not a cosnet output directory (no {PVD} or mode_JJ.pvd)")
     page = src / PAGE
-    series = src / PVD if (src / PVD).exists() else sorted(src.glob("mode_*.pvd"))[0]
     if not page.exists() or page.stat().st_mtime < series.stat().st_mtime:
         with outdir.locked(src, "view") if (src / outdir.LOCK).exists() else contextlib.nullcontext():
             write_html(src)

@@ -23,6 +23,7 @@ import numpy as np
 from .fields import FIELD_UNITS as UNITS
 from .io import LINE_FIELDS, frame_files, read_output, read_pvd
 VIEWS = ("iso", "xy", "xz", "yz")
+VISIBLE = 0.002     # the thinnest line drawn, as a share of the scene's size (--min-radius's default)
 MOVIE_EXTRA = "pip install 'cosnet[movie]'"
 
 
@@ -101,6 +102,15 @@ class _ModeSeries:
         return float(self.times[k]), lines, m.points[~on], None
 
 
+def mode_file(directory, mode) -> Path:
+    """The series of mode J (``--mode J``) in a `cosnet modes` directory."""
+    p = Path(directory) / f"mode_{int(mode):02d}.pvd"
+    if not p.exists():
+        have = sorted(x.stem for x in Path(directory).glob("mode_*.pvd"))
+        raise ValueError(f"--mode {mode}: {p} not found; the directory has {', '.join(have) or 'no modes'}")
+    return p
+
+
 def open_series(directory):
     """A run directory, a modes directory (its first mode; ``mode=J`` in ``render`` picks
     another) or a ``mode_JJ.pvd`` file."""
@@ -138,11 +148,7 @@ class Picture:
         pv.OFF_SCREEN = True
         self.pv = pv
         if mode is not None:
-            p = Path(directory) / f"mode_{int(mode):02d}.pvd"
-            if not p.exists():
-                have = sorted(x.stem for x in Path(directory).glob("mode_*.pvd"))
-                raise ValueError(f"--mode {mode}: {p} not found; the directory has {', '.join(have) or 'no modes'}")
-            directory = p
+            directory = mode_file(directory, mode)
         self.series = open_series(directory)
         n = len(self.series.times)
         if n == 0:
@@ -188,7 +194,7 @@ class Picture:
         self.box = box if box is not None else np.zeros((2, 3))
         self._sample = np.concatenate(sample) if sample else np.zeros((1, 3))  # framing the camera
         self.size = float(np.linalg.norm(self.box[1] - self.box[0])) or 1.0
-        self.min_radius = 0.002 * self.size if min_radius is None else float(min_radius)
+        self.min_radius = VISIBLE * self.size if min_radius is None else float(min_radius)
         if len(window_size) != 2 or min(window_size) < 16:
             raise ValueError(f"--size needs a width and height of at least 16 pixels, got {window_size}")
         self.plotter = pv.Plotter(off_screen=True, window_size=[int(v) for v in window_size])
@@ -200,13 +206,16 @@ class Picture:
         """(mesh, fixed) of each solid shape of the run's effects in frame k: a body's placed
         by its node's reference point (warped as the nodes are) and frame, a static obstacle's
         as declared (a plane as a square across the scene)."""
-        shapes = self.series.shapes
-        if not shapes:
+        if not self.series.shapes:
             return []
         _, _, nodes, frames = self.series.frame(k)
+        return self._placed_shapes(nodes, frames)
+
+    def _placed_shapes(self, nodes, frames) -> list:
+        """shape_meshes for the nodes' positions (as written) and frames of one frame."""
         x = self.warped(nodes, self.ref_nodes)
         out = []
-        for s in shapes:
+        for s in self.series.shapes:
             nd = s["node"]
             place, turn = (np.zeros(3), np.eye(3)) if nd is None else (x[nd], frames[nd])
             out.append((shape_mesh(self.pv, s, place, turn, self.box, 1.2 * self.size), nd is None))
@@ -274,7 +283,7 @@ class Picture:
             title = p.add_text(self.title, position=(w // 2, int(0.02 * h + 0.09 * h) + 4),
                                font_size=self._font(12), color="black")
             title.GetTextProperty().SetJustificationToCentered()
-        for (mesh, fixed), s in zip(self.shape_meshes(k), self.series.shapes):
+        for (mesh, fixed), s in zip(self._placed_shapes(nodes, frames), self.series.shapes):
             # static obstacles see-through (a plane, the lightest, behind the net it carries)
             opacity = 1.0 if not fixed else 0.2 if s["shape"] == "plane" else 0.4
             p.add_mesh(mesh, color="lightgray" if fixed else "tan", opacity=opacity, smooth_shading=True)

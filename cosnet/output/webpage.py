@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .fields import FIELD_UNITS
-from .render import open_series, shape_mesh
+from .render import VISIBLE, mode_file, open_series, shape_mesh
 
 VIEWER = Path(__file__).with_name("viewer")
 PAGE = "view.html"
@@ -50,11 +50,9 @@ def page_data(directory, every: int = 1, min_radius: float | None = None, mode: 
     import pyvista as pv
     if not (isinstance(every, int) and every >= 1):
         raise ValueError(f"--every must be an integer >= 1, got {every}")
-    src = Path(directory)
-    if mode is not None:
-        src = src / f"mode_{int(mode):02d}.pvd"
-        if not src.exists():
-            raise ValueError(f"--mode {mode}: {src} not found")
+    if min_radius is not None and not (math.isfinite(min_radius) and min_radius >= 0):
+        raise ValueError(f"--min-radius must be a finite length >= 0, got {min_radius}")
+    src = Path(directory) if mode is None else mode_file(directory, mode)
     series = open_series(src)
     n = len(series.times)
     if n == 0:
@@ -66,11 +64,11 @@ def page_data(directory, every: int = 1, min_radius: float | None = None, mode: 
         fields.append("displacement")
     x, nodes, turns, times = [], [], [], []
     values: dict[str, list] = {f: [] for f in fields}
-    ref = None
+    ref = radius = None
     for k in ks:
         t, lines, nd, fr = series.frame(k)
         if ref is None:
-            ref = lines["position"]
+            ref, radius = lines["position"], lines["radius"]
         times.append(t)
         x.append(lines["position"])
         for f in fields:
@@ -82,9 +80,7 @@ def page_data(directory, every: int = 1, min_radius: float | None = None, mode: 
     everything = np.concatenate([xs.reshape(-1, 3), nodes_x.reshape(-1, 3)])
     box = (np.array([everything.min(0), everything.max(0)]) if len(everything) else np.zeros((2, 3)))
     size = float(np.linalg.norm(box[1] - box[0])) or 1.0
-    floor = 0.002 * size if min_radius is None else float(min_radius)
-    if not (math.isfinite(floor) and floor >= 0):
-        raise ValueError(f"--min-radius must be a finite length >= 0, got {min_radius}")
+    floor = VISIBLE * size if min_radius is None else float(min_radius)
     coloured = {}
     for f in fields:
         v = np.array(values[f]).reshape(len(ks), -1)
@@ -109,7 +105,7 @@ def page_data(directory, every: int = 1, min_radius: float | None = None, mode: 
         "times": [float(t) for t in times],
         "counts": [int(c) for c in series.counts],
         "positions": _b64(xs),
-        "radius": _b64(np.maximum(np.asarray(series.frame(0)[1]["radius"], float), floor)),
+        "radius": _b64(np.maximum(np.asarray(radius, float), floor)),
         "fields": coloured,
         "field": "velocity" if "velocity" in coloured else fields[0],
         "nodes": _b64(nodes_x),
