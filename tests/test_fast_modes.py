@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.core.fast_modes import (FastModesError, MODE_TOLERANCE, MODES_KEPT, ROTARY_SHARE, STRAIN_GUARD,
-                                    _Rows, auto_rotary_scale)
+from cosnet.core.fast_modes import (AUTO_MIN_GAIN, FastModesError, MODE_TOLERANCE, MODES_KEPT, ROTARY_SHARE,
+                                    STRAIN_GUARD, _Rows, auto_rotary_scale)
 from cosnet.core.grid import build_line_grid
 from cosnet.engine.flatten import flatten
 from cosnet.studies.modes import bending_omegas
@@ -261,7 +261,34 @@ def test_info_prints_the_setting_the_step_and_the_gain():
     m = re.search(r"stable dt ([0-9.e+-]+) s \(([0-9.]+)x the ([0-9.e+-]+) s of \"resolve\"\); "
                   r"\"auto\" gives ([0-9.e+-]+) s \(([0-9.]+)x\)", line)
     assert line.split()[1] == "auto" and m, line
-    assert float(m.group(2)) > 50 and float(m.group(5)) == pytest.approx(1.0)
+    # what it prints is what the engine steps with, and each step is stable for the line's own
+    # spectrum: Verlet's limit 2 / omega_max, omega_max^2 the largest eigenvalue of K u = w^2 M u
+    # of the same model (the case's arrays) linearised about a straight rest state, which the
+    # Gershgorin rows behind stable_dt() bound from above
+    from cosnet.scene.loader import load_scene
+    from cosnet.studies.modes import linearise
+    import scipy.linalg
+    scene = load_scene(REPO / "cases" / "overhead_line.toml")
+    steps, limits = {}, {}
+    for setting in ("resolve", "auto"):
+        case = scene.simulation(fast_modes=setting)
+        steps[setting] = case.stable_dt()
+        net = cosnet.Net()
+        ends = net.add_node((0, 0, 0), mass="inf"), net.add_node((scene.net.lines[0].length, 0, 0), mass="inf")
+        cable = scene.net.lines[0]
+        net.add_line(*ends, material=cable.material, section=cable.section, elements=cable.elements)
+        straight = cosnet.Simulation(net)
+        for name in ("element_stiffness", "element_inertia", "vertex_mass", "voronoi_stiffness"):
+            getattr(straight.model, name)[...] = getattr(case.model, name)
+        lin = linearise(straight.model, straight.state, net)
+        w2 = scipy.linalg.eigh(lin.K.toarray(), np.diag(lin.M.diagonal()), eigvals_only=True)[-1]
+        limits[setting] = 2 / math.sqrt(w2)
+        assert steps[setting] <= limits[setting]
+    assert limits["auto"] / limits["resolve"] >= AUTO_MIN_GAIN       # the rule by which "auto" treats a line
+    assert float(m.group(1)) == pytest.approx(steps["auto"], rel=1e-3)
+    assert float(m.group(3)) == pytest.approx(steps["resolve"], rel=1e-3)
+    assert float(m.group(2)) == pytest.approx(steps["auto"] / steps["resolve"], rel=2e-3)
+    assert float(m.group(5)) == pytest.approx(1.0)
 
 
 def test_docs_blocks_run():
