@@ -3,6 +3,7 @@ held to its analytic value. Every simulation here declares (Gravity, Fluid), so 
 compiles one step for all of them."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -388,6 +389,23 @@ def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():
     assert n[0][0] == pytest.approx(info["HA"], rel=0.01)
     grounded = line.length - held[2] / w          # the suspended part's weight is the fairlead's pull
     assert grounded == pytest.approx(info["LBot"], rel=0.01)
+
+
+def test_a_mooring_line_under_a_surging_fairlead_swings_as_moordyn_does(monkeypatch):
+    """bench/moordyn_compare.py's catenary wire (47 m, 24 elements; drag, added mass, buoyancy,
+    a frictionless seabed) under a 1 m, 8 s surge of its fairlead, in cosnet's default and in
+    MoorDyn (24 segments, coupled every millisecond, where its swing is within about 1 % of
+    its converged one): the first harmonic of the fairlead's pull (cosnet's sampled every 5 ms),
+    H and V, within 5 % in amplitude and 2 % of the period in phase."""
+    pytest.importorskip("moorpy.Catenary", reason="MoorPy (pip install '.[peers]') is not installed")
+    pytest.importorskip("moordyn", reason="MoorDyn (pip install '.[peers]') is not installed")
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "bench"))
+    import moordyn_compare as bench
+    monkeypatch.setattr(bench, "SAMPLE", 5e-3)    # the bench's 1 ms gives the same harmonics to 0.1 %
+    mine, theirs = bench.run_cosnet(24, timed=False), bench.run_moordyn(24, 1e-4, 1e-3)
+    for k in ("H", "V"):
+        assert mine[k]["amplitude"] == pytest.approx(theirs[k]["amplitude"], rel=0.05)
+        assert abs(mine[k]["phase"] - theirs[k]["phase"]) < 0.02 * 2 * math.pi
 
 
 def test_the_stable_step_counts_the_added_mass():
