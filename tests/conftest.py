@@ -15,6 +15,8 @@ import time
 import pytest
 from numba.core import event
 
+pytest_plugins = ["ci_skips", "pytester"]
+
 
 def pytest_collection_modifyitems(items):
     """Tests that compile everything in a cache of their own (own_cache) run first: they are
