@@ -391,6 +391,52 @@ def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():
     assert grounded == pytest.approx(info["LBot"], rel=0.01)
 
 
+def test_a_mooring_line_pulled_out_over_a_seabed_with_friction_matches_moorpys_catenary():
+    """MoorPy's catenary with seabed friction (CB) has the friction fully mobilised: the
+    tension on the seabed falls towards the anchor by CB w per length. A line that slides on
+    the bed gets there: laid at the frictionless catenary of a fairlead 1.5 m closer, then
+    pulled out to the span over 20 s, its tension rises by more than CB w times the laid
+    length everywhere on the bed, so every grounded vertex slides towards the fairlead and its
+    friction reaches mu N (the stick spring's give mu N / k_t, 1e-6 m with k_t = 1e8 N/m, far
+    below the line's elastic slide on the bed, about 1e-4 m). The fairlead's pull and the
+    grounded length then match MoorPy's within 1 %. The anchor's vertex is fixed, so the
+    friction of its half element goes to the anchor and not into the first element's force:
+    that force is MoorPy's anchor tension plus mu w l / 2, within the touchdown's own
+    element's share mu w l / 2 (where on it the line lifts off)."""
+    catenary = pytest.importorskip("moorpy.Catenary", reason="MoorPy (pip install '.[peers]') is "
+                                   "not installed").catenary
+    depth, span, pull, r, rho_s, E, sea, mu = 20.0, 40.0, 1.5, 0.02, 7850.0, 1e11, 1025.0, 0.5
+    area = math.pi * r * r
+    w = (rho_s - sea) * G * area
+    guess = catenary(span - pull, depth, 47.0, E * area, w, CB=0.0, nNodes=25, plots=1)[4]
+    net = cosnet.Net()
+    anchor = net.add_node((0.0, 0.0, -depth), fixed=True)
+    fairlead = net.add_node((span - pull, 0.0, 0.0), mass=1.0, inertia=(0.1, 0.1, 0.1))
+    line = net.add_line(anchor, fairlead, material=cosnet.Material(E=E, G=E / 2.6, density=rho_s),
+                        section=cosnet.Section(A=area, I11=1e-9, I22=1e-9, J=2e-9, radius=r), elements=24,
+                        points=np.column_stack([guess["X"], np.zeros(25), guess["Z"] - depth]),
+                        rest_curvature=(0.0, 0.0, 0.0))
+    fluid = cosnet.Fluid(sea, resistance=(40.0, 40.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
+    bed = cosnet.Obstacle("plane", point=(0.0, 0.0, -depth - r), normal=(0.0, 0.0, 1.0), k=1e6, k_t=1e8,
+                          mu_s=mu, mu_k=mu)
+    s = np.linspace(0.0, 1.0, 41)
+    hold = np.arange(23.0, 31.0)                  # knots that keep the path's spline flat after the pull
+    path = {"times": [0.0, *(2.0 + 20.0 * s), *hold],
+            "values": [[0.0, 0.0, 0.0], *[[pull * x * x * (3 - 2 * x), 0.0, 0.0] for x in s], *[[pull, 0.0, 0.0]] * 8]}
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid, bed, cosnet.Drive(fairlead, position=path)],
+                            fast_modes="auto")
+    sim.run(until=25.0)
+    assert sim.node_position(fairlead)[0] == pytest.approx(span, abs=1e-6)
+    _, _, fh, fv, info = catenary(span, depth, line.length, E * area, w, CB=mu)
+    n = sim.line_fields(line)["force"]
+    held = n[-1] + np.array([0.0, 0.0, w * line.length / 48])
+    assert held[0] == pytest.approx(-fh, rel=0.01) and held[2] == pytest.approx(-fv, rel=0.01)
+    assert line.length - held[2] / w == pytest.approx(info["LBot"], rel=0.01)
+    half = mu * w * line.length / 48
+    assert abs(n[0][0] - (info["HA"] + half)) < half
+    assert n[0][0] < held[0] - 0.5 * mu * w * info["LBot"]        # the bed took a share: friction acted
+
+
 def test_a_mooring_line_under_a_surging_fairlead_swings_as_moordyn_does(monkeypatch):
     """bench/moordyn_compare.py's catenary wire (47 m, 24 elements; drag, added mass, buoyancy,
     a frictionless seabed) under a 1 m, 8 s surge of its fairlead, in cosnet's default and in
