@@ -357,6 +357,33 @@ def test_a_buoy_heaves_at_its_waterplane_period_and_keeps_its_energy():
     assert abs(sim.balance() - b0) < (omega * sim.dt) ** 2 / 8 * heave
 
 
+WIRE_DEPTH, WIRE_SPAN, WIRE_LENGTH, WIRE_R, WIRE_DENSITY, WIRE_E, SEA = 20.0, 40.0, 47.0, 0.02, 7850.0, 1e11, 1025.0
+WIRE_AREA = math.pi * WIRE_R ** 2
+WIRE_W = (WIRE_DENSITY - SEA) * G * WIRE_AREA        # weight in water per length
+
+
+def moored_wire(catenary, fairlead_x, **fairlead):
+    """(net, fairlead node, line): 47 m of steel wire (r = 2 cm, a chain's bending) from an
+    anchor on the seabed 20 m down to a fairlead at the surface ``fairlead_x`` away (its node
+    made with ``fairlead``), laid on MoorPy's frictionless elastic catenary (24 elements)."""
+    guess = catenary(fairlead_x, WIRE_DEPTH, WIRE_LENGTH, WIRE_E * WIRE_AREA, WIRE_W, CB=0.0, nNodes=25, plots=1)[4]
+    net = cosnet.Net()
+    anchor = net.add_node((0.0, 0.0, -WIRE_DEPTH), fixed=True)
+    node = net.add_node((fairlead_x, 0.0, 0.0), **fairlead)
+    line = net.add_line(anchor, node, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
+                        section=cosnet.Section(A=WIRE_AREA, I11=1e-9, I22=1e-9, J=2e-9, radius=WIRE_R),
+                        elements=24, points=np.column_stack([guess["X"], np.zeros(25), guess["Z"] - WIRE_DEPTH]),
+                        rest_curvature=(0.0, 0.0, 0.0))
+    return net, node, line
+
+
+def wire_forces(sim, line):
+    """(the line's force at each element, what holds the fairlead): the fairlead carries the
+    end's half element besides the line's force there."""
+    n = sim.line_fields(line)["force"]
+    return n, n[-1] + np.array([0.0, 0.0, WIRE_W * line.length / 48])
+
+
 def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():
     # a wire hanging in still water from a fixed fairlead to an anchor, its lower part on a
     # frictionless seabed (MoorPy's quasi-static solution is for a fully mobilised friction,
@@ -364,30 +391,17 @@ def test_a_mooring_line_on_the_seabed_settles_on_moorpys_catenary():
     # the seabed match the elastic catenary's
     catenary = pytest.importorskip("moorpy.Catenary", reason="MoorPy (pip install '.[peers]') is "
                                    "not installed").catenary
-    depth, span, r, rho_s, E, sea = 20.0, 40.0, 0.02, 7850.0, 1e11, 1025.0
-    area = math.pi * r * r
-    w = (rho_s - sea) * G * area               # weight in water per length
-    guess = catenary(span, depth, 47.0, E * area, w, CB=0.0, nNodes=25, plots=1)[4]
-    mat = cosnet.Material(E=E, G=E / 2.6, density=rho_s)
-    section = cosnet.Section(A=area, I11=1e-9, I22=1e-9, J=2e-9, radius=r)   # a chain's bending
-    net = cosnet.Net()
-    anchor = net.add_node((0.0, 0.0, -depth), fixed=True)
-    fairlead = net.add_node((span, 0.0, 0.0), fixed=True)
-    points = np.column_stack([guess["X"], np.zeros(25), guess["Z"] - depth])   # starts near rest
-    line = net.add_line(anchor, fairlead, material=mat, section=section, elements=24, points=points,
-                        rest_curvature=(0.0, 0.0, 0.0))
+    net, _, line = moored_wire(catenary, WIRE_SPAN, fixed=True)     # starts near rest
     # a linear resistance (rate c / m = 4/s) brings the line to rest; the statics do not depend on it
-    fluid = cosnet.Fluid(sea, resistance=(40.0, 40.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
-    bed = cosnet.Obstacle("plane", point=(0.0, 0.0, -depth - r), normal=(0.0, 0.0, 1.0), k=1e6)
+    fluid = cosnet.Fluid(SEA, resistance=(40.0, 40.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
+    bed = cosnet.Obstacle("plane", point=(0.0, 0.0, -WIRE_DEPTH - WIRE_R), normal=(0.0, 0.0, 1.0), k=1e6)
     sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid, bed], fast_modes="auto")
     sim.run(until=6.0)
-    _, _, fh, fv, info = catenary(span, depth, line.length, E * area, w, CB=0.0)
-    n = sim.line_fields(line)["force"]
-    # the fairlead carries the end's half element besides the line's force there
-    held = n[-1] + np.array([0.0, 0.0, w * line.length / 48])
+    _, _, fh, fv, info = catenary(WIRE_SPAN, WIRE_DEPTH, line.length, WIRE_E * WIRE_AREA, WIRE_W, CB=0.0)
+    n, held = wire_forces(sim, line)
     assert held[0] == pytest.approx(-fh, rel=0.01) and held[2] == pytest.approx(-fv, rel=0.01)
     assert n[0][0] == pytest.approx(info["HA"], rel=0.01)
-    grounded = line.length - held[2] / w          # the suspended part's weight is the fairlead's pull
+    grounded = line.length - held[2] / WIRE_W     # the suspended part's weight is the fairlead's pull
     assert grounded == pytest.approx(info["LBot"], rel=0.01)
 
 
@@ -405,19 +419,10 @@ def test_a_mooring_line_pulled_out_over_a_seabed_with_friction_matches_moorpys_c
     element's share mu w l / 2 (where on it the line lifts off)."""
     catenary = pytest.importorskip("moorpy.Catenary", reason="MoorPy (pip install '.[peers]') is "
                                    "not installed").catenary
-    depth, span, pull, r, rho_s, E, sea, mu = 20.0, 40.0, 1.5, 0.02, 7850.0, 1e11, 1025.0, 0.5
-    area = math.pi * r * r
-    w = (rho_s - sea) * G * area
-    guess = catenary(span - pull, depth, 47.0, E * area, w, CB=0.0, nNodes=25, plots=1)[4]
-    net = cosnet.Net()
-    anchor = net.add_node((0.0, 0.0, -depth), fixed=True)
-    fairlead = net.add_node((span - pull, 0.0, 0.0), mass=1.0, inertia=(0.1, 0.1, 0.1))
-    line = net.add_line(anchor, fairlead, material=cosnet.Material(E=E, G=E / 2.6, density=rho_s),
-                        section=cosnet.Section(A=area, I11=1e-9, I22=1e-9, J=2e-9, radius=r), elements=24,
-                        points=np.column_stack([guess["X"], np.zeros(25), guess["Z"] - depth]),
-                        rest_curvature=(0.0, 0.0, 0.0))
-    fluid = cosnet.Fluid(sea, resistance=(40.0, 40.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
-    bed = cosnet.Obstacle("plane", point=(0.0, 0.0, -depth - r), normal=(0.0, 0.0, 1.0), k=1e6, k_t=1e8,
+    pull, mu, w = 1.5, 0.5, WIRE_W
+    net, fairlead, line = moored_wire(catenary, WIRE_SPAN - pull, mass=1.0, inertia=(0.1, 0.1, 0.1))
+    fluid = cosnet.Fluid(SEA, resistance=(40.0, 40.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
+    bed = cosnet.Obstacle("plane", point=(0.0, 0.0, -WIRE_DEPTH - WIRE_R), normal=(0.0, 0.0, 1.0), k=1e6, k_t=1e8,
                           mu_s=mu, mu_k=mu)
     s = np.linspace(0.0, 1.0, 41)
     hold = np.arange(23.0, 31.0)                  # knots that keep the path's spline flat after the pull
@@ -426,10 +431,9 @@ def test_a_mooring_line_pulled_out_over_a_seabed_with_friction_matches_moorpys_c
     sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid, bed, cosnet.Drive(fairlead, position=path)],
                             fast_modes="auto")
     sim.run(until=25.0)
-    assert sim.node_position(fairlead)[0] == pytest.approx(span, abs=1e-6)
-    _, _, fh, fv, info = catenary(span, depth, line.length, E * area, w, CB=mu)
-    n = sim.line_fields(line)["force"]
-    held = n[-1] + np.array([0.0, 0.0, w * line.length / 48])
+    assert sim.node_position(fairlead)[0] == pytest.approx(WIRE_SPAN, abs=1e-6)
+    _, _, fh, fv, info = catenary(WIRE_SPAN, WIRE_DEPTH, line.length, WIRE_E * WIRE_AREA, w, CB=mu)
+    n, held = wire_forces(sim, line)
     assert held[0] == pytest.approx(-fh, rel=0.01) and held[2] == pytest.approx(-fv, rel=0.01)
     assert line.length - held[2] / w == pytest.approx(info["LBot"], rel=0.01)
     half = mu * w * line.length / 48
