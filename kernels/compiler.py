@@ -212,6 +212,32 @@ def _lock_compilations():
 
 _lock_compilations()
 
+# LLVM's own limits on the pointer pairs a loop may test at run time to be vectorised
+_POINTER_CHECKS = {"runtime-memory-check-threshold": 8, "memory-check-merge-threshold": 100,
+                   "vectorize-memory-check-threshold": 128}
+
+
+def many_pointer_checks(dispatcher, checks: int = 256):
+    """Return ``dispatcher``, its loops compiled with LLVM allowed up to ``checks`` run-time
+    pointer tests before vectorising them. A loop over the rows of a 2-D array, a row per
+    quantity, reads and writes through pointers LLVM cannot tell apart when compiling (the row
+    stride is a run-time value): it versions the loop on tests that no two overlap, and beyond
+    8 of them it leaves the loop scalar. The limits are LLVM's globals: they are raised around
+    this dispatcher's own compilations alone (numba compiles one function at a time) and set
+    back to LLVM's defaults after each."""
+    compile_ = dispatcher.compile
+
+    def compile(sig):
+        try:
+            for name in _POINTER_CHECKS:
+                llvm.set_option("", f"-{name}={checks}")
+            return compile_(sig)
+        finally:
+            for name, default in _POINTER_CHECKS.items():
+                llvm.set_option("", f"-{name}={default}")
+    dispatcher.compile = compile
+    return dispatcher
+
 
 def _describe(value):
     """Return a description of a closure cell that every process gives alike: a jitted
@@ -290,6 +316,13 @@ CACHED_INLINE = dict(CACHED, inline="always")
 # the same, for helpers called only from other kernels: without the Python entry wrapper,
 # whose compilation (unboxing a record of dozens of arrays) costs more than a small body's
 CACHED_INNER = dict(CACHED, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# Pinned: without fast-math, with numpy's error model (below: a division by zero gives inf/NaN
+# instead of raising, every other quotient is the same bit for bit), both set rather than left
+# unset. Numba compiles a kernel whose options leave them unset with its first caller's: the
+# vertex-obstacle contact compiled inside a step took the step's fast-math (fused multiply-adds,
+# other rounding) and, first called from Python, ran without (slower, and other results from
+# the same cache). For kernels whose divisions are all guarded, whose loops run in vector lanes.
+CACHED_LANES = dict(CACHED, fastmath=False, error_model="numpy")
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}

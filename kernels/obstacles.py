@@ -36,13 +36,18 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .friction import plane_tangent, stick_slip
-from .compiler import CACHED, CACHED_INNER
+from .friction import plane_tangent, slip_law
+from .compiler import CACHED, CACHED_INNER, CACHED_LANES, many_pointer_checks
 
 PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
 SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}
 FAR = 1e300  # the distance of a vertex no mesh triangle is near
 FREE, STICK, SLIDE = 0, 1, 2  # contact modes
+# rows of ObstacleParams.work, the vertex contacts' columns: centre, velocity, overlap, normal,
+# the line's direction there (x[next] - x[prev]) gathered; force, anchor, dashpot force and
+# dissipated energy computed (the anchor's rows hold it before and after)
+C, V, EPS, N, U, F, A, D, LOST = 0, 3, 6, 7, 10, 13, 16, 19, 22
+WORK_ROWS = 23
 
 
 class ObstacleParams(NamedTuple):
@@ -77,6 +82,7 @@ class ObstacleParams(NamedTuple):
     emode: np.ndarray        # (ne,) int64 FREE, STICK or SLIDE
     edamp: np.ndarray        # (ne, 2, 3) dashpot forces of the element contacts on their two vertices
     damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts
+    work: np.ndarray         # (WORK_ROWS, m) scratch of add_obstacle's passes, a row per column
 
 
 @njit(**CACHED, inline="always")
@@ -203,71 +209,92 @@ def obstacle_distance(p, cx, cy, cz):
     return _mesh_distance(p, cx, cy, cz)
 
 
-@njit(**CACHED_INNER)
-def _tangent(x, i, j, nx, ny, nz):
-    """Unit tangent of the line through vertices i -> j, projected on the plane normal to n
-    (zeros when the line is along n)."""
-    return plane_tangent(x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2], nx, ny, nz)
-
-
-@njit(**CACHED)
+@njit(**CACHED_LANES)
 def add_obstacle(p, model, state, loads):
     """Update loads.f (nv, 3), p.anchor, p.mode, p.damp, p.dissipated, p.deepest, p.active
     given the vertex positions and velocities: the normal and friction forces of every vertex
     touching the obstacle (see the module docstring), and their dashpots' share (m, 3): the
-    normal one (the clamp's included) and, while a contact sticks, -gamma v_t."""
-    x, v, f, damp = state.x, state.v, loads.f, p.damp
-    anchor, mode, k, k_t = p.anchor, p.mode, p.k, p.k_t
+    normal one (the clamp's included) and, while a contact sticks, -gamma v_t. In three
+    passes: the geometry gathered into p.work's rows, the contact law over them in vector
+    lanes (contact_law), its results scattered; the same arithmetic, in the same order per
+    vertex and over the sums, as one branching loop."""
+    x, v, f, w, anchor = state.x, state.v, loads.f, p.work, p.anchor
+    for j in range(p.verts.shape[0]):
+        i, a, b = p.verts[j], p.vprev[j], p.vnext[j]
+        cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
+        d, nx, ny, nz = obstacle_distance(p, cx, cy, cz)
+        w[C, j], w[C + 1, j], w[C + 2, j] = cx, cy, cz
+        w[V, j], w[V + 1, j], w[V + 2, j] = v[i, 0], v[i, 1], v[i, 2]
+        w[EPS, j], w[N, j], w[N + 1, j], w[N + 2, j] = p.radius[j] - d, nx, ny, nz
+        w[U, j], w[U + 1, j], w[U + 2, j] = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+        w[A, j], w[A + 1, j], w[A + 2, j] = anchor[j, 0], anchor[j, 1], anchor[j, 2]
+    contact_law(w, p.mode, p.k, p.gamma, p.k_t, p.mu_s[0], p.mu_s[1], p.mu_s[2], p.mu_k[0], p.mu_k[1],
+                p.mu_k[2])
     # held in a register: stored at every contact, p.deepest would chain each vertex to the
     # one before through memory
     active, lost, deepest = 0, 0.0, p.deepest[0]
     for j in range(p.verts.shape[0]):
         i = p.verts[j]
-        damp[j, 0] = damp[j, 1] = damp[j, 2] = 0.0
-        cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
-        d, nx, ny, nz = obstacle_distance(p, cx, cy, cz)
-        eps = p.radius[j] - d
-        # the spring displacement: the anchor's offset in the tangent plane
-        ax, ay, az = cx - anchor[j, 0], cy - anchor[j, 1], cz - anchor[j, 2]
-        an = ax * nx + ay * ny + az * nz
-        ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
-        if not eps > 0.0:
-            if mode[j] != FREE:  # the cone shrank to nothing as the contact opened
-                lost += 0.5 * k_t * (ax * ax + ay * ay + az * az)
-                mode[j] = FREE
-            continue
-        active += 1
-        deepest = max(deepest, eps / p.radius[j])
-        if mode[j] == FREE:
-            mode[j] = STICK
-            anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx, cy, cz
-            ax = ay = az = 0.0
-        vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
-        fn = max(k * eps - p.gamma * vn, 0.0)
-        dn = fn - k * eps
-        damp[j, 0], damp[j, 1], damp[j, 2] = dn * nx, dn * ny, dn * nz
-        if k_t > 0.0:
-            # trial force -k_t e: the spring and the dashpot beside it, while it sticks
-            c_t = p.gamma / k_t
-            ex, ey, ez = (ax + c_t * (v[i, 0] - vn * nx), ay + c_t * (v[i, 1] - vn * ny),
-                          az + c_t * (v[i, 2] - vn * nz))
-            tx, ty, tz = _tangent(x, p.vprev[j], p.vnext[j], nx, ny, nz)
-            ax, ay, az, slides, slip = stick_slip(ax, ay, az, ex, ey, ez, tx, ty, tz, mode[j] == SLIDE,
-                                                  p.mu_s, p.mu_k, k_t, fn)
-            if slides:
-                lost += slip
-                anchor[j, 0], anchor[j, 1], anchor[j, 2] = cx - ax, cy - ay, cz - az
-            mode[j] = SLIDE if slides else STICK
-            if not slides:
-                damp[j, 0] -= p.gamma * (v[i, 0] - vn * nx)
-                damp[j, 1] -= p.gamma * (v[i, 1] - vn * ny)
-                damp[j, 2] -= p.gamma * (v[i, 2] - vn * nz)
-        f[i, 0] += fn * nx - k_t * ax
-        f[i, 1] += fn * ny - k_t * ay
-        f[i, 2] += fn * nz - k_t * az
+        anchor[j, 0], anchor[j, 1], anchor[j, 2] = w[A, j], w[A + 1, j], w[A + 2, j]
+        p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = w[D, j], w[D + 1, j], w[D + 2, j]
+        lost += w[LOST, j]   # 0 where nothing was lost: lost is never -0, so adding 0 leaves it as it is
+        if w[EPS, j] > 0.0:
+            active += 1
+            deepest = max(deepest, w[EPS, j] / p.radius[j])
+            f[i, 0] += w[F, j]
+            f[i, 1] += w[F + 1, j]
+            f[i, 2] += w[F + 2, j]
     p.dissipated[0] += lost
     p.deepest[0] = deepest
     p.active[0] = active
+
+
+@many_pointer_checks
+@njit(**CACHED_LANES, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def contact_law(w, mode, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_lat):
+    """Update mode (m,) and w's rows F, A, D, LOST (w: (WORK_ROWS, m)) given its rows C, V, EPS,
+    N, U, A: each vertex contact's force, anchor, dashpot force and plastic work (module
+    docstring), a vertex out of contact FREE with no force and, if it was in contact, the
+    spring's energy lost. Branch-free over the vertices (selects), so that it runs in vector
+    lanes."""
+    for j in range(w.shape[1]):
+        cx, cy, cz, vx, vy, vz = w[C, j], w[C + 1, j], w[C + 2, j], w[V, j], w[V + 1, j], w[V + 2, j]
+        eps, nx, ny, nz = w[EPS, j], w[N, j], w[N + 1, j], w[N + 2, j]
+        hx, hy, hz = w[A, j], w[A + 1, j], w[A + 2, j]
+        was = mode[j]
+        # the spring displacement: the anchor's offset in the tangent plane
+        ax, ay, az = cx - hx, cy - hy, cz - hz
+        an = ax * nx + ay * ny + az * nz
+        ax, ay, az = ax - an * nx, ay - an * ny, az - an * nz
+        opened = 0.5 * k_t * (ax * ax + ay * ay + az * az)   # the cone shrank to nothing as it opened
+        touching, fresh = eps > 0.0, was == FREE
+        ax, ay, az = (0.0 if fresh else ax), (0.0 if fresh else ay), (0.0 if fresh else az)
+        hx, hy, hz = (cx if fresh else hx), (cy if fresh else hy), (cz if fresh else hz)
+        vn = vx * nx + vy * ny + vz * nz
+        fn = max(k * eps - gamma * vn, 0.0)
+        dn = fn - k * eps
+        dx, dy, dz = dn * nx, dn * ny, dn * nz
+        slides, slip = False, 0.0
+        if k_t > 0.0:
+            # trial force -k_t e: the spring and the dashpot beside it, while it sticks
+            c_t = gamma / k_t
+            ex, ey, ez = ax + c_t * (vx - vn * nx), ay + c_t * (vy - vn * ny), az + c_t * (vz - vn * nz)
+            tx, ty, tz = plane_tangent(w[U, j], w[U + 1, j], w[U + 2, j], nx, ny, nz)
+            ax, ay, az, slides, slip = slip_law(ax, ay, az, ex, ey, ez, tx, ty, tz, was == SLIDE, s_fwd, s_back,
+                                                s_lat, k_fwd, k_back, k_lat, k_t, fn)
+            hx, hy, hz = (cx - ax if slides else hx), (cy - ay if slides else hy), (cz - az if slides else hz)
+            dx = dx if slides else dx - gamma * (vx - vn * nx)
+            dy = dy if slides else dy - gamma * (vy - vn * ny)
+            dz = dz if slides else dz - gamma * (vz - vn * nz)
+        held = (SLIDE if slides else STICK) if k_t > 0.0 else (STICK if fresh else was)
+        mode[j] = held if touching else FREE
+        w[F, j], w[F + 1, j], w[F + 2, j] = fn * nx - k_t * ax, fn * ny - k_t * ay, fn * nz - k_t * az
+        w[A, j] = hx if touching else w[A, j]
+        w[A + 1, j] = hy if touching else w[A + 1, j]
+        w[A + 2, j] = hz if touching else w[A + 2, j]
+        w[D, j], w[D + 1, j], w[D + 2, j] = (dx if touching else 0.0), (dy if touching else 0.0), \
+            (dz if touching else 0.0)
+        w[LOST, j] = slip if touching else (0.0 if fresh else opened)
 
 
 @njit(**CACHED)

@@ -449,3 +449,49 @@ def test_spoilt_obstacle_tables_are_refused_before_a_run(spoil, message, tmp_pat
     with pytest.raises(ValueError, match="^Simulation.run: " + message):
         sim.run(steps=1)
     assert sim.steps == 0
+
+
+def _contacts_in_every_mode(m=203, seed=3):
+    """Rows of the vertex pass (kernels/obstacles.py) for m vertices: touching or not, free,
+    sticking or sliding before, moving every way, on lines at every angle to the normal (some
+    along it), anchors near and far (inside and outside the friction ellipse)."""
+    from cosnet.kernels.obstacles import A, C, EPS, N, U, V, WORK_ROWS
+    rng = np.random.default_rng(seed)
+    w = np.zeros((WORK_ROWS, m))
+    w[C:C + 3] = rng.normal(size=(3, m)) * 1e-2
+    w[V:V + 3] = rng.normal(size=(3, m)) * 1e-1
+    w[EPS] = rng.normal(size=m) * 1e-4
+    n = rng.normal(size=(3, m))
+    w[N:N + 3] = n / np.linalg.norm(n, axis=0)
+    w[U:U + 3] = rng.normal(size=(3, m))
+    w[U:U + 3, ::17] = w[N:N + 3, ::17]   # lines along the normal: no tangent
+    w[A:A + 3] = w[C:C + 3] + rng.normal(size=(3, m)) * np.array([1e-5, 1e-3])[rng.integers(0, 2, m)]
+    return w, rng.integers(0, 3, m).astype(np.int64)
+
+
+@pytest.mark.parametrize("mu_s, mu_k", [((0.5, 0.3, 0.8), (0.4, 0.2, 0.6)), ((0.5, 0.0, 0.8), (0.4, 0.0, 0.6)),
+                                        ((0.5, 0.3, 0.0), (0.4, 0.2, 0.0))])
+def test_the_contact_law_in_vector_lanes_is_the_law_one_vertex_at_a_time(mu_s, mu_k):
+    """The vertex contacts' law (kernels/obstacles.contact_law) runs its loop in vector lanes,
+    selects instead of branches; compiled as a plain loop one vertex at a time (LLVM's default
+    limits leave it scalar) every force, anchor, dashpot force, dissipated energy and mode is
+    the same bit for bit, over contacts in every mode and with frictionless directions."""
+    from numba import njit
+
+    from cosnet.kernels.compiler import CACHED_LANES
+    from cosnet.kernels.obstacles import contact_law
+    one_at_a_time = njit(**{k: v for k, v in CACHED_LANES.items() if k != "cache"})(contact_law.py_func)
+    w, mode = _contacts_in_every_mode()
+    args = (1e4, 2.0, 1e3) + tuple(mu_s) + tuple(mu_k)
+    lanes, scalar = (w.copy(), mode.copy()), (w.copy(), mode.copy())
+
+    @njit
+    def call(w, mode, a):
+        contact_law(w, mode, *a)
+    call(*lanes, args)
+    one_at_a_time(*scalar, *args)
+    assert np.array_equal(lanes[1], scalar[1])
+    assert np.array_equal(lanes[0].view(np.int64), scalar[0].view(np.int64))
+    met = set(np.unique(scalar[1]).tolist())
+    # every mode met; without lateral friction nothing displaced sideways can stick
+    assert {0, 2} <= met and (1 in met or mu_k[2] == 0.0)
