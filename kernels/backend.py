@@ -16,7 +16,7 @@ from numba import njit, prange
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-from .compiler import INNER, KERNEL, stable_cache_key
+from .compiler import INNER, KERNEL, noalias, stable_cache_key
 
 # Threads waiting for work sleep instead of spinning. GNU OpenMP, numba's usual threading
 # layer, spins between parallel loops by default; a thread spinning on a core shared with
@@ -43,23 +43,10 @@ NODE_BLOCK = 256
 # two threads than on one. A single task gains nothing from the pool.
 
 
-def _noalias() -> dict:
-    """Return the option that marks a kernel's array arguments as not overlapping (numba's
-    ``noalias`` compiler flag, which its parallel gufuncs use; exposed here as a decorator
-    option), or nothing where this numba lacks the flag: the loops stay correct, but LLVM
-    then vectorises them only where a few run-time overlap tests suffice."""
-    from numba.core import compiler, cpu, options
-    if not hasattr(compiler.Flags, "noalias"):
-        return {}
-    if not hasattr(cpu.CPUTargetOptions, "noalias"):
-        cpu.CPUTargetOptions.noalias = options.TargetOptions.Mapping("noalias")
-    return {"noalias": True}
-
-
 # Options of the vectorised passes: their array arguments (column views) never overlap, so
 # LLVM vectorises them without run-time overlap tests (a few hundred instructions per loop,
 # which would dominate lines of ten elements). Never pass one array twice to such a kernel.
-PASS = dict(STEP, **_noalias())
+PASS = dict(STEP, **noalias())
 
 
 class Serial(NamedTuple):

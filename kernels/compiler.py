@@ -212,31 +212,17 @@ def _lock_compilations():
 
 _lock_compilations()
 
-# LLVM's own limits on the pointer pairs a loop may test at run time to be vectorised
-_POINTER_CHECKS = {"runtime-memory-check-threshold": 8, "memory-check-merge-threshold": 100,
-                   "vectorize-memory-check-threshold": 128}
-
-
-def many_pointer_checks(dispatcher, checks: int = 256):
-    """Return ``dispatcher``, its loops compiled with LLVM allowed up to ``checks`` run-time
-    pointer tests before vectorising them. A loop over the rows of a 2-D array, a row per
-    quantity, reads and writes through pointers LLVM cannot tell apart when compiling (the row
-    stride is a run-time value): it versions the loop on tests that no two overlap, and beyond
-    8 of them it leaves the loop scalar. The limits are LLVM's globals: they are raised around
-    this dispatcher's own compilations alone (numba compiles one function at a time) and set
-    back to LLVM's defaults after each."""
-    compile_ = dispatcher.compile
-
-    def compile(sig):
-        try:
-            for name in _POINTER_CHECKS:
-                llvm.set_option("", f"-{name}={checks}")
-            return compile_(sig)
-        finally:
-            for name, default in _POINTER_CHECKS.items():
-                llvm.set_option("", f"-{name}={default}")
-    dispatcher.compile = compile
-    return dispatcher
+def noalias() -> dict:
+    """Return the option that marks a kernel's array arguments as not overlapping (numba's
+    ``noalias`` compiler flag, which its parallel gufuncs use; exposed here as a decorator
+    option), or nothing where this numba lacks the flag: the loops stay correct, but LLVM
+    then vectorises them only where a few run-time overlap tests suffice."""
+    from numba.core import compiler, cpu, options
+    if not hasattr(compiler.Flags, "noalias"):
+        return {}
+    if not hasattr(cpu.CPUTargetOptions, "noalias"):
+        cpu.CPUTargetOptions.noalias = options.TargetOptions.Mapping("noalias")
+    return {"noalias": True}
 
 
 def _describe(value):
@@ -306,10 +292,12 @@ def _cache_options() -> dict:
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 
-# Options every kernel starts from. The contact, joint and checksum kernels use them as they
-# are, without fast-math or numpy's error model: their results are pinned bit for bit (the
-# reproducibility tests, --resume), and reassociation would change them; the checksum's
-# integer passes gain nothing from either.
+# Options every kernel starts from. They leave fast-math and the error model unset, and numba
+# then compiles a kernel with its first caller's: the contact and joint kernels (CACHED) take
+# the step's fast-math and numpy's error model when a step compiles them first, neither when
+# Python calls them first (a bench calling add_contact directly), and the cache keeps
+# whichever came first; the checksum's integer passes are indifferent. CACHED_LANES below sets
+# both.
 CACHED = _cache_options()
 # the same, inlined by numba where called (the joints' helpers)
 CACHED_INLINE = dict(CACHED, inline="always")

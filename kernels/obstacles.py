@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .friction import plane_tangent, slip_law
-from .compiler import CACHED, CACHED_INNER, CACHED_LANES, many_pointer_checks
+from .compiler import CACHED, CACHED_INNER, CACHED_LANES, noalias
 
 PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
 SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}
@@ -228,7 +228,11 @@ def add_obstacle(p, model, state, loads):
         w[EPS, j], w[N, j], w[N + 1, j], w[N + 2, j] = p.radius[j] - d, nx, ny, nz
         w[U, j], w[U + 1, j], w[U + 2, j] = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
         w[A, j], w[A + 1, j], w[A + 2, j] = anchor[j, 0], anchor[j, 1], anchor[j, 2]
-    contact_law(w, p.mode, p.k, p.gamma, p.k_t, p.mu_s[0], p.mu_s[1], p.mu_s[2], p.mu_k[0], p.mu_k[1],
+    # the rows as arrays of their own, which the law's options declare apart (noalias):
+    # LLVM then runs its loop in vector lanes without testing at run time that they do not overlap
+    rows = (w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], w[10], w[11], w[12], w[13], w[14], w[15],
+            w[16], w[17], w[18], w[19], w[20], w[21], w[22])
+    contact_law(rows, p.mode, p.k, p.gamma, p.k_t, p.mu_s[0], p.mu_s[1], p.mu_s[2], p.mu_k[0], p.mu_k[1],
                 p.mu_k[2])
     # held in a register: stored at every contact, p.deepest would chain each vertex to the
     # one before through memory
@@ -249,18 +253,17 @@ def add_obstacle(p, model, state, loads):
     p.active[0] = active
 
 
-@many_pointer_checks
-@njit(**CACHED_LANES, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(**CACHED_LANES, **noalias(), no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def contact_law(w, mode, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_lat):
-    """Update mode (m,) and w's rows F, A, D, LOST (w: (WORK_ROWS, m)) given its rows C, V, EPS,
-    N, U, A: each vertex contact's force, anchor, dashpot force and plastic work (module
-    docstring), a vertex out of contact FREE with no force and, if it was in contact, the
-    spring's energy lost. Branch-free over the vertices (selects), so that it runs in vector
-    lanes."""
-    for j in range(w.shape[1]):
-        cx, cy, cz, vx, vy, vz = w[C, j], w[C + 1, j], w[C + 2, j], w[V, j], w[V + 1, j], w[V + 2, j]
-        eps, nx, ny, nz = w[EPS, j], w[N, j], w[N + 1, j], w[N + 2, j]
-        hx, hy, hz = w[A, j], w[A + 1, j], w[A + 2, j]
+    """Update mode (m,) and the rows F, A, D, LOST of w (WORK_ROWS arrays (m,), none the same)
+    given its rows C, V, EPS, N, U, A: each vertex contact's force, anchor, dashpot force and
+    plastic work (module docstring), a vertex out of contact FREE with no force and, if it was
+    in contact, the spring's energy lost. Branch-free over the vertices (selects), so that it
+    runs in vector lanes."""
+    for j in range(mode.shape[0]):
+        cx, cy, cz, vx, vy, vz = w[C][j], w[C + 1][j], w[C + 2][j], w[V][j], w[V + 1][j], w[V + 2][j]
+        eps, nx, ny, nz = w[EPS][j], w[N][j], w[N + 1][j], w[N + 2][j]
+        hx, hy, hz = w[A][j], w[A + 1][j], w[A + 2][j]
         was = mode[j]
         # the spring displacement: the anchor's offset in the tangent plane
         ax, ay, az = cx - hx, cy - hy, cz - hz
@@ -279,7 +282,7 @@ def contact_law(w, mode, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_l
             # trial force -k_t e: the spring and the dashpot beside it, while it sticks
             c_t = gamma / k_t
             ex, ey, ez = ax + c_t * (vx - vn * nx), ay + c_t * (vy - vn * ny), az + c_t * (vz - vn * nz)
-            tx, ty, tz = plane_tangent(w[U, j], w[U + 1, j], w[U + 2, j], nx, ny, nz)
+            tx, ty, tz = plane_tangent(w[U][j], w[U + 1][j], w[U + 2][j], nx, ny, nz)
             ax, ay, az, slides, slip = slip_law(ax, ay, az, ex, ey, ez, tx, ty, tz, was == SLIDE, s_fwd, s_back,
                                                 s_lat, k_fwd, k_back, k_lat, k_t, fn)
             hx, hy, hz = (cx - ax if slides else hx), (cy - ay if slides else hy), (cz - az if slides else hz)
@@ -288,13 +291,13 @@ def contact_law(w, mode, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_l
             dz = dz if slides else dz - gamma * (vz - vn * nz)
         held = (SLIDE if slides else STICK) if k_t > 0.0 else (STICK if fresh else was)
         mode[j] = held if touching else FREE
-        w[F, j], w[F + 1, j], w[F + 2, j] = fn * nx - k_t * ax, fn * ny - k_t * ay, fn * nz - k_t * az
-        w[A, j] = hx if touching else w[A, j]
-        w[A + 1, j] = hy if touching else w[A + 1, j]
-        w[A + 2, j] = hz if touching else w[A + 2, j]
-        w[D, j], w[D + 1, j], w[D + 2, j] = (dx if touching else 0.0), (dy if touching else 0.0), \
+        w[F][j], w[F + 1][j], w[F + 2][j] = fn * nx - k_t * ax, fn * ny - k_t * ay, fn * nz - k_t * az
+        w[A][j] = hx if touching else w[A][j]
+        w[A + 1][j] = hy if touching else w[A + 1][j]
+        w[A + 2][j] = hz if touching else w[A + 2][j]
+        w[D][j], w[D + 1][j], w[D + 2][j] = (dx if touching else 0.0), (dy if touching else 0.0), \
             (dz if touching else 0.0)
-        w[LOST, j] = slip if touching else (0.0 if fresh else opened)
+        w[LOST][j] = slip if touching else (0.0 if fresh else opened)
 
 
 @njit(**CACHED)

@@ -473,8 +473,8 @@ def _contacts_in_every_mode(m=203, seed=3):
                                         ((0.5, 0.3, 0.0), (0.4, 0.2, 0.0))])
 def test_the_contact_law_in_vector_lanes_is_the_law_one_vertex_at_a_time(mu_s, mu_k):
     """The vertex contacts' law (kernels/obstacles.contact_law) runs its loop in vector lanes,
-    selects instead of branches; compiled as a plain loop one vertex at a time (LLVM's default
-    limits leave it scalar) every force, anchor, dashpot force, dissipated energy and mode is
+    selects instead of branches; compiled as a plain loop one vertex at a time (without its
+    rows declared apart, which LLVM leaves scalar) every force, anchor, dashpot force, dissipated energy and mode is
     the same bit for bit, over contacts in every mode and with frictionless directions."""
     from numba import njit
 
@@ -488,8 +488,8 @@ def test_the_contact_law_in_vector_lanes_is_the_law_one_vertex_at_a_time(mu_s, m
     @njit
     def call(w, mode, a):
         contact_law(w, mode, *a)
-    call(*lanes, args)
-    one_at_a_time(*scalar, *args)
+    call(tuple(lanes[0]), lanes[1], args)
+    one_at_a_time(tuple(scalar[0]), scalar[1], *args)
     assert np.array_equal(lanes[1], scalar[1])
     assert np.array_equal(lanes[0].view(np.int64), scalar[0].view(np.int64))
     met = set(np.unique(scalar[1]).tolist())
