@@ -43,11 +43,11 @@ PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
 SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}
 FAR = 1e300  # the distance of a vertex no mesh triangle is near
 FREE, STICK, SLIDE = 0, 1, 2  # contact modes
-# rows of ObstacleParams.work, the vertex contacts' columns: centre, velocity, overlap, normal,
+# rows of ObstacleParams.rows, the vertex contacts' columns: centre, velocity, overlap, normal,
 # the line's direction there (x[next] - x[prev]) gathered; force, anchor, dashpot force and
 # dissipated energy computed (the anchor's rows hold it before and after)
 C, V, EPS, N, U, F, A, D, LOST = 0, 3, 6, 7, 10, 13, 16, 19, 22
-WORK_ROWS = 23
+ROWS = 23
 
 
 class ObstacleParams(NamedTuple):
@@ -82,7 +82,7 @@ class ObstacleParams(NamedTuple):
     emode: np.ndarray        # (ne,) int64 FREE, STICK or SLIDE
     edamp: np.ndarray        # (ne, 2, 3) dashpot forces of the element contacts on their two vertices
     damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts
-    work: np.ndarray         # (WORK_ROWS, m) scratch of add_obstacle's passes, a row per column
+    rows: np.ndarray         # (ROWS, m) scratch of add_obstacle's passes, a row per column
 
 
 @njit(**CACHED, inline="always")
@@ -215,10 +215,10 @@ def add_obstacle(p, model, state, loads):
     given the vertex positions and velocities: the normal and friction forces of every vertex
     touching the obstacle (see the module docstring), and their dashpots' share (m, 3): the
     normal one (the clamp's included) and, while a contact sticks, -gamma v_t. In three
-    passes: the geometry gathered into p.work's rows, the contact law over them in vector
+    passes: the geometry gathered into p.rows, the contact law over them in vector
     lanes (contact_law), its results scattered; the same arithmetic, in the same order per
     vertex and over the sums, as one branching loop."""
-    x, v, f, w, anchor = state.x, state.v, loads.f, p.work, p.anchor
+    x, v, f, w, anchor = state.x, state.v, loads.f, p.rows, p.anchor
     for j in range(p.verts.shape[0]):
         i, a, b = p.verts[j], p.vprev[j], p.vnext[j]
         cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
@@ -255,7 +255,7 @@ def add_obstacle(p, model, state, loads):
 
 @njit(**CACHED_LANES, **noalias(), no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def contact_law(w, mode, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_lat):
-    """Update mode (m,) and the rows F, A, D, LOST of w (WORK_ROWS arrays (m,), none the same)
+    """Update mode (m,) and the rows F, A, D, LOST of w (ROWS arrays (m,), none the same)
     given its rows C, V, EPS, N, U, A: each vertex contact's force, anchor, dashpot force and
     plastic work (module docstring), a vertex out of contact FREE with no force and, if it was
     in contact, the spring's energy lost. Branch-free over the vertices (selects), so that it

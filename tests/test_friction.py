@@ -455,9 +455,9 @@ def _contacts_in_every_mode(m=203, seed=3):
     """Rows of the vertex pass (kernels/obstacles.py) for m vertices: touching or not, free,
     sticking or sliding before, moving every way, on lines at every angle to the normal (some
     along it), anchors near and far (inside and outside the friction ellipse)."""
-    from cosnet.kernels.obstacles import A, C, EPS, N, U, V, WORK_ROWS
+    from cosnet.kernels.obstacles import A, C, EPS, N, ROWS, U, V
     rng = np.random.default_rng(seed)
-    w = np.zeros((WORK_ROWS, m))
+    w = np.zeros((ROWS, m))
     w[C:C + 3] = rng.normal(size=(3, m)) * 1e-2
     w[V:V + 3] = rng.normal(size=(3, m)) * 1e-1
     w[EPS] = rng.normal(size=m) * 1e-4

@@ -18,7 +18,7 @@ from ..core.net import Line
 from ..engine.registry import Binding, Key
 from ..core.units import (LENGTH, choice, coefficients, direction, frame, positive, string, vec3)
 from ..kernels import segments as _obstacle_kernels  # noqa: F401  (registers the obstacle kernels)
-from ..kernels.obstacles import SHAPES, SLIDE, WORK_ROWS, ObstacleParams, obstacle_energy
+from ..kernels.obstacles import SHAPES, SLIDE, ROWS, ObstacleParams, obstacle_energy
 from ..kernels.segments import element_energy
 
 GRID_CELLS = 4_000_000  # the mesh grid's cell size grows until it has at most this many cells
@@ -338,7 +338,7 @@ class Obstacle(Frictional):
             np.array(nxt, np.int64), np.array(radius, float), np.zeros((count, 3)), np.zeros(count, np.int64),
             np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.array(elems, np.int64).reshape(-1, 2),
             np.zeros((len(elems), 7)), np.zeros(len(elems), np.int64), np.zeros((len(elems), 2, 3)),
-            np.zeros((count, 3)), np.zeros((WORK_ROWS, count)))
+            np.zeros((count, 3)), np.zeros((ROWS, count)))
 
     # ------------------------------------------------------------------ reports
     def deepest(self, sim) -> float:
