@@ -83,6 +83,7 @@ class ObstacleParams(NamedTuple):
     edamp: np.ndarray        # (ne, 2, 3) dashpot forces of the element contacts on their two vertices
     damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts
     rows: np.ndarray         # (ROWS, m) scratch of add_obstacle's passes, a row per column
+    held: np.ndarray         # (2, m) int64 scratch of add_obstacle's passes: the vertices gathered, their modes
 
 
 @njit(**CACHED, inline="always")
@@ -215,52 +216,64 @@ def add_obstacle(p, model, state, loads):
     given the vertex positions and velocities: the normal and friction forces of every vertex
     touching the obstacle (see the module docstring), and their dashpots' share (m, 3): the
     normal one (the clamp's included) and, while a contact sticks, -gamma v_t. In three
-    passes: the geometry gathered into p.rows, the contact law over them in vector
-    lanes (contact_law), its results scattered; the same arithmetic, in the same order per
-    vertex and over the sums, as one branching loop."""
-    x, v, f, w, anchor = state.x, state.v, loads.f, p.rows, p.anchor
+    passes: the geometry of the vertices in contact gathered into p.rows (p.held: which, and
+    their modes), the contact law over them in vector lanes (contact_law), its results
+    scattered; the same arithmetic, in the same order per vertex and over the sums, as one
+    branching loop."""
+    x, v, f, w, anchor, held = state.x, state.v, loads.f, p.rows, p.anchor, p.held
+    # gathered: the vertices touching now or before (a contact that opens loses its spring);
+    # the others (most of a line lying partly on the ground) only have their dashpot cleared
+    k = 0
     for j in range(p.verts.shape[0]):
         i, a, b = p.verts[j], p.vprev[j], p.vnext[j]
+        p.damp[j, 0] = p.damp[j, 1] = p.damp[j, 2] = 0.0
         cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
         d, nx, ny, nz = obstacle_distance(p, cx, cy, cz)
-        w[C, j], w[C + 1, j], w[C + 2, j] = cx, cy, cz
-        w[V, j], w[V + 1, j], w[V + 2, j] = v[i, 0], v[i, 1], v[i, 2]
-        w[EPS, j], w[N, j], w[N + 1, j], w[N + 2, j] = p.radius[j] - d, nx, ny, nz
-        w[U, j], w[U + 1, j], w[U + 2, j] = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
-        w[A, j], w[A + 1, j], w[A + 2, j] = anchor[j, 0], anchor[j, 1], anchor[j, 2]
+        eps = p.radius[j] - d
+        if not eps > 0.0 and p.mode[j] == FREE:
+            continue
+        held[0, k], held[1, k] = j, p.mode[j]
+        w[C, k], w[C + 1, k], w[C + 2, k] = cx, cy, cz
+        w[V, k], w[V + 1, k], w[V + 2, k] = v[i, 0], v[i, 1], v[i, 2]
+        w[EPS, k], w[N, k], w[N + 1, k], w[N + 2, k] = eps, nx, ny, nz
+        w[U, k], w[U + 1, k], w[U + 2, k] = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+        w[A, k], w[A + 1, k], w[A + 2, k] = anchor[j, 0], anchor[j, 1], anchor[j, 2]
+        k += 1
     # the rows as arrays of their own, which the law's options declare apart (noalias):
     # LLVM then runs its loop in vector lanes without testing at run time that they do not overlap
     rows = (w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], w[10], w[11], w[12], w[13], w[14], w[15],
             w[16], w[17], w[18], w[19], w[20], w[21], w[22])
-    contact_law(rows, p.mode, p.k, p.gamma, p.k_t, p.mu_s[0], p.mu_s[1], p.mu_s[2], p.mu_k[0], p.mu_k[1],
+    contact_law(rows, held[1], k, p.k, p.gamma, p.k_t, p.mu_s[0], p.mu_s[1], p.mu_s[2], p.mu_k[0], p.mu_k[1],
                 p.mu_k[2])
     # held in a register: stored at every contact, p.deepest would chain each vertex to the
     # one before through memory
     active, lost, deepest = 0, 0.0, p.deepest[0]
-    for j in range(p.verts.shape[0]):
+    for q in range(k):
+        j = held[0, q]
         i = p.verts[j]
-        anchor[j, 0], anchor[j, 1], anchor[j, 2] = w[A, j], w[A + 1, j], w[A + 2, j]
-        p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = w[D, j], w[D + 1, j], w[D + 2, j]
-        lost += w[LOST, j]   # 0 where nothing was lost: lost is never -0, so adding 0 leaves it as it is
-        if w[EPS, j] > 0.0:
+        p.mode[j] = held[1, q]
+        anchor[j, 0], anchor[j, 1], anchor[j, 2] = w[A, q], w[A + 1, q], w[A + 2, q]
+        p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = w[D, q], w[D + 1, q], w[D + 2, q]
+        lost += w[LOST, q]   # 0 where nothing was lost: lost is never -0, so adding 0 leaves it as it is
+        if w[EPS, q] > 0.0:
             active += 1
-            deepest = max(deepest, w[EPS, j] / p.radius[j])
-            f[i, 0] += w[F, j]
-            f[i, 1] += w[F + 1, j]
-            f[i, 2] += w[F + 2, j]
+            deepest = max(deepest, w[EPS, q] / p.radius[j])
+            f[i, 0] += w[F, q]
+            f[i, 1] += w[F + 1, q]
+            f[i, 2] += w[F + 2, q]
     p.dissipated[0] += lost
     p.deepest[0] = deepest
     p.active[0] = active
 
 
 @njit(**CACHED_LANES, **noalias(), no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def contact_law(w, mode, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_lat):
-    """Update mode (m,) and the rows F, A, D, LOST of w (ROWS arrays (m,), none the same)
-    given its rows C, V, EPS, N, U, A: each vertex contact's force, anchor, dashpot force and
-    plastic work (module docstring), a vertex out of contact FREE with no force and, if it was
-    in contact, the spring's energy lost. Branch-free over the vertices (selects), so that it
-    runs in vector lanes."""
-    for j in range(mode.shape[0]):
+def contact_law(w, mode, count, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_lat):
+    """Update mode (m,) and the rows F, A, D, LOST of w (ROWS arrays (m,), none the same) in
+    their first count columns given its rows C, V, EPS, N, U, A there: each vertex contact's
+    force, anchor, dashpot force and plastic work (module docstring), a vertex out of contact
+    FREE with no force and, if it was in contact, the spring's energy lost. Branch-free over
+    the vertices (selects), so that it runs in vector lanes."""
+    for j in range(min(count, mode.shape[0])):
         cx, cy, cz, vx, vy, vz = w[C][j], w[C + 1][j], w[C + 2][j], w[V][j], w[V + 1][j], w[V + 2][j]
         eps, nx, ny, nz = w[EPS][j], w[N][j], w[N + 1][j], w[N + 2][j]
         hx, hy, hz = w[A][j], w[A + 1][j], w[A + 2][j]

@@ -482,7 +482,7 @@ def test_the_contact_law_in_vector_lanes_is_the_law_one_vertex_at_a_time(mu_s, m
     from cosnet.kernels.obstacles import contact_law
     one_at_a_time = njit(**{k: v for k, v in CACHED_LANES.items() if k != "cache"})(contact_law.py_func)
     w, mode = _contacts_in_every_mode()
-    args = (1e4, 2.0, 1e3) + tuple(mu_s) + tuple(mu_k)
+    args = (mode.shape[0], 1e4, 2.0, 1e3) + tuple(mu_s) + tuple(mu_k)
     lanes, scalar = (w.copy(), mode.copy()), (w.copy(), mode.copy())
 
     @njit

@@ -186,7 +186,9 @@ class Obstacle(Frictional):
     def conservative(self) -> bool:
         return self.gamma == 0 and not np.any(self.mu_s)
 
-    free_integers = ("mode", "active")   # each vertex's stick/slip state, compared, and a counter
+    # each vertex's stick/slip state, compared; a counter; the contact pass's scratch, written
+    # by every call before it reads it
+    free_integers = ("mode", "active", "held")
 
     @classmethod
     def example(cls):
@@ -338,7 +340,7 @@ class Obstacle(Frictional):
             np.array(nxt, np.int64), np.array(radius, float), np.zeros((count, 3)), np.zeros(count, np.int64),
             np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.array(elems, np.int64).reshape(-1, 2),
             np.zeros((len(elems), 7)), np.zeros(len(elems), np.int64), np.zeros((len(elems), 2, 3)),
-            np.zeros((count, 3)), np.zeros((ROWS, count)))
+            np.zeros((count, 3)), np.zeros((ROWS, count)), np.zeros((2, count), np.int64))
 
     # ------------------------------------------------------------------ reports
     def deepest(self, sim) -> float:
