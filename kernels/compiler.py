@@ -292,12 +292,12 @@ def _cache_options() -> dict:
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 
-# Options every kernel starts from. They leave fast-math and the error model unset, and numba
-# then compiles a kernel with its first caller's: the contact and joint kernels (CACHED) take
-# the step's fast-math and numpy's error model when a step compiles them first, neither when
-# Python calls them first (a bench calling add_contact directly), and the cache keeps
-# whichever came first; the checksum's integer passes are indifferent. CACHED_LANES below sets
-# both.
+# Options every kernel starts from. They leave fast-math, the error model and reference
+# counting unset, and numba then compiles a kernel with its first caller's: the contact and
+# joint kernels (CACHED) take the step's fast-math, numpy's error model and no reference counts
+# when a step compiles them first, none of them when Python calls them first (a bench calling
+# add_contact directly), and the cache keeps whichever came first; the checksum's integer
+# passes are indifferent. CACHED_LANES below sets all three.
 CACHED = _cache_options()
 # the same, inlined by numba where called (the joints' helpers)
 CACHED_INLINE = dict(CACHED, inline="always")
@@ -305,12 +305,15 @@ CACHED_INLINE = dict(CACHED, inline="always")
 # whose compilation (unboxing a record of dozens of arrays) costs more than a small body's
 CACHED_INNER = dict(CACHED, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # Pinned: without fast-math, with numpy's error model (below: a division by zero gives inf/NaN
-# instead of raising, every other quotient is the same bit for bit), both set rather than left
-# unset. Numba compiles a kernel whose options leave them unset with its first caller's: the
-# vertex-obstacle contact compiled inside a step took the step's fast-math (fused multiply-adds,
-# other rounding) and, first called from Python, ran without (slower, and other results from
-# the same cache). For kernels whose divisions are all guarded, whose loops run in vector lanes.
-CACHED_LANES = dict(CACHED, fastmath=False, error_model="numpy")
+# instead of raising, every other quotient is the same bit for bit) and without numba's
+# reference counts, all three set rather than left unset. Numba compiles a kernel whose options
+# leave them unset with its first caller's: the vertex-obstacle contact compiled inside a step
+# took the step's fast-math (fused multiply-adds, other rounding) and its absence of reference
+# counts; first called from Python it ran without fast-math and counted a reference at every
+# row it read (the 100 snakes' obstacle call 380 us against 57), and the cache kept whichever
+# came first. For kernels whose divisions are all guarded and that allocate nothing, whose
+# loops run in vector lanes.
+CACHED_LANES = dict(CACHED, fastmath=False, error_model="numpy", _nrt=False)
 # fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
 # propagate so that a blow-up stays visible to the instability watch
 FAST = {"contract", "arcp", "reassoc", "nsz"}
