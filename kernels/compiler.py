@@ -212,6 +212,7 @@ def _lock_compilations():
 
 _lock_compilations()
 
+
 def noalias() -> dict:
     """Return the option that marks a kernel's array arguments as not overlapping (numba's
     ``noalias`` compiler flag, which its parallel gufuncs use; exposed here as a decorator

@@ -226,11 +226,11 @@ def add_obstacle(p, model, state, loads):
     k = 0
     for j in range(p.verts.shape[0]):
         i, a, b = p.verts[j], p.vprev[j], p.vnext[j]
-        p.damp[j, 0] = p.damp[j, 1] = p.damp[j, 2] = 0.0
         cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]
         d, nx, ny, nz = obstacle_distance(p, cx, cy, cz)
         eps = p.radius[j] - d
         if not eps > 0.0 and p.mode[j] == FREE:
+            p.damp[j, 0] = p.damp[j, 1] = p.damp[j, 2] = 0.0   # a gathered vertex's is set below
             continue
         held[0, k], held[1, k] = j, p.mode[j]
         w[C, k], w[C + 1, k], w[C + 2, k] = cx, cy, cz
@@ -302,8 +302,8 @@ def contact_law(w, mode, count, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_ba
             dx = dx if slides else dx - gamma * (vx - vn * nx)
             dy = dy if slides else dy - gamma * (vy - vn * ny)
             dz = dz if slides else dz - gamma * (vz - vn * nz)
-        held = (SLIDE if slides else STICK) if k_t > 0.0 else (STICK if fresh else was)
-        mode[j] = held if touching else FREE
+        now = (SLIDE if slides else STICK) if k_t > 0.0 else (STICK if fresh else was)
+        mode[j] = now if touching else FREE
         w[F][j], w[F + 1][j], w[F + 2][j] = fn * nx - k_t * ax, fn * ny - k_t * ay, fn * nz - k_t * az
         w[A][j] = hx if touching else w[A][j]
         w[A + 1][j] = hy if touching else w[A + 1][j]
