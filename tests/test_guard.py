@@ -2,7 +2,10 @@
 the API refuses nonsense arguments with a clear ValueError."""
 
 import math
+import os
 import re
+import signal
+import time
 from pathlib import Path
 
 import numpy as np
@@ -118,6 +121,34 @@ def checkpoint_of(tmp_path, net, **kw):
     path = tmp_path / "c.npz"
     sim.save_checkpoint(path)
     return path
+
+
+def test_ctrl_c_during_a_checkpoint_is_raised_after_it_is_whole(tmp_path, monkeypatch):
+    """A SIGINT that arrives inside the write is held until the file is complete and renamed;
+    the interrupt then reaches the caller, and the file restores the state bit for bit."""
+    from cosnet.engine import checkpoint
+    sim = cosnet.Simulation(cantilever(n=6)[0], dt=1e-6)
+    sim.run(steps=3)
+    savez = np.savez
+
+    def interrupted_savez(*args, **kw):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)                  # the handler runs here, inside the write
+        savez(*args, **kw)
+    monkeypatch.setattr(checkpoint.np, "savez", interrupted_savez)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    path = tmp_path / "c.npz"
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.save_checkpoint(path)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.npz"]
+    again = cosnet.Simulation(cantilever(n=6)[0], dt=1e-6)
+    again.load_checkpoint(path)
+    assert again.steps == 3
+    for k, a in sim.state._asdict().items():
+        np.testing.assert_array_equal(getattr(again.state, k), a)
 
 
 def test_checkpoint_of_a_rubber_rod_is_refused_by_a_steel_rod(tmp_path):

@@ -10,8 +10,11 @@ A mismatch is refused with one line naming the groups (and lines or nodes) that 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import signal
+import threading
 
 import numpy as np
 
@@ -141,13 +144,33 @@ def save(sim, path):
     sim.check()
     tmp = f"{path}.tmp.npz"
     try:
-        np.savez(tmp, format=FORMAT, steps=sim.steps, dt=sim.dt, stepper=sim.stepper,
-                 **sim.fingerprint, **sim.state._asdict(), **_effect_arrays(sim))
-        os.replace(tmp, path)
+        with _interrupt_deferred():
+            np.savez(tmp, format=FORMAT, steps=sim.steps, dt=sim.dt, stepper=sim.stepper,
+                     **sim.fingerprint, **sim.state._asdict(), **_effect_arrays(sim))
+            os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+@contextlib.contextmanager
+def _interrupt_deferred():
+    """Hold a Ctrl-C back until the block is done, then raise it. The checkpoint is short and
+    a KeyboardInterrupt inside zipfile's constructor leaves an object whose finaliser fails at
+    exit, printing a second error after the run's own last line."""
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
 
 
 def load(sim, path):
