@@ -14,6 +14,7 @@ kernel can say how many kernels remain and about how long they take on this mach
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import os
 import subprocess
@@ -228,16 +229,58 @@ def compile_kick(path, threads: int):
     """Compile (into numba's cache) the kick of a scene's step: the loads, internal and
     declared, and the velocity update, for the types the step will call it with. The larger
     half of a step's compilation, and the half the step reaches last. A scene with drives
-    first gets the loads on their own, as the drives' reactions in its frame 0 ask for them."""
+    first gets the loads on their own, as the drives' reactions in its frame 0 ask for them.
+    The Verlet step inlines its kick: the kernels the kick calls are compiled, not the kick."""
     from numba import typeof, types
 
-    from .kernels.stepping import evaluate_loads, kick_loads
+    from .kernels.stepping import evaluate_loads, kick_loads, kick_loads_inline
     from .scene.loader import load_scene
     sim = load_scene(path).simulation(threads=threads)
     model, state, loads, backend = (typeof(x) for x in (sim.model, sim.state, sim.loads, sim.backend))
     if any(e.reads_loads for e in sim.effects):
         evaluate_loads.compile((model, state, loads, typeof(sim.load_records), backend))
-    kick_loads.compile((model, state, loads, typeof(sim.step_records), types.float64, backend))
+    args = (model, state, loads, typeof(sim.step_records), types.float64, backend)
+    if sim.stepper == "verlet":
+        compile_callees(kick_loads_inline, args)
+    else:
+        kick_loads.compile(args)
+
+
+def compile_callees(dispatcher, args):
+    """Compile (or load) every kernel ``dispatcher``'s function calls with ``args`` (numba
+    types), as typing it does, without building a library of the function itself. The
+    untyped passes run first, as in a compilation: they inline the inline="always" callees,
+    which are then typed in place rather than compiled on their own."""
+    from numba.core import compiler, compiler_machinery, typed_passes
+
+    class TypeOnly(compiler.CompilerBase):
+        def define_pipelines(self):
+            pm = compiler_machinery.PassManager("type only")
+            pm.passes.extend(compiler.DefaultPassBuilder.define_untyped_pipeline(self.state).passes)
+            pm.add_pass(typed_passes.NopythonTypeInference, "nopython frontend")
+            pm.add_pass(_typed(), "done")
+            pm.finalize()
+            return [pm]
+    TypeOnly(dispatcher.typingctx, dispatcher.targetctx, None, args, None, compiler.Flags(), {}
+             ).compile_extra(dispatcher.py_func)
+
+
+@functools.cache
+def _typed():
+    """A compiler pass ending a pipeline once its function is typed (its result: the types)."""
+    from numba.core import compiler_machinery
+
+    @compiler_machinery.register_pass(mutates_CFG=False, analysis_only=True)
+    class Typed(compiler_machinery.FunctionPass):
+        _name = "cosnet_typed"
+
+        def __init__(self):
+            compiler_machinery.FunctionPass.__init__(self)
+
+        def run_pass(self, state):
+            state.cr = state.typemap
+            return False
+    return Typed
 
 
 @contextlib.contextmanager
