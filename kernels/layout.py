@@ -28,6 +28,8 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.core.typing.typeof import typeof_impl
 
 
 class Model(NamedTuple):
@@ -120,16 +122,38 @@ def uint(i):
     return np.uint64(i)
 
 
+ROW_MAJOR = ("node_", "attach_", "end_")   # the fields kept row-major
+
+
 def column_major(record):
     """Return the record with every 2-D array over vertices, elements or Voronoi points in
     Fortran order (a copy only where needed); node and line-end arrays stay row-major."""
     def order(name, a):
         if np.ndim(a) != 2:
             return a
-        if name.startswith(("node_", "attach_", "end_")):
+        if name.startswith(ROW_MAJOR):
             return np.ascontiguousarray(a)
         return np.asfortranarray(a)
     return type(record)(*(order(n, a) for n, a in zip(record._fields, record)))
+
+
+def _record_type(record, c):
+    """The numba type of a Model, State or Loads record: its column-major arrays typed
+    Fortran-ordered whatever their number of rows. An array of one row (or none) is both C- and
+    F-contiguous, and numba would type it C: a net whose lines have one element each, or that has
+    no lines, then compiled a step and every kernel of its own, the same code for other types."""
+    fields = []
+    for name, a in zip(record._fields, record):
+        t = typeof_impl(a, c)
+        if (isinstance(a, np.ndarray) and a.ndim == 2 and a.flags.f_contiguous and t.layout == "C"
+                and not name.startswith(ROW_MAJOR)):
+            t = t.copy(layout="F")
+        fields.append(t)
+    return types.NamedTuple(fields, type(record))
+
+
+for _record in (Model, State, Loads):
+    typeof_impl.register(_record)(_record_type)
 
 
 def empty_loads(model: Model) -> Loads:
