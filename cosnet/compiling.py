@@ -236,10 +236,11 @@ def compile_kick(path, threads: int):
     from .kernels.stepping import evaluate_loads, kick_loads, kick_loads_inline
     from .scene.loader import load_scene
     sim = load_scene(path).simulation(threads=threads)
-    model, state, loads, backend = (typeof(x) for x in (sim.model, sim.state, sim.loads, sim.backend))
     if any(e.reads_loads for e in sim.effects):
-        evaluate_loads.compile((model, state, loads, typeof(sim.load_records), backend))
-    args = (model, state, loads, typeof(sim.step_records), types.float64, backend)
+        evaluate_loads.compile(tuple(typeof(x) for x in (sim.model, sim.state, sim.loads, sim.load_records,
+                                                          sim.backend)))
+    model, state, loads, records, _, _, backend = sim.step_signature()
+    args = (model, state, loads, records, types.float64, backend)
     if sim.stepper == "verlet":
         compile_callees(kick_loads_inline, args)
     else:

@@ -27,9 +27,8 @@ passes.
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
 from numba.core import types
-from numba.core.typing.typeof import typeof_impl
 
 
 class Model(NamedTuple):
@@ -137,23 +136,22 @@ def column_major(record):
     return type(record)(*(order(n, a) for n, a in zip(record._fields, record)))
 
 
-def _record_type(record, c):
-    """The numba type of a Model, State or Loads record: its column-major arrays typed
-    Fortran-ordered whatever their number of rows. An array of one row (or none) is both C- and
-    F-contiguous, and numba would type it C: a net whose lines have one element each, or that has
-    no lines, then compiled a step and every kernel of its own, the same code for other types."""
+def record_type(record):
+    """The numba type of a Model, State or Loads record, its column-major arrays typed
+    Fortran-ordered whatever their number of rows. An array of one row or none is both C- and
+    F-contiguous, and numba types it C: a net whose lines have one element each, or that has no
+    lines, would compile a step and every kernel in it of its own, the same code for other
+    types. Only the caller that chose the type may call with it (Simulation's stepper): numba's
+    dispatcher maps arguments to types by a fingerprint that sees an array's flags, not its
+    shape, so this typing cannot be numba's own for these records."""
     fields = []
     for name, a in zip(record._fields, record):
-        t = typeof_impl(a, c)
+        t = typeof(a)
         if (isinstance(a, np.ndarray) and a.ndim == 2 and a.flags.f_contiguous and t.layout == "C"
                 and not name.startswith(ROW_MAJOR)):
             t = t.copy(layout="F")
         fields.append(t)
     return types.NamedTuple(fields, type(record))
-
-
-for _record in (Model, State, Loads):
-    typeof_impl.register(_record)(_record_type)
 
 
 def empty_loads(model: Model) -> Loads:

@@ -191,3 +191,39 @@ def test_the_process_compiling_alongside_ends_with_the_block(tmp_path, monkeypat
         pid = int(marker.read_text())
         assert os.path.exists(f"/proc/{pid}")
     assert not os.path.exists(f"/proc/{pid}")   # killed and reaped as the block ended
+
+
+def test_nets_of_one_element_lines_or_none_share_the_step_of_longer_lines():
+    """A net of bodies alone, one of a one-element line and one of a four-element line step
+    with one compiled step (their column-major arrays of one row or none are typed as longer
+    ones are, kernels.layout.record_type); each falls freely, z = -g t^2 / 2 exactly under
+    Verlet (an unstressed straight line carries no internal load). Numba's own dispatch still
+    types by the arrays' flags: a kernel called from Python with row-major copies of a
+    one-element net's state computes what it does with the state itself."""
+    import numpy as np
+
+    import cosnet
+    from cosnet.engine.measure import energies
+    steel = cosnet.Material(E=2e11, G=8e10, density=7850.0)
+    sims = []
+    for elements in (0, 1, 4):
+        net = cosnet.Net()
+        a = net.add_node((0.0, 0.0, 0.0), mass=1.0, inertia=(1.0, 1.0, 1.0))
+        if elements:
+            net.add_line(a, net.add_node((0.5, 0.0, 0.0)), material=steel, section=cosnet.Circle(0.01),
+                         elements=elements)
+        sims.append(cosnet.Simulation(net, effects=[cosnet.Gravity()], dt=1e-6))
+    assert len({s.step_signature() for s in sims}) == 1
+    for sim in sims:
+        sim.run(steps=40)
+        fall = -0.5 * 9.81 * sim.time ** 2
+        np.testing.assert_allclose(sim.state.node_x[:, 2], fall, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(sim.state.x[:, 2], fall, rtol=1e-12, atol=0)
+    assert len(sims[0].advance_kernel.overloads) == 1
+    # row-major copies of the one-element net's records have the flags, not the shapes, of
+    # the records of the net without lines, whose arrays have no rows
+    energies(sims[0].model, sims[0].state)
+    one = sims[1]
+    one.state.v[:] = [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]]
+    model, state = (type(r)(*(np.ascontiguousarray(a) for a in r)) for r in (one.model, one.state))
+    assert energies(model, state) == energies(one.model, one.state)

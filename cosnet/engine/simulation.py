@@ -18,7 +18,7 @@ from .registry import ACCOUNTS, Binding, Effect, implied_effects
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
-from ..kernels.layout import Model, State, empty_loads
+from ..kernels.layout import Model, State, empty_loads, record_type
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, evaluate_loads, stability_interval, steps_to
 from ..core.net import Line, Net, Node
@@ -101,6 +101,7 @@ class Simulation:
     step_records: tuple    # (load, flow, constraint) records, as the stepper takes them
     advance_kernel: Any
     backend: Any
+    _compiled_step: Any    # (the records it was typed for, the stepper's compiled entry)
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | None = None,
                  force_dt: bool = False, safety: float = 0.9, threads: int | None = None,
@@ -134,6 +135,7 @@ class Simulation:
         constraints = tuple(p for stage, p, _ in kernel_records if stage == "constraint")
         self.step_records = (self.load_records, self.flow_records, constraints)
         self.advance_kernel = STEPPERS[stepper]
+        self._compiled_step = None
         self.threads = self._choose_threads(threads)
         self.backend = Serial() if self.threads == 1 else Parallel(self.threads)
         est = self.stable_dt()
@@ -251,12 +253,29 @@ class Simulation:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
                 numba.set_num_threads(self.threads)
-            self.advance_kernel(self.model, self.state, self.loads, self.step_records, self.dt, n,
-                          self.backend)
+            self._stepper()(self.model, self.state, self.loads, self.step_records, self.dt, n, self.backend)
             self.steps += n
             steps -= n
             self.watch.after_chunk()
         return self
+
+    def step_signature(self) -> tuple:
+        """The numba types the stepper is compiled for, here: the records typed by
+        kernels.layout.record_type (one compiled step whatever the nets' sizes)."""
+        return (record_type(self.model), record_type(self.state), record_type(self.loads),
+                numba.typeof(self.step_records), numba.types.float64, numba.types.int64, numba.typeof(self.backend))
+
+    def _stepper(self):
+        """The stepper compiled (or loaded from the cache) for step_signature, called directly:
+        numba's own dispatch would type the records by their flags alone. Kept while the
+        records are the same objects (their arrays, flags included, the same)."""
+        key = (self.model, self.state, self.loads, self.step_records, self.backend)
+        held = self._compiled_step
+        if held is None or any(a is not b for a, b in zip(key, held[0])):
+            sig = self.step_signature()
+            self.advance_kernel.compile(sig)
+            held = self._compiled_step = (key, self.advance_kernel.overloads[sig].entry_point)
+        return held[1]
 
     def _check_locked_axes(self):
         bad = (self.model.node_locked > 0) & (self.state.node_w != 0)

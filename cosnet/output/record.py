@@ -222,9 +222,7 @@ def kernels_compiled(sim) -> bool:
     try:
         if disp.signatures:
             return True
-        args = (sim.model, sim.state, sim.loads, sim.step_records, sim.dt, 1,
-                sim.backend)
-        return in_cache(disp, tuple(disp.typeof_pyval(a) for a in args))
+        return in_cache(disp, sim.step_signature())
     except Exception:   # another numba: no way to tell, say nothing
         return True
 

@@ -1,0 +1,133 @@
+"""The many snakes of bench/many_snakes.py on two cores, this checkout against an earlier
+commit's code, in alternation.
+
+    python bench/snakes_against.py REV [N ...]     (default N: 100 1000)
+
+For each N and each code (this checkout, REV), one measurement is a pair of single-threaded
+processes started together, N/2 snakes apiece (bench/many_snakes.py's two-process setting,
+at PyElastica's step): each builds its snakes with its own code's bench/many_snakes.cn_snakes,
+steps them once (compilation, caches), waits until both are ready, then times ROUNDS runs of
+STEPS steps and reports its best; the pair's rate is N x STEPS / the slower process's best.
+The codes alternate, pair after pair (this, REV, this, REV, ...), so that a slow spell of the
+machine falls on both. REV's code comes from `git worktree` in a temporary folder, run with
+a numba cache of its own. Reported: each code's rates (median, spread), the ratio of
+medians, and the largest difference between the two codes' vertex positions after the same
+steps (0 when they compute bit for bit the same trajectory).
+Writes bench/snakes_against.json.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from harness import table, write_json
+
+ROOT = Path(__file__).resolve().parents[1]
+PAIRS = 5
+ROUNDS = 3
+STEPS = 1000
+
+# argv: bench folder, snakes, rounds, steps. Prints "ready" once warm, reads a line, times.
+CHILD = r"""
+import sys, time, json
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from many_snakes import cn_snakes
+n, rounds, steps = (int(a) for a in sys.argv[2:5])
+sim = cn_snakes(n, 1)
+sim.run(steps=steps)
+print("ready", flush=True)
+sys.stdin.readline()
+best = float("inf")
+for _ in range(rounds):
+    t = time.perf_counter()
+    sim.run(steps=steps)
+    best = min(best, time.perf_counter() - t)
+print(json.dumps({"best": best, "steps": sim.steps, "x": sim.state.x.tolist()}), flush=True)
+"""
+
+
+def code_tree(rev: str, into: Path) -> dict:
+    """A checkout of ``rev`` in ``into`` and the environment that imports its cosnet (the
+    package with its kernels folder, as the install maps it) with a numba cache of its own."""
+    subprocess.run(["git", "worktree", "add", "--detach", str(into / "tree"), rev], cwd=ROOT, check=True,
+                   capture_output=True)
+    pkg = into / "pkg"
+    pkg.mkdir()
+    shutil.copytree(into / "tree" / "cosnet", pkg / "cosnet")
+    (pkg / "cosnet" / "kernels").symlink_to(into / "tree" / "kernels")
+    return {"bench": str(into / "tree" / "bench"),
+            "env": dict(os.environ, PYTHONPATH=str(pkg), NUMBA_CACHE_DIR=str(into / "cache"))}
+
+
+def pair(code: dict, snakes: int) -> tuple[float, list]:
+    """(rod-steps/s, positions of the first half's snakes) of one pair of processes."""
+    halves = (snakes // 2, snakes - snakes // 2)
+    procs = [subprocess.Popen([sys.executable, "-c", CHILD, code["bench"], str(n), str(ROUNDS), str(STEPS)],
+                              env=code["env"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+             for n in halves]
+    try:
+        for p in procs:
+            if p.stdout.readline().strip() != "ready":
+                raise RuntimeError(f"a snakes process failed ({code['bench']})")
+        for p in procs:
+            p.stdin.write("go\n")
+            p.stdin.flush()
+        out = [json.loads(p.stdout.readline()) for p in procs]
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait()
+    return snakes * STEPS / max(o["best"] for o in out), out[0]["x"]
+
+
+def compare(rev: str, counts: list[int]) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        this = {"bench": str(ROOT / "bench"), "env": dict(os.environ)}
+        try:
+            earlier = code_tree(rev, Path(tmp))
+            rows = []
+            for n in counts:
+                rates: dict = {"this": [], rev: []}
+                shift = 0.0
+                for _ in range(PAIRS):
+                    r_this, x_this = pair(this, n)
+                    r_rev, x_rev = pair(earlier, n)
+                    rates["this"].append(r_this)
+                    rates[rev].append(r_rev)
+                    shift = max(abs(a - b) for u, v in zip(x_this, x_rev) for a, b in zip(u, v))
+                med = {k: statistics.median(v) for k, v in rates.items()}
+                rows.append({"snakes": n, "rod_steps_per_s": rates, "median": med,
+                             "spread": {k: (max(v) - min(v)) / min(v) for k, v in rates.items()},
+                             "ratio_of_medians": med["this"] / med[rev], "largest_position_difference_m": shift})
+                print(rows[-1], flush=True)
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(Path(tmp) / "tree")], cwd=ROOT,
+                           capture_output=True)
+    return {"against": rev, "pairs": PAIRS, "rounds": ROUNDS, "steps": STEPS, "rows": rows}
+
+
+def main():
+    if len(sys.argv) < 2 or sys.argv[1].isdigit():
+        raise SystemExit("usage: python bench/snakes_against.py REV [N ...]")
+    rev = subprocess.run(["git", "rev-parse", "--short", sys.argv[1]], cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout.strip()
+    counts = [int(a) for a in sys.argv[2:]] or [100, 1000]
+    load0 = os.getloadavg()[0]
+    result = compare(rev, counts)
+    table(f"Snakes on two cores, rod-steps/s (median of {PAIRS} pairs in alternation): this checkout against {rev}",
+          ["snakes", "this", rev, "ratio", "spread this", f"spread {rev}", "largest |dx| (m)"],
+          [[r["snakes"], r["median"]["this"], r["median"][rev], r["ratio_of_medians"], r["spread"]["this"],
+            r["spread"][rev], r["largest_position_difference_m"]] for r in result["rows"]])
+    write_json(__file__, {**result, "load_average_1min": [load0, os.getloadavg()[0]]})
+
+
+if __name__ == "__main__":
+    main()
