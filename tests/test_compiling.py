@@ -214,12 +214,13 @@ def test_nets_of_one_element_lines_or_none_share_the_step_of_longer_lines():
                          elements=elements)
         sims.append(cosnet.Simulation(net, effects=[cosnet.Gravity()], dt=1e-6))
     assert len({s.step_signature() for s in sims}) == 1
+    compiled = len(sims[0].advance_kernel.overloads)   # what other tests in this process compiled
     for sim in sims:
         sim.run(steps=40)
         fall = -0.5 * 9.81 * sim.time ** 2
         np.testing.assert_allclose(sim.state.node_x[:, 2], fall, rtol=1e-12, atol=0)
         np.testing.assert_allclose(sim.state.x[:, 2], fall, rtol=1e-12, atol=0)
-    assert len(sims[0].advance_kernel.overloads) == 1
+    assert len(sims[0].advance_kernel.overloads) <= compiled + 1
     # row-major copies of the one-element net's records have the flags, not the shapes, of
     # the records of the net without lines, whose arrays have no rows
     energies(sims[0].model, sims[0].state)
