@@ -54,7 +54,8 @@ SCRIPTS = [
     ("sweep", None, [], None),                    # Dask clusters of 1 and 2 workers
     ("contact_scaling@friction", ["--quick"], [], 180),
     ("snake", ["--quick"], [], 300),                # PyElastica side by side
-    ("many_snakes", ["--quick"], ["--quick", "--profile"], 600),  # the pages quote 1-100 snakes
+    ("many_snakes", ["--quick"], ["--profile", "1", "10", "100", "1000"], 900),
+    ("snakes_against", None, ["05c0a97"], None),  # before the vectorised ground contact
     ("startup", None, [], None),                  # about 8 minutes: every case cold and warm
     ("soak", None, [], None),                     # about 13 minutes: 10^7 steps of two cases
 ]

@@ -1,18 +1,20 @@
-"""The many snakes of bench/many_snakes.py on two cores, this checkout against an earlier
-commit's code, in alternation.
+"""The many snakes of bench/many_snakes.py on two cores, and a long rod on one, this
+checkout against an earlier commit's code, in alternation.
 
-    python bench/snakes_against.py REV [N ...]     (default N: 100 1000)
+    python bench/snakes_against.py REV [N ...]     (default N: 100 1000 snakes)
 
-For each N and each code (this checkout, REV), one measurement is a pair of single-threaded
-processes started together, N/2 snakes apiece (bench/many_snakes.py's two-process setting,
-at PyElastica's step): each builds its snakes with its own code's bench/many_snakes.cn_snakes,
-steps them once (compilation, caches), waits until both are ready, then times ROUNDS runs of
-STEPS steps and reports its best; the pair's rate is N x STEPS / the slower process's best.
-The codes alternate, pair after pair (this, REV, this, REV, ...), so that a slow spell of the
-machine falls on both. REV's code comes from `git worktree` in a temporary folder, run with
-a numba cache of its own. Reported: each code's rates (median, spread), the ratio of
-medians, and the largest difference between the two codes' vertex positions after the same
-steps (0 when they compute bit for bit the same trajectory).
+Snakes: for each N and each code (this checkout, REV), one measurement is a pair of
+single-threaded processes started together, N/2 snakes apiece (bench/many_snakes.py's
+two-process setting, at PyElastica's step): each builds its snakes with its own code's
+bench/many_snakes.cn_snakes, steps them once (compilation, caches), waits until both are
+ready, then times ROUNDS runs of STEPS steps and reports its best; the pair's rate is N x
+STEPS / the slower process's best. Long rod: one process on one thread, a clamped steel rod
+of ROD elements (bench/harness.rod), under gravity, timed the same way (element-steps/s).
+The codes alternate, measurement after measurement (this, REV, this, REV, ...), so that a
+slow spell of the machine falls on both. REV's code comes from `git worktree` in a temporary
+folder, run with a numba cache of its own. Reported: each code's rates (median, spread), the
+ratio of medians, and the largest difference between the two codes' vertex positions after
+the same steps (0 when they compute bit for bit the same trajectory).
 Writes bench/snakes_against.json.
 """
 
@@ -34,14 +36,21 @@ PAIRS = 5
 ROUNDS = 3
 STEPS = 1000
 
-# argv: bench folder, snakes, rounds, steps. Prints "ready" once warm, reads a line, times.
+ROD = 10_000
+
+# argv: bench folder, workload ("snakes" or "rod"), its size, rounds, steps. Prints "ready"
+# once warm, reads a line, times.
 CHILD = r"""
 import sys, time, json
 sys.path.insert(0, sys.argv[1])
-import numpy as np
-from many_snakes import cn_snakes
-n, rounds, steps = (int(a) for a in sys.argv[2:5])
-sim = cn_snakes(n, 1)
+kind, size, rounds, steps = sys.argv[2], *(int(a) for a in sys.argv[3:6])
+if kind == "snakes":
+    from many_snakes import cn_snakes
+    sim = cn_snakes(size, 1)
+else:
+    import cosnet
+    from harness import rod
+    sim = cosnet.Simulation(rod(size), effects=[cosnet.Gravity()], threads=1)
 sim.run(steps=steps)
 print("ready", flush=True)
 sys.stdin.readline()
@@ -50,7 +59,7 @@ for _ in range(rounds):
     t = time.perf_counter()
     sim.run(steps=steps)
     best = min(best, time.perf_counter() - t)
-print(json.dumps({"best": best, "steps": sim.steps, "x": sim.state.x.tolist()}), flush=True)
+print(json.dumps({"best": best, "x": sim.state.x.tolist()}), flush=True)
 """
 
 
@@ -67,16 +76,18 @@ def code_tree(rev: str, into: Path) -> dict:
             "env": dict(os.environ, PYTHONPATH=str(pkg), NUMBA_CACHE_DIR=str(into / "cache"))}
 
 
-def pair(code: dict, snakes: int) -> tuple[float, list]:
-    """(rod-steps/s, positions of the first half's snakes) of one pair of processes."""
-    halves = (snakes // 2, snakes - snakes // 2)
-    procs = [subprocess.Popen([sys.executable, "-c", CHILD, code["bench"], str(n), str(ROUNDS), str(STEPS)],
+def measure(code: dict, kind: str, size: int) -> tuple[float, list]:
+    """(items x steps per second, positions) of one measurement: for snakes, a pair of
+    processes of size/2 snakes each (the rate over the slower one's best, the positions of
+    the first); for the rod, one process."""
+    sizes = (size // 2, size - size // 2) if kind == "snakes" else (size,)
+    procs = [subprocess.Popen([sys.executable, "-c", CHILD, code["bench"], kind, str(n), str(ROUNDS), str(STEPS)],
                               env=code["env"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-             for n in halves]
+             for n in sizes]
     try:
         for p in procs:
             if p.stdout.readline().strip() != "ready":
-                raise RuntimeError(f"a snakes process failed ({code['bench']})")
+                raise RuntimeError(f"a {kind} process failed ({code['bench']})")
         for p in procs:
             p.stdin.write("go\n")
             p.stdin.flush()
@@ -85,7 +96,7 @@ def pair(code: dict, snakes: int) -> tuple[float, list]:
         for p in procs:
             p.kill()
             p.wait()
-    return snakes * STEPS / max(o["best"] for o in out), out[0]["x"]
+    return size * STEPS / max(o["best"] for o in out), out[0]["x"]
 
 
 def compare(rev: str, counts: list[int]) -> dict:
@@ -94,17 +105,17 @@ def compare(rev: str, counts: list[int]) -> dict:
         try:
             earlier = code_tree(rev, Path(tmp))
             rows = []
-            for n in counts:
+            for kind, n in [("snakes", n) for n in counts] + [("rod", ROD)]:
                 rates: dict = {"this": [], rev: []}
                 shift = 0.0
                 for _ in range(PAIRS):
-                    r_this, x_this = pair(this, n)
-                    r_rev, x_rev = pair(earlier, n)
+                    r_this, x_this = measure(this, kind, n)
+                    r_rev, x_rev = measure(earlier, kind, n)
                     rates["this"].append(r_this)
                     rates[rev].append(r_rev)
                     shift = max(abs(a - b) for u, v in zip(x_this, x_rev) for a, b in zip(u, v))
                 med = {k: statistics.median(v) for k, v in rates.items()}
-                rows.append({"snakes": n, "rod_steps_per_s": rates, "median": med,
+                rows.append({"workload": kind, "size": n, "per_s": rates, "median": med,
                              "spread": {k: (max(v) - min(v)) / min(v) for k, v in rates.items()},
                              "ratio_of_medians": med["this"] / med[rev], "largest_position_difference_m": shift})
                 print(rows[-1], flush=True)
@@ -122,10 +133,11 @@ def main():
     counts = [int(a) for a in sys.argv[2:]] or [100, 1000]
     load0 = os.getloadavg()[0]
     result = compare(rev, counts)
-    table(f"Snakes on two cores, rod-steps/s (median of {PAIRS} pairs in alternation): this checkout against {rev}",
-          ["snakes", "this", rev, "ratio", "spread this", f"spread {rev}", "largest |dx| (m)"],
-          [[r["snakes"], r["median"]["this"], r["median"][rev], r["ratio_of_medians"], r["spread"]["this"],
-            r["spread"][rev], r["largest_position_difference_m"]] for r in result["rows"]])
+    table(f"rod-steps/s of snakes on two cores, element-steps/s of a rod on one (median of {PAIRS} in "
+          f"alternation): this checkout against {rev}",
+          ["workload", "this", rev, "ratio", "spread this", f"spread {rev}", "largest |dx| (m)"],
+          [[f"{r['size']} {r['workload']}", r["median"]["this"], r["median"][rev], r["ratio_of_medians"],
+            r["spread"]["this"], r["spread"][rev], r["largest_position_difference_m"]] for r in result["rows"]])
     write_json(__file__, {**result, "load_average_1min": [load0, os.getloadavg()[0]]})
 
 

@@ -210,6 +210,19 @@ def snakes_simulated() -> str:
     return _table(["snakes", *SNAKE_LONG.values()], _snake_rows("rod_s_per_s", SNAKE_LONG, lambda x: _g(x, 2)))
 
 
+def snakes_against() -> str:
+    """The many snakes on two cores, this code against an earlier commit's, in alternation."""
+    d = _json("snakes_against.json")
+    rev = d["against"]
+    rows = [[f"{r['size']:,} {'snakes, 2 processes' if r['workload'] == 'snakes' else 'elements, 1 rod'}",
+             f"{r['median']['this']:,.0f}", f"{r['median'][rev]:,.0f}",
+             _g(r["ratio_of_medians"], 3), f"{100 * r['spread']['this']:.0f} %", f"{100 * r['spread'][rev]:.0f} %",
+             _g(r["largest_position_difference_m"], 2)] for r in d["rows"]]
+    return _table(["workload (rod-steps/s of snakes, element-steps/s of the rod)",
+                   f"this code ({d['machine']['commit']})", rev, "ratio", "spread, this", f"spread, {rev}",
+                   "largest position difference (m)"], rows)
+
+
 def snakes_accuracy() -> str:
     acc = _json("many_snakes.json")["accuracy"]
     rows = [[name, _g(r["dt"], 3), _g(r["velocity"][2], 4), _g(r["velocity"][0], 4),
@@ -415,7 +428,8 @@ def figure(expression: str, namespace: dict, where: str) -> str:
 TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy,
           "rings_cost": rings_cost, "moordyn": moordyn,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
-          "snakes_accuracy": snakes_accuracy, "throughput": throughput, "contact_friction": contact_friction,
+          "snakes_accuracy": snakes_accuracy,
+          "snakes_against": snakes_against, "throughput": throughput, "contact_friction": contact_friction,
           "pyelastica": pyelastica, "accuracy_space": accuracy_space, "accuracy_time": accuracy_time,
           "cosseratbench": cosseratbench, "gallery": gallery}
 
