@@ -233,7 +233,7 @@ def compile_kick(path, threads: int):
     The Verlet step inlines its kick: the kernels the kick calls are compiled, not the kick."""
     from numba import typeof, types
 
-    from .kernels.stepping import evaluate_loads, kick_loads, kick_loads_inline
+    from .kernels.stepping import advance_verlet, evaluate_loads, kick_loads, kick_loads_inline
     from .scene.loader import load_scene
     sim = load_scene(path).simulation(threads=threads)
     if any(e.reads_loads for e in sim.effects):
@@ -242,17 +242,24 @@ def compile_kick(path, threads: int):
     model, state, loads, records, _, _, backend = sim.step_signature()
     args = (model, state, loads, records, types.float64, backend)
     if sim.stepper == "verlet":
-        compile_callees(kick_loads_inline, args)
+        compile_callees(kick_loads_inline, args, flags_of=advance_verlet)
     else:
         kick_loads.compile(args)
 
 
-def compile_callees(dispatcher, args):
+def compile_callees(dispatcher, args, flags_of=None):
     """Compile (or load) every kernel ``dispatcher``'s function calls with ``args`` (numba
     types), as typing it does, without building a library of the function itself. The
     untyped passes run first, as in a compilation: they inline the inline="always" callees,
-    which are then typed in place rather than compiled on their own."""
+    which are then typed in place rather than compiled on their own. The typing runs under
+    the compiler flags of ``flags_of`` (default: the dispatcher itself), the function whose
+    compilation inlines this one: a callee that leaves fast-math, the error model or reference
+    counting unset is compiled with its caller's, and the cache keeps what was compiled first,
+    so the callees must get here what the step's own compilation would give them."""
     from numba.core import compiler, compiler_machinery, typed_passes
+    owner = flags_of or dispatcher
+    flags = compiler.Flags()
+    owner.targetdescr.options.parse_as_flags(flags, owner.targetoptions)
 
     class TypeOnly(compiler.CompilerBase):
         def define_pipelines(self):
@@ -262,8 +269,7 @@ def compile_callees(dispatcher, args):
             pm.add_pass(_typed(), "done")
             pm.finalize()
             return [pm]
-    TypeOnly(dispatcher.typingctx, dispatcher.targetctx, None, args, None, compiler.Flags(), {}
-             ).compile_extra(dispatcher.py_func)
+    TypeOnly(dispatcher.typingctx, dispatcher.targetctx, None, args, None, flags, {}).compile_extra(dispatcher.py_func)
 
 
 @functools.cache
