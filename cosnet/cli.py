@@ -64,7 +64,7 @@ def cmd_run(args) -> int:
         raise ValueError(f"{scene.path}: [run] {what}: {interval:g} s is shorter than one step "
                          f"(dt = {sim.dt:.4g} s){'; frames would repeat' if what != 'until' else ''}")
     if scene.run.limits and not args.no_limits:
-        source = "[run] dt" if scene.run.dt is not None else f"the stable step of {sim.stiffest()}"
+        source = "[run] dt" if isinstance(scene.run.dt, float) else f"the stable step of {sim.stiffest()}"
         check_run(until / sim.dt, until / interval, f"dt = {sim.dt:.4g} s ({source})",
                   f"{scene.path}: [run] until = {until:g} s")
     with outdir.locked(out):
@@ -205,7 +205,8 @@ def cmd_info(args) -> int:
     print(f"nodes      fixed: {', '.join(fixed) or '-'}; with mass: {', '.join(bodies) or '-'}")
     print(f"mass       {net.total_mass():.6g} kg (nodes of finite mass and lines)")
     print(f"stable dt  {est:.4g} s (estimate, {sim.stepper}; stiffest at {sim.stiffest()})")
-    print(f"dt         {sim.dt:.4g} s ({'auto' if scene.run.dt is None else 'from the scene'})")
+    given = "auto" if scene.run.dt is None else "the highest mode's" if scene.run.dt == "tight" else "from the scene"
+    print(f"dt         {sim.dt:.4g} s ({given})")
     print(f"fast_modes {fast_modes_line(sim)}")
     print(f"run        until {scene.run.until:g} s = {math.ceil(scene.run.until / sim.dt):,} steps, "
           f"output every {scene.run.interval:g} s")

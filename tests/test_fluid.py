@@ -467,7 +467,7 @@ def test_the_stable_step_counts_the_added_mass():
         a, b = net.add_node((0.0, 0.0, -1.0)), net.add_node((1.0, 0.0, -1.0))
         net.add_line(a, b, material=mat, section=cosnet.Circle(0.01), elements=10, rotary_inertia_scale=1000.0)
         sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0)), cosnet.Fluid(RHO, added_mass=coefficients)],
-                                dt=dt, force_dt=dt is not None)
+                                dt=dt, force_dt=dt not in (None, "tight"))
         sim.state.v[:] = 1e-3 * np.random.default_rng(1).standard_normal(sim.state.v.shape)
         return sim
 
@@ -482,6 +482,13 @@ def test_the_stable_step_counts_the_added_mass():
     assert wet > 1.5 * dry
     assert stable(simulation((1.0, 1.0), wet)) and not stable(simulation((0.0, 0.0), wet))
     assert not stable(simulation((1.0, 1.0), 2 * wet))
+    # the highest mode's step: the zigzag of the free rod's vertices (half masses at its ends)
+    # is an exact mode, omega^2 = 4 E A / (l m) with m the vertex's mass, its own and entrained
+    for coefficients, mass in (((0.0, 0.0), 400.0), ((1.0, 1.0), 400.0 + RHO)):
+        sim = simulation(coefficients, "tight")
+        omega = math.sqrt(4.0 * 1e8 / (0.1 * 0.1 * mass))
+        assert sim.dt == pytest.approx(0.9 * 2.0 / omega, rel=2e-3)
+        assert stable(sim) and not stable(simulation(coefficients, 1.2 * sim.dt))
 
 
 def test_the_turbulent_series_has_its_intensity_and_the_kaimal_spectrum():

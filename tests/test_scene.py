@@ -430,6 +430,14 @@ def test_a_dt_above_the_stable_step_is_refused_naming_run_dt(tmp_path):
     assert forced.simulation().dt == 1.0
 
 
+def test_run_dt_tight_takes_the_highest_modes_step_and_anything_else_is_refused(tmp_path):
+    text = SCENE.replace("output_interval = 0.001\n", "")
+    tight = load_scene(write(tmp_path, text.replace('dt = "auto"', 'dt = "tight"'))).simulation()
+    assert tight.dt == tight.stable_dt(tight=True) >= tight.stable_dt()
+    with pytest.raises(ValueError, match=r'b\.toml: \[run\] dt: must be "auto", "tight" or a positive number'):
+        load_scene(write(tmp_path, text.replace('dt = "auto"', 'dt = "fast"'), "b.toml"))
+
+
 def test_initial_spin_is_a_rigid_motion(tmp_path):
     """velocity + angular_velocity x (x - c) on everything: momentum M V, angular momentum
     about the centre of mass I w, no strain rate (the energy is all kinetic, none elastic)."""

@@ -89,6 +89,18 @@ def test_stable_dt_estimate_is_safe_and_within_factor_two(factory, stepper):
     assert 1.0 < f < 2.0
 
 
+@pytest.mark.parametrize("stepper", ["verlet", "pefrl"])
+@pytest.mark.parametrize("factory", [lambda: cantilever(n=10)[0], lambda: free_net(4), tee_with_body],
+                         ids=["cantilever", "free_net", "tee_with_body"])
+def test_the_tight_step_is_the_highest_modes_and_a_fifth_more_is_unstable(factory, stepper):
+    """dt="tight" takes the linearised net's highest mode (clamps, a body on offsets, PEFRL):
+    it runs stably, 1.2 times it (1.08 times the linear limit) does not, and it is not below
+    the bound's step."""
+    tight = cosnet.Simulation(factory(), stepper=stepper, dt="tight").dt
+    assert tight >= cosnet.Simulation(factory(), stepper=stepper).dt
+    assert stable(factory, tight, stepper) and not stable(factory, 1.2 * tight, stepper)
+
+
 def test_scaled_net_follows_the_same_trajectory():
     """§5: the net in scaled units (T0, L0, A0, rho0) moves as the SI net after rescaling."""
     scale = cosnet.Scale(time=1e-3, length=0.5, area=1e-4, density=7850.0)

@@ -255,8 +255,14 @@ def string_list(v):
     return [string(x) for x in v]
 
 
-def auto_or_positive(v):
-    return "auto" if v == "auto" else positive(v)
+def step_value(v):
+    """[run] dt: "auto" (the stable bound), "tight" (the highest mode's step) or seconds."""
+    if v in ("auto", "tight"):
+        return v
+    try:
+        return positive(v)
+    except BadValue as e:
+        raise BadValue(f'must be "auto", "tight" or a positive number of seconds ({e})') from None
 
 
 def frame(v):
