@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .backend import STEP
+from .backend import PASS, STEP
 from .compose import flow_kernel, inertia_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
@@ -35,6 +35,7 @@ from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
+SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
 
 
 class FluidParams(NamedTuple):
@@ -64,9 +65,10 @@ class FluidParams(NamedTuple):
     wave_sin: np.ndarray     # (nw,)
     wave_phase: np.ndarray   # (nw,)
     node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves to their drive
-    sample: np.ndarray       # (14, nv) scratch: at each vertex of the lines in the medium, as the kick's
-                             # first half flow found it: wet (1 or 0), U, A, tangent, then at interior
-                             # vertices the medium's inertia force (3) and the upthrust
+    sample: np.ndarray       # (SAMPLE_ROWS, nv) scratch: at each vertex of the lines in the medium, as the
+                             # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
+                             # interior vertices the medium's inertia force (3), the upthrust, and
+                             # the inverse masses across and along the line, added mass included
     turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
@@ -225,21 +227,67 @@ def still_medium(p):
             and p.times.shape[0] == 0)
 
 
-@njit(**INNER)
-def sample_forces(p, model, z, S, j, l):
-    """Update rows 10-13 of the sample (S, its rows) at the interior vertices of line l (row
-    j) by the forces of position and time (vertex_force): the medium's inertia force and the
-    upthrust, given the heights z and rows 0-9."""
-    vlen, elen = model.voronoi_rest_length, model.element_rest_length
-    first = uint(model.line_vertex_offsets[l] + 1)
-    e0 = uint(model.line_element_offsets[l])
-    up, cn, ct, surface = p.buoyancy[j], p.inertia_n[j], p.inertia_t[j], p.surface
-    for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
+@njit(**PASS)
+def sample_upthrust(z, S, elen, lo, e0, n, up, surface):
+    """Update row 13 of the sample (S) at the n interior vertices lo+1.. of a line whose
+    elements start at e0 by their shares of the upthrust (up per length; vertex_force),
+    given the heights z. A line wholly under the surface, the common case, takes a
+    branch-free loop; one that crosses it, wet_shares element by element."""
+    under = 0.0
+    for k in range(n + 2):
+        under += 1.0 if z[lo + uint(k)] <= surface else 0.0
+    if under == n + 2:
+        for k in range(n):
+            S[13][lo + uint(k + 1)] = 0.5 * up * (elen[e0 + uint(k)] + elen[e0 + uint(k + 1)])
+        return
+    for k in range(n):
+        i = lo + uint(k + 1)
+        S[13][i] = up * (elen[e0 + uint(k)] * wet_shares(z[lo + uint(k)], z[i], surface)[1]
+                         + elen[e0 + uint(k + 1)] * wet_shares(z[i], z[lo + uint(k + 2)], surface)[0])
+
+
+@njit(**PASS)
+def sample_inertia(S, vlen, first, n, cn, ct):
+    """Update rows 10-12 of the sample (S) at the n vertices first.. by the medium's inertia
+    force (masses per length cn across, ct along the line) of the sampled acceleration where
+    they are wet (vertex_force)."""
+    for k in range(n):
         i = first + uint(k)
-        S[13][i] = up * (elen[e0 + uint(k)] * wet_shares(z[i - uint(1)], z[i], surface)[1]
-                         + elen[e0 + uint(k + 1)] * wet_shares(z[i], z[i + uint(1)], surface)[0])
         wl = S[0][i] * vlen[i]
         S[10][i], S[11][i], S[12][i] = split(wl * cn, wl * ct, S[4][i], S[5][i], S[6][i], S[7][i], S[8][i], S[9][i])
+
+
+@njit(**PASS)
+def sample_masses(S, vlen, vmass, first, n, an, at):
+    """Update rows 14-15 of the sample (S) at the n vertices first.. by the inverse of the
+    vertex mass with the added mass across (an per length) and along (at) the line where it
+    is wet: the divisions the half flows and the kick would otherwise each repeat."""
+    for k in range(n):
+        i = first + uint(k)
+        m, wl = vmass[i], S[0][i] * vlen[i]
+        S[14][i], S[15][i] = 1.0 / (m + wl * an), 1.0 / (m + wl * at)
+
+
+@njit(**PASS)
+def sample_chords(c, S, lo, n):
+    """Update rows 7-9 of the sample (S) at the n interior vertices lo+1.. of a line by the
+    unit chord between their neighbours (c: the position columns)."""
+    for k in range(n):
+        a, i, b = lo + uint(k), lo + uint(k + 1), lo + uint(k + 2)
+        tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
+        inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))   # coincident: no tangent
+        S[7][i], S[8][i], S[9][i] = tx * inv, ty * inv, tz * inv
+
+
+@njit(**PASS)
+def sample_still(z, S, lo, n, surface, c0, c1, c2):
+    """Update rows 0-6 of the sample (S) at the n vertices lo.. of a line in a still medium:
+    wet below the surface, the current (c0, c1, c2), no acceleration."""
+    for k in range(n):
+        i = lo + uint(k)
+        S[0][i] = 1.0 if z[i] <= surface else 0.0
+        S[1][i], S[2][i], S[3][i] = c0, c1, c2
+        S[4][i], S[5][i], S[6][i] = 0.0, 0.0, 0.0
 
 
 @njit(**INNER)
@@ -261,26 +309,22 @@ def sample_medium(p, model, state):
         for i in (lo, hi - 1):
             tan = line_tangent(x, i, lo, hi)
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
-        v0 = uint(lo)
-        for k in range(hi - lo - 2):   # interior tangents: the chord between the neighbours
-            a, i, b = v0 + uint(k), v0 + uint(k + 1), v0 + uint(k + 2)
-            tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
-            inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))   # coincident: no tangent
-            S[7][i], S[8][i], S[9][i] = tx * inv, ty * inv, tz * inv
+        sample_chords(c, S, uint(lo), hi - lo - 2)
         if still:
-            for k in range(hi - lo):
-                i = v0 + uint(k)
-                S[0][i] = 1.0 if c[2][i] <= surface else 0.0
-                S[1][i], S[2][i], S[3][i] = c0, c1, c2
-                S[4][i], S[5][i], S[6][i] = 0.0, 0.0, 0.0
+            sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)
         else:
             for i in range(lo, hi):
                 wet, um, acc = medium_at(p, c[0][i], c[1][i], c[2][i], t)
                 S[0][i] = 1.0 if wet else 0.0
                 S[1][i], S[2][i], S[3][i] = um[0], um[1], um[2]
                 S[4][i], S[5][i], S[6][i] = acc[0], acc[1], acc[2]
-        if p.buoyancy[j] != 0.0 or p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0:
-            sample_forces(p, model, c[2], S, j, l)
+        sample_masses(S, model.voronoi_rest_length, model.vertex_mass, uint(lo + 1), hi - lo - 2,
+                      p.added_n[j], p.added_t[j])
+        if p.buoyancy[j] != 0.0:
+            sample_upthrust(c[2], S, model.element_rest_length, uint(lo), uint(model.line_element_offsets[l]),
+                            hi - lo - 2, p.buoyancy[j], surface)
+        if not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
+            sample_inertia(S, model.voronoi_rest_length, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
 
 
 @njit(**CACHED, inline="always")
@@ -295,7 +339,8 @@ def sampled(p, i):
 def wet_shares(za, zb, s):
     """Return (w_a, w_b): the integrals of (1 - tau) and tau over the part of an element
     from height za (tau = 0) to zb (tau = 1) that lies below s: the shares of its upthrust
-    its two vertices carry (the gradient of its buoyancy potential)."""
+    its two vertices carry (the gradient of its buoyancy potential). (Branches: an element
+    wholly under or over the surface, the common case, costs no division.)"""
     if za <= s and zb <= s:
         return 0.5, 0.5
     if za > s and zb > s:
@@ -328,29 +373,35 @@ def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
 @njit(**INNER)
 def push_vertices(p, model, state, h):
     """Update state.v of the interior vertices by the impulse h of the forces of position and
-    time (as sample_forces found them), through the added mass; p.supplied by the inertia
+    time (as sample_upthrust and sample_inertia found them), through the added mass; p.supplied by the inertia
     force's work. (Contiguous columns, unsigned indices: vectorised as drag_vertices.)"""
     v, S = columns(state.v), sample_rows(p)
-    vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.buoyancy[j] == 0.0 and p.inertia_n[j] == 0.0 and p.inertia_t[j] == 0.0):
             continue
-        first = uint(model.line_vertex_offsets[l] + 1)
-        an, at = p.added_n[j], p.added_t[j]
-        for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
-            i = first + uint(k)
-            wl, m = S[0][i] * vlen[i], vmass[i]
-            ix, iy, iz = h * S[10][i], h * S[11][i], h * S[12][i]     # the inertia force's impulse
-            dx, dy, dz = split(1.0 / (m + wl * an), 1.0 / (m + wl * at), ix, iy, iz + h * S[13][i],
-                               S[7][i], S[8][i], S[9][i])
-            supplied += ix * (v[0][i] + 0.5 * dx) + iy * (v[1][i] + 0.5 * dy) + iz * (v[2][i] + 0.5 * dz)
-            v[0][i] += dx
-            v[1][i] += dy
-            v[2][i] += dz
+        supplied += push_line(v, S, uint(model.line_vertex_offsets[l] + 1),
+                              model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2, h)
     p.supplied[0] += supplied
+
+
+@njit(**PASS)
+def push_line(v, S, first, n, h):
+    """Update the velocity columns v at the n vertices first.. by the impulse h of the sampled
+    forces of position and time through the sampled inverse masses; return the inertia
+    force's work."""
+    supplied = 0.0
+    for k in range(n):
+        i = first + uint(k)
+        ix, iy, iz = h * S[10][i], h * S[11][i], h * S[12][i]     # the inertia force's impulse
+        dx, dy, dz = split(S[14][i], S[15][i], ix, iy, iz + h * S[13][i], S[7][i], S[8][i], S[9][i])
+        supplied += ix * (v[0][i] + 0.5 * dx) + iy * (v[1][i] + 0.5 * dy) + iz * (v[2][i] + 0.5 * dz)
+        v[0][i] += dx
+        v[1][i] += dy
+        v[2][i] += dz
+    return supplied
 
 
 @njit(**CACHED, inline="always")
@@ -358,19 +409,22 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
     """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
     drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses;
     return the energy it dissipated and the work the medium supplied."""
-    lv, m = vlen[i], vmass[i]
-    mn, mt = m + lv * an, m + lv * at
-    wl = S[0][i] * lv                                  # 0 where the vertex is dry
+    wl = S[0][i] * vlen[i]                             # 0 where the vertex is dry
     Ux, Uy, Uz, tx, ty, tz = S[1][i], S[2][i], S[3][i], S[7][i], S[8][i], S[9][i]
     ux, uy, uz = v[0][i] - Ux, v[1][i] - Uy, v[2][i] - Uz
     ut = ux * tx + uy * ty + uz * tz
     nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
     sn = math.sqrt(nx * nx + ny * ny + nz * nz)
     if linear:
-        rt, rn = math.exp(-wl * kt / mt), math.exp(-wl * kn / mn)
-    else:
-        rt, rn = 1.0 / (1.0 + wl * kt * abs(ut) / mt), 1.0 / (1.0 + wl * kn * sn / mn)
-    jt, jn = mt * (rt - 1.0), mn * (rn - 1.0)          # impulse per relative velocity
+        rt, rn = math.exp(-wl * kt * S[15][i]), math.exp(-wl * kn * S[14][i])
+        m = vmass[i]
+        jt, jn = (m + vlen[i] * at) * (rt - 1.0), (m + vlen[i] * an) * (rn - 1.0)   # impulse per relative velocity
+    else:   # m (r - 1) = -w k s r; both r from one division (the step is bound by their throughput)
+        ct, cn = wl * kt * abs(ut), wl * kn * sn
+        at_, an_ = 1.0 + ct * S[15][i], 1.0 + cn * S[14][i]
+        d = 1.0 / (at_ * an_)
+        rt, rn = an_ * d, at_ * d
+        jt, jn = -ct * rt, -cn * rn
     v[0][i] = Ux + rt * ut * tx + rn * nx
     v[1][i] = Uy + rt * ut * ty + rn * ny
     v[2][i] = Uz + rt * ut * tz + rn * nz
@@ -378,11 +432,29 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
             jt * ut * (tx * Ux + ty * Uy + tz * Uz) + jn * (nx * Ux + ny * Uy + nz * Uz))
 
 
+@njit(**PASS)
+def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear):
+    """Update the velocity columns v at the n vertices first.. by the exact flow of drag
+    (drag_vertex; a loop per law); return the energy dissipated and the work supplied."""
+    dissipated = supplied = 0.0
+    if linear:
+        for k in range(n):
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True)
+            dissipated += d
+            supplied += g
+    else:
+        for k in range(n):
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False)
+            dissipated += d
+            supplied += g
+    return dissipated, supplied
+
+
 @njit(**CACHED, inline="always")
 def sample_rows(p):
     """The rows of p.sample as contiguous 1-D views."""
     S = p.sample
-    return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12], S[13]
+    return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12], S[13], S[14], S[15]
 
 
 @njit(**INNER)
@@ -401,19 +473,11 @@ def drag_vertices(p, model, state, h):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0):
             continue
-        first = uint(model.line_vertex_offsets[l] + 1)
-        n = model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2
-        kn, kt, an, at = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j]
-        if p.law == LINEAR:
-            for k in range(n):
-                d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True)
-                dissipated += d
-                supplied += g
-        else:
-            for k in range(n):
-                d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False)
-                dissipated += d
-                supplied += g
+        d, g = drag_line(v, S, vlen, vmass, uint(model.line_vertex_offsets[l] + 1),
+                         model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
+                         h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR)
+        dissipated += d
+        supplied += g
     p.dissipated[0] += dissipated
     p.supplied[0] += supplied
 
@@ -624,6 +688,15 @@ def entrained_at(v, S, vlen, i, an, at):
     return 0.5 * S[0][i] * vlen[i] * (an * (vv - vt * vt) + at * vt * vt)
 
 
+@njit(**PASS)
+def entrained_line(v, S, vlen, first, n, an, at):
+    """Return 1/2 v^T M_a v summed over the n vertices first.. (entrained_at)."""
+    e = 0.0
+    for k in range(n):
+        e += entrained_at(v, S, vlen, first + uint(k), an, at)
+    return e
+
+
 @njit(**INNER)
 def entrained_energy(p, model, state):
     """Return the kinetic energy of the fluid the lines carry, 1/2 v^T M_a v summed over the
@@ -641,9 +714,7 @@ def entrained_energy(p, model, state):
             continue
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         an, at = p.added_n[j], p.added_t[j]
-        first = uint(lo + 1)
-        for k in range(hi - lo - 2):
-            e += entrained_at(v, S, vlen, first + uint(k), an, at)
+        e += entrained_line(v, S, vlen, uint(lo + 1), hi - lo - 2, an, at)
         for i, end in ((lo, 0), (hi - 1, 1)):
             if node_free(p, model, model.attach_node[2 * l + end]):
                 e += entrained_at(v, S, vlen, uint(i), an, at)
@@ -699,6 +770,17 @@ def flow_fluid(p, model, state, h):
         p.turn[0] = 0
 
 
+@njit(**PASS)
+def divide_line(f, S, vmass, first, n):
+    """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
+    with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m)."""
+    for k in range(n):
+        i = first + uint(k)
+        m = vmass[i]
+        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i],
+                                          S[7][i], S[8][i], S[9][i])
+
+
 @inertia_kernel(FluidParams)
 @njit(**STEP)
 def add_fluid_mass(p, model, state, loads):
@@ -706,19 +788,14 @@ def add_fluid_mass(p, model, state, loads):
     so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
     parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
     f, S = columns(loads.f), sample_rows(p)
-    vlen, vmass = model.voronoi_rest_length, model.vertex_mass
+    vmass = model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
             continue
-        first = uint(model.line_vertex_offsets[l] + 1)
-        an, at = p.added_n[j], p.added_t[j]
-        for k in range(model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2):
-            i = first + uint(k)   # branch-free: a dry vertex keeps m
-            m, wl = vmass[i], S[0][i] * vlen[i]
-            f[0][i], f[1][i], f[2][i] = split(m / (m + wl * an), m / (m + wl * at), f[0][i], f[1][i], f[2][i],
-                                              S[7][i], S[8][i], S[9][i])
+        divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
+                    model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue

@@ -14,7 +14,7 @@ from ..core import checks
 from .contact import chosen_lines, chosen_parts
 from .drives import Drive
 from .loads import Gravity, checked_table
-from ..kernels.fluid import LINEAR, MORISON, FluidParams, fluid_entrained_energy, sample_fluid
+from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_entrained_energy, sample_fluid
 from ..engine.registry import Binding, Effect, Key
 from ..core.turbulence import IEC_LENGTH, turbulent_series
 from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
@@ -146,8 +146,9 @@ class Fluid(Effect):
         rows = ("drag_n", "drag_t", "added_n", "added_t", "inertia_n", "inertia_t", "buoyancy")
         if any(getattr(p, name).shape != (k,) for name in rows):
             return f"fluid: {', '.join(rows)} need one entry per line of fluid.lines"
-        if p.line_row.shape != (nl,) or p.node_skip.shape != (nn,) or p.sample.shape != (14, nv):
-            return "fluid: line_row needs one entry per line, node_skip one per node, sample 14 rows of one per vertex"
+        if p.line_row.shape != (nl,) or p.node_skip.shape != (nn,) or p.sample.shape != (SAMPLE_ROWS, nv):
+            return (f"fluid: line_row needs one entry per line, node_skip one per node, sample {SAMPLE_ROWS} rows "
+                    f"of one per vertex")
         b = p.buoy_node.shape[0]
         if p.buoy.shape != (nn,) or p.buoy_sample.shape != (b, 7) or p.medium.shape != (2,) or any(
                 getattr(p, name).shape != (b,) for name in ("buoy_volume", "buoy_radius", "buoy_drag", "buoy_added")):
@@ -320,7 +321,8 @@ class Fluid(Effect):
                            power=np.array(self.power), times=tt.copy(), values=tv.copy(), wave_a=a.copy(),
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
                            wave_phase=ph.copy(), node_skip=skip,
-                           sample=np.zeros((14, on.model.vertex_mass.shape[0])), turn=np.zeros(1, dtype=np.int64),
+                           sample=np.zeros((SAMPLE_ROWS, on.model.vertex_mass.shape[0])),
+                           turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn))
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
