@@ -41,6 +41,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
@@ -382,7 +383,7 @@ def add_articulations(p, model, state, loads):
     p.dissipated[0] += spent
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def articulation_energy(p, model, state):
     """Return the bending energy of the articulated ends' boundary Voronoi points, L/2 kappa^T
     B kappa, plus the joints' springs, k (phi - phi0)^2 / 2 and the integral of their tables'
@@ -401,7 +402,7 @@ def articulation_energy(p, model, state):
     return total
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def articulation_fields(p, model, state, frames, moments, strains):
     """Update frames (k, 4), moments (k, 3) and strains (k, 3) with each articulated end's
     joint frame G, the internal torque m = G B kappa at its boundary point (lab) and kappa =

@@ -41,6 +41,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .backend import ENTRY
 from .compose import account_kernel, load_kernel
 from .obstacles import FREE, SLIDE, STICK, obstacle_distance
 from .compiler import CACHED
@@ -383,7 +384,7 @@ def account_body_dashpots(p, model, state, hh):
     p.dissipated[0] -= hh * power
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def body_energy(p, state):
     """Return the stored energy: k eps^2 / 2 over every overlapping contact plus the spring
     energy k_t |delta|^2 / 2 of the touching ones."""

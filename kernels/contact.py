@@ -57,6 +57,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .backend import ENTRY
 from .compose import account_kernel, load_kernel
 from .friction import plane_tangent, stick_slip, turn_into_plane
 from .compiler import CACHED
@@ -545,7 +546,7 @@ def account_contact_dashpots(p, model, state, hh):
     p.dissipated[0] -= hh * power
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def contact_energy(p, model, state):
     """Return the contact potential: the sum of k eps^2 / 2 over overlapping pairs, plus the
     friction springs' energy k_t |delta|^2 / 2."""

@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .backend import PASS, STEP
+from .backend import ENTRY, PASS, STEP
 from .compose import flow_kernel, inertia_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
@@ -726,13 +726,13 @@ def entrained_energy(p, model, state):
     return e
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def fluid_entrained_energy(p, model, state):
     """Return entrained_energy(p, model, state), callable from Python (Fluid.potential)."""
     return entrained_energy(p, model, state)
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""

@@ -34,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .backend import ENTRY
 from .compose import load_kernel
 from .elastic import end_frame
 from .compiler import CACHED, CACHED_INLINE
@@ -192,7 +193,7 @@ def spring_energy(p, j, model, state):
     return 0.5 * p.k[j] * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def spherical_energy(p, model, state):
     """Return sum k |eps - eps0|^2 / 2 over the joints."""
     total = 0.0
@@ -201,7 +202,7 @@ def spherical_energy(p, model, state):
     return total
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def hinge_energy(p, model, state):
     """Return sum k |eps - eps0|^2 / 2 + kt (t_b . n)^2 / 2 over the joints."""
     total = 0.0
@@ -211,7 +212,7 @@ def hinge_energy(p, model, state):
     return total
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def fixed_energy(p, model, state):
     """Return sum k |eps - eps0|^2 / 2 + kt |theta|^2 / 2 over the joints."""
     total = 0.0

@@ -154,6 +154,17 @@ def record_type(record):
     return types.NamedTuple(fields, type(record))
 
 
+def typed_call(kernel, *args):
+    """Call the njit function ``kernel`` with ``args`` through its overload for the types the
+    stepper gives the same records (record_type for a Model, State or Loads, numba's typeof
+    otherwise), compiled or loaded if need be. Called through numba's own dispatch, a kernel
+    taking a model with an empty or one-row array (a net without active lines, a single node)
+    types it row-major, and every kernel it calls is compiled a second time for the step."""
+    sig = tuple(record_type(a) if isinstance(a, (Model, State, Loads)) else typeof(a) for a in args)
+    kernel.compile(sig)
+    return kernel.overloads[sig].entry_point(*args)
+
+
 def empty_loads(model: Model) -> Loads:
     nv = model.vertex_mass.shape[0]
     ne = model.element_rest_length.shape[0]

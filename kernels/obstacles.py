@@ -36,6 +36,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .backend import ENTRY
 from .friction import plane_tangent, slip_law
 from .compiler import CACHED, CACHED_INNER, CACHED_LANES, noalias
 
@@ -313,7 +314,7 @@ def contact_law(w, mode, count, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_ba
         w[LOST][j] = slip if touching else (0.0 if fresh else opened)
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def obstacle_energy(p, state):
     """Return the stored energy: k eps^2 / 2 over the overlapping vertices plus the spring
     energy k_t |delta|^2 / 2 of their anchors."""

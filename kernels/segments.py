@@ -41,6 +41,7 @@ import math
 
 from numba import njit
 
+from .backend import ENTRY
 from .compose import account_kernel, load_kernel
 from .contact import segment_closest
 from .friction import plane_tangent, stick_slip, turn_into_plane
@@ -380,7 +381,7 @@ def account_obstacle_dashpots(p, model, state, hh):
     p.dissipated[0] -= hh * power
 
 
-@njit(**CACHED)
+@njit(**ENTRY)
 def element_energy(p, state):
     """Return the elements' stored energy: k eps_int^2 / 2 over the excess contacts plus the
     energy k_t |delta|^2 / 2 of their springs."""

@@ -14,6 +14,7 @@ from ..core import samples
 from ..core.articulation import Hinge
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.articulation import ArticulationParams, articulation_energy, articulation_fields
+from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect
 from ..core.rotations import matrix_from_quat
 
@@ -112,7 +113,7 @@ class Articulations(Effect):
 
     def potential(self, p, on: Binding) -> float:
         """The joints' springs and the bending of the articulated ends' boundary points."""
-        return float(articulation_energy(p, on.model, on.state))
+        return float(typed_call(articulation_energy, p, on.model, on.state))
 
     def exchange(self, p, on: Binding) -> float:
         return abs(self.potential(p, on))
@@ -126,7 +127,7 @@ class Articulations(Effect):
         (quaternion), the internal torque m (lab) and u - u0 (its frame) (3.22)."""
         k = p.attach.shape[0]
         frames, torque, curvature = np.zeros((k, 4)), np.zeros((k, 3)), np.zeros((k, 3))
-        articulation_fields(p, on.model, on.state, frames, torque, curvature)
+        typed_call(articulation_fields, p, on.model, on.state, frames, torque, curvature)
         return on.model.attach_vertex[p.attach], frames, torque, curvature
 
     def dissipated(self, sim) -> float:

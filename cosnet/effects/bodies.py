@@ -20,6 +20,7 @@ from ..core.units import LENGTH, choice, frame, positive, string_list, vec3
 from ..kernels import bodies as _body_kernels  # noqa: F401  (registers the body kernel)
 from ..kernels.bodies import BodyParams, BodyShape, body_energy
 from ..kernels.obstacles import BOX, CAPSULE, SHAPES, SLIDE, SPHERE
+from ..kernels.layout import typed_call
 
 BODY_SHAPES = ("sphere", "capsule", "box")
 TARGET_SHAPES = ("plane", "sphere", "capsule", "box")
@@ -242,7 +243,7 @@ class Body(Frictional):
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
-        return float(body_energy(p, on.state))
+        return float(typed_call(body_energy, p, on.state))
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)

@@ -13,6 +13,7 @@ from ..core import samples
 from ..engine.bounds import index_error
 from ..core import checks
 from ..kernels.contact import SLIDE, ContactParams, contact_energy
+from ..kernels.layout import typed_call
 from ..core.net import Line
 from ..engine.registry import Binding, Key
 from ..core.units import boolean, integer, nonnegative
@@ -243,7 +244,7 @@ class Contact(Frictional):
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
-        return float(contact_energy(p, on.model, on.state))
+        return float(typed_call(contact_energy, p, on.model, on.state))
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)

@@ -18,6 +18,7 @@ from ..core import checks
 from ..engine.registry import Binding, Effect, Key
 from ..core.units import ANGULAR_VELOCITY, LENGTH, RATE, TIME, VELOCITY, BadValue, shown, boolean, direction, number
 from ..kernels.drives import ACROSS_AXIS, FREE, ORIENTED, PRESCRIBED, DriveParams, eval_path, place_drive, reaction_now
+from ..kernels.layout import typed_call
 from ..core.net import Node
 
 # the keys of a path (a scene's inline table) and their units by the path they belong to:
@@ -253,7 +254,7 @@ class Drive(Effect):
         p.pos_start[:] = out[:3]
         eval_path(on.time, *self._ang, np.zeros(1), out, 0)
         p.ang_start[0] = out[0]
-        place_drive(p, m, s)
+        typed_call(place_drive, p, m, s)
         return p
 
     def check_state(self, sim):
@@ -261,7 +262,7 @@ class Drive(Effect):
         p, st, nd = self.params(sim), sim.state, self.node.index
         rows = (st.node_x, st.node_v, st.node_q, st.node_w)
         now = [a[nd].copy() for a in rows]
-        place_drive(p, sim.model, st)
+        typed_call(place_drive, p, sim.model, st)
         want = [a[nd].copy() for a in rows]
         for a, v in zip(rows, now):
             a[nd] = v

@@ -15,6 +15,7 @@ from .contact import chosen_lines, chosen_parts
 from .drives import Drive
 from .loads import Gravity, checked_table
 from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_entrained_energy, sample_fluid
+from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
 from ..core.turbulence import IEC_LENGTH, turbulent_series
 from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
@@ -326,7 +327,7 @@ class Fluid(Effect):
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn))
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
-            sample_fluid(p, on.model, on.state)
+            typed_call(sample_fluid, p, on.model, on.state)
         return p
 
     def _buoy_rows(self, on: Binding, rho: float, g: float, nn: int) -> dict:
@@ -359,7 +360,7 @@ class Fluid(Effect):
         for b, nd in enumerate(p.buoy_node):
             e += p.medium[0] * p.medium[1] * _cap_integral(p.surface - on.state.node_x[nd, 2], p.buoy_radius[b])
         if np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added):
-            e += fluid_entrained_energy(p, m, on.state)
+            e += typed_call(fluid_entrained_energy, p, m, on.state)
         return e
 
     def exchange(self, p, on: Binding) -> float:
@@ -404,7 +405,7 @@ class Fluid(Effect):
     def start(self, sim):
         """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):
         the added mass the first kick's account starts from."""
-        sample_fluid(self.params(sim), sim.model, sim.state)
+        typed_call(sample_fluid, self.params(sim), sim.model, sim.state)
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)

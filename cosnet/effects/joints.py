@@ -27,6 +27,7 @@ from ..core import checks
 from ..core.rotations import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
 from ..kernels import joints as _joint_kernels
 from ..kernels.joints import FixedJointParams, HingeJointParams, SphericalJointParams
+from ..kernels.layout import typed_call
 from ..core.net import Line
 from ..engine.registry import Binding, Effect, Key
 from ..core.units import (DAMPING, LENGTH, ROTARY_DAMPING, ROTARY_STIFFNESS, STIFFNESS, choice, nonnegative,
@@ -129,7 +130,7 @@ class SphericalJoint(Effect):
 
     # -------------------------------------------------------------- energy and stability
     def potential(self, p, on: Binding) -> float:
-        return float(self.energy_kernel(p, on.model, on.state))
+        return float(typed_call(self.energy_kernel, p, on.model, on.state))
 
     @staticmethod
     def _end_inverse_inertia(m, a):

@@ -20,6 +20,7 @@ from ..core.units import (LENGTH, choice, coefficients, direction, frame, positi
 from ..kernels import segments as _obstacle_kernels  # noqa: F401  (registers the obstacle kernels)
 from ..kernels.obstacles import SHAPES, SLIDE, ROWS, ObstacleParams, obstacle_energy
 from ..kernels.segments import element_energy
+from ..kernels.layout import typed_call
 
 GRID_CELLS = 4_000_000  # the mesh grid's cell size grows until it has at most this many cells
 
@@ -352,7 +353,7 @@ class Obstacle(Frictional):
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
-        return float(obstacle_energy(p, on.state) + element_energy(p, on.state))
+        return float(typed_call(obstacle_energy, p, on.state) + typed_call(element_energy, p, on.state))
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
