@@ -154,12 +154,21 @@ def record_type(record):
     return types.NamedTuple(fields, type(record))
 
 
+# Set by a process that builds a simulation only to type its step (cosnet.compiling.compile_kick):
+# typed_call then neither compiles nor runs anything, so that process does not wait for the
+# kernels its parent compiles while building the same simulation.
+TYPING_ONLY = [False]
+
+
 def typed_call(kernel, *args):
     """Call the njit function ``kernel`` with ``args`` through its overload for the types the
     stepper gives the same records (record_type for a Model, State or Loads, numba's typeof
     otherwise), compiled or loaded if need be. Called through numba's own dispatch, a kernel
     taking a model with an empty or one-row array (a net without active lines, a single node)
-    types it row-major, and every kernel it calls is compiled a second time for the step."""
+    types it row-major, and every kernel it calls is compiled a second time for the step.
+    Returns None without calling where TYPING_ONLY is set."""
+    if TYPING_ONLY[0]:
+        return None
     sig = tuple(record_type(a) if isinstance(a, (Model, State, Loads)) else typeof(a) for a in args)
     kernel.compile(sig)
     return kernel.overloads[sig].entry_point(*args)

@@ -18,7 +18,7 @@ from .registry import ACCOUNTS, Binding, Effect, implied_effects
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
-from ..kernels.layout import Model, State, empty_loads, record_type
+from ..kernels.layout import Model, State, empty_loads, record_type, typed_call
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, evaluate_loads, stability_interval, steps_to
 from ..core.net import Line, Net, Node
@@ -414,7 +414,7 @@ class Simulation:
         if drive is None:
             return np.zeros(3), np.zeros(3)
         place_line_ends(self.model, self.state)
-        evaluate_loads(self.model, self.state, self.loads, self.load_records, self.backend)
+        typed_call(evaluate_loads, self.model, self.state, self.loads, self.load_records, self.backend)
         return drive.reaction(self, self.loads)
 
     def driver_work(self) -> float:
