@@ -22,7 +22,7 @@ from .studies.modes import DiscreteModes, main_modes, modes
 from .scene.loader import RunSettings, Scene, build_scene, load_scene
 from .studies.sweep import sweep
 from .effects.drives import Path
-from .effects.fluid import resistive_coefficients, wave_number
+from .effects.fluid import resistive_coefficients, slender_body_coefficients, wave_number
 from .core.articulation import Ball, Hinge, Universal
 from .effects.articulations import joint_state
 from .effects.sliders import slider_state
@@ -38,6 +38,6 @@ __all__ = [
     "InstabilityError", "Simulation", "Scale",
     "contract", "Output", "SeriesWriter", "read_output", "Mode", "Modes", "analytic_modes",
     "DiscreteModes", "main_modes", "modes", "RunSettings", "Scene", "build_scene", "load_scene",
-    "sweep", "Path", "resistive_coefficients", "wave_number",
+    "sweep", "Path", "resistive_coefficients", "slender_body_coefficients", "wave_number",
     "Ball", "Hinge", "Universal", "joint_state", "slider_state",
 ]

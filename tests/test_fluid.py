@@ -147,6 +147,32 @@ def test_stokes_flow_resists_sideways_and_lengthwise_by_its_coefficients(axis, a
     assert np.allclose(sim.state.v[:, 2], -w / (ct if along else cn), rtol=1e-4)
 
 
+def test_a_tilted_rod_settles_as_pyelastica_s_slender_body_theory_says():
+    # local slender-body theory as PyElastica has it (Gazzola et al. 2018, eq. 4.13), the
+    # resistive law with cosnet.slender_body_coefficients: a rod tilted 45 degrees settles at
+    # the velocity whose force by PyElastica's own kernel balances its weight, drifting
+    # sideways as it sinks (the lengthwise resistance is half the sideways one)
+    interaction = pytest.importorskip("elastica.interaction", reason="PyElastica (pip install '.[peers]') "
+                                      "is not installed")
+    mu, radius, length, n = 10.0, 0.01, 1.0, 8
+    t = np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)
+    net, _, _ = rod(((0.0, 0.0, 0.0), tuple(length * t)), 1200.0, radius=radius, elements=n)
+    fluid = cosnet.Fluid(RHO, resistance=cosnet.slender_body_coefficients(mu, 2 * radius, length))
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    sim.run(until=1.0)   # 35 relaxation times m / c_t
+    # PyElastica's force on the same rod moving at each unit velocity: its resistance matrix
+    tangents, lengths = np.repeat(t[:, None], n, axis=1), np.full(n, length / n)
+    drag = np.column_stack([interaction.slender_body_forces(tangents, np.repeat(e[:, None], n + 1, axis=1), mu,
+                                                            lengths, np.full(n, radius), np.ones(n + 1)).sum(axis=1)
+                            for e in np.eye(3)])
+    weight = np.array([0.0, 0.0, -1200.0 * G * math.pi * radius ** 2 * length])
+    settled = np.linalg.solve(drag, -weight)
+    assert settled[0] < -0.3 * abs(settled[2])   # a drift the isotropic law would not give (1/3 here)
+    assert np.allclose(sim.state.v, settled, rtol=1e-4, atol=1e-4 * np.abs(settled).max())
+    with pytest.raises(ValueError, match="slender_body_coefficients: length 0.01 must exceed the diameter 0.02"):
+        cosnet.slender_body_coefficients(mu, 0.02, 0.01)
+
+
 @pytest.mark.parametrize("added", [(0.0, 0.0), (1.0, 0.2)])
 def test_energy_and_what_drag_dissipates_are_conserved_at_order_two(added):
     # a rod swinging through the free surface of still water: drag, buoyancy cut at the

@@ -69,6 +69,19 @@ def resistive_coefficients(viscosity: float, diameter: float, wavelength: float,
     raise ValueError(f"resistive_coefficients: theory must be 'gray_hancock' or 'lighthill', got {theory!r}")
 
 
+def slender_body_coefficients(viscosity: float, diameter: float, length: float) -> tuple[float, float]:
+    """(c_n, c_t) of local slender-body theory at leading order, as PyElastica has it (Gazzola
+    et al. 2018, eq. 4.13: f = -4 pi mu / ln(L / a) (1 - t t^T / 2) v per length, a the radius
+    and L the filament's length): c_n = 4 pi mu / ln(L / a), c_t = c_n / 2."""
+    for name, x in (("viscosity", viscosity), ("diameter", diameter), ("length", length)):
+        checks.positive("slender_body_coefficients", name, x)
+    if length <= diameter:
+        raise ValueError(f"slender_body_coefficients: length {length:g} must exceed the diameter {diameter:g} "
+                         f"(the theory is for slender filaments)")
+    cn = 4.0 * math.pi * viscosity / math.log(length / (0.5 * diameter))
+    return cn, 0.5 * cn
+
+
 class Fluid(Effect):
     """A fluid around the lines: water (with a free surface, waves, a current) or air (wind).
 
