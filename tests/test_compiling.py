@@ -257,3 +257,31 @@ def test_the_callees_compiled_alongside_get_the_flags_the_step_gives_them():
     code = callee.inspect_llvm(sig)
     assert "division by zero" not in code
     assert "fdiv reassoc nsz arcp contract double" in code
+
+
+def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
+    """A line in water whose model has no active lines holds an empty rest-strain array, which
+    numba's own dispatch types row-major and the stepper column-major (record_type). The
+    fluid's sample and entrained energy, run from Python when the simulation is built and its
+    energy measured, go through kernels.layout.typed_call: the overloads they are called with
+    (compiled here or loaded from the cache) have the step's record types, so every kernel they
+    call is the one the step calls. The energy they give is the one of the state: the kinetic
+    energy of the entrained water, 1/2 C_a rho A l v^2 for a line moving across itself."""
+    import math
+
+    import cosnet
+    from cosnet.kernels import fluid
+    from cosnet.kernels.layout import record_type
+    net = cosnet.Net()
+    a, b = net.add_node((0.0, 0.0, -1.0)), net.add_node((1.0, 0.0, -1.0))
+    net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
+                 elements=4)
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0)), cosnet.Fluid(1000.0, added_mass=(1.0, 0.0))])
+    assert sim.model.element_rest_strain.shape[0] == 0 and sim.model.element_rest_strain.flags.c_contiguous
+    sim.state.v[:] = (0.0, 0.0, 0.5)
+    sim.state.node_v[:] = (0.0, 0.0, 0.5)
+    entrained = sim.energy() - 0.5 * net.total_mass() * 0.25
+    assert entrained == pytest.approx(0.5 * 1000.0 * math.pi * 1e-4 * 1.0 * 0.25, rel=1e-12)
+    model, state = record_type(sim.model), record_type(sim.state)
+    for kernel in (fluid.sample_fluid, fluid.fluid_entrained_energy):
+        assert kernel.overloads and all(sig[1:3] == (model, state) for sig in kernel.overloads), kernel
