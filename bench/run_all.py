@@ -55,7 +55,8 @@ SCRIPTS = [
     ("contact_scaling@friction", ["--quick"], [], 180),
     ("snake", ["--quick"], [], 300),                # PyElastica side by side
     ("many_snakes", ["--quick"], ["--profile", "1", "10", "100", "1000"], 900),
-    ("snakes_against", None, ["05c0a97"], None),  # before the vectorised ground contact
+    # before the vectorised ground contact; once more with its contact compiled as a script did
+    ("snakes_against", None, ["05c0a97", "--no-fastmath", "obstacles.add_obstacle"], None),
     ("startup", None, [], None),                  # about 8 minutes: every case cold and warm
     ("soak", None, [], None),                     # about 13 minutes: 10^7 steps of two cases
 ]

@@ -1,7 +1,8 @@
 """The many snakes of bench/many_snakes.py on two cores, and a long rod on one, this
 checkout against an earlier commit's code, in alternation.
 
-    python bench/snakes_against.py REV [N ...]     (default N: 100 1000 snakes)
+    python bench/snakes_against.py REV [N ...] [--no-fastmath KERNEL ...]
+        (default N: 100 1000 snakes; KERNEL: module.name under REV's kernels folder)
 
 Snakes: for each N and each code (this checkout, REV), one measurement is a pair of
 single-threaded processes started together, N/2 snakes apiece (bench/many_snakes.py's
@@ -14,7 +15,11 @@ The codes alternate, measurement after measurement (this, REV, this, REV, ...), 
 slow spell of the machine falls on both. REV's code comes from `git worktree` in a temporary
 folder, run with a numba cache of its own. Reported: each code's rates (median, spread), the
 ratio of medians, and the largest difference between the two codes' vertex positions after
-the same steps (0 when they compute bit for bit the same trajectory).
+the same steps (0 when they compute bit for bit the same trajectory). Kernels of REV's that
+took their fast-math from whichever caller compiled them first (a step: fast-math; a script:
+none) are named by --no-fastmath; REV then runs once more with them compiled without it
+(numpy's error model, as this code pins its ground contact, kernels/compiler.CACHED_LANES),
+and that trajectory is compared too.
 Writes bench/snakes_against.json.
 """
 
@@ -44,6 +49,12 @@ CHILD = r"""
 import sys, time, json
 sys.path.insert(0, sys.argv[1])
 kind, size, rounds, steps = sys.argv[2], *(int(a) for a in sys.argv[3:6])
+if len(sys.argv) > 6:
+    import importlib
+    for name in sys.argv[6].split(","):
+        module, kernel = name.rsplit(".", 1)
+        dispatcher = getattr(importlib.import_module("cosnet.kernels." + module), kernel)
+        dispatcher.targetoptions.update(fastmath=False, error_model="numpy")
 if kind == "snakes":
     from many_snakes import cn_snakes
     sim = cn_snakes(size, 1)
@@ -81,7 +92,9 @@ def measure(code: dict, kind: str, size: int) -> tuple[float, list]:
     processes of size/2 snakes each (the rate over the slower one's best, the positions of
     the first); for the rod, one process."""
     sizes = (size // 2, size - size // 2) if kind == "snakes" else (size,)
-    procs = [subprocess.Popen([sys.executable, "-c", CHILD, code["bench"], kind, str(n), str(ROUNDS), str(STEPS)],
+    pin = [",".join(code["no_fastmath"])] if code.get("no_fastmath") else []
+    procs = [subprocess.Popen([sys.executable, "-c", CHILD, code["bench"], kind, str(n), str(ROUNDS), str(STEPS),
+                               *pin],
                               env=code["env"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
              for n in sizes]
     try:
@@ -99,11 +112,17 @@ def measure(code: dict, kind: str, size: int) -> tuple[float, list]:
     return size * STEPS / max(o["best"] for o in out), out[0]["x"]
 
 
-def compare(rev: str, counts: list[int]) -> dict:
+def largest_difference(x: list, y: list) -> float:
+    return max(abs(a - b) for u, v in zip(x, y) for a, b in zip(u, v))
+
+
+def compare(rev: str, counts: list[int], no_fastmath: list[str]) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         this = {"bench": str(ROOT / "bench"), "env": dict(os.environ)}
         try:
             earlier = code_tree(rev, Path(tmp))
+            pinned = {**earlier, "no_fastmath": no_fastmath,
+                      "env": dict(earlier["env"], NUMBA_CACHE_DIR=str(Path(tmp) / "cache-pinned"))}
             rows = []
             for kind, n in [("snakes", n) for n in counts] + [("rod", ROD)]:
                 rates: dict = {"this": [], rev: []}
@@ -113,16 +132,20 @@ def compare(rev: str, counts: list[int]) -> dict:
                     r_rev, x_rev = measure(earlier, kind, n)
                     rates["this"].append(r_this)
                     rates[rev].append(r_rev)
-                    shift = max(abs(a - b) for u, v in zip(x_this, x_rev) for a, b in zip(u, v))
+                    shift = largest_difference(x_this, x_rev)
                 med = {k: statistics.median(v) for k, v in rates.items()}
                 rows.append({"workload": kind, "size": n, "per_s": rates, "median": med,
                              "spread": {k: (max(v) - min(v)) / min(v) for k, v in rates.items()},
                              "ratio_of_medians": med["this"] / med[rev], "largest_position_difference_m": shift})
+                if no_fastmath:   # positions only: its rate is not one of the alternation's
+                    rows[-1]["largest_position_difference_no_fastmath_m"] = largest_difference(
+                        x_this, measure(pinned, kind, n)[1])
                 print(rows[-1], flush=True)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(Path(tmp) / "tree")], cwd=ROOT,
                            capture_output=True)
-    return {"against": rev, "pairs": PAIRS, "rounds": ROUNDS, "steps": STEPS, "rows": rows}
+    return {"against": rev, "no_fastmath": no_fastmath, "pairs": PAIRS, "rounds": ROUNDS, "steps": STEPS,
+            "rows": rows}
 
 
 def main():
@@ -130,14 +153,18 @@ def main():
         raise SystemExit("usage: python bench/snakes_against.py REV [N ...]")
     rev = subprocess.run(["git", "rev-parse", "--short", sys.argv[1]], cwd=ROOT, capture_output=True, text=True,
                          check=True).stdout.strip()
-    counts = [int(a) for a in sys.argv[2:]] or [100, 1000]
+    args = sys.argv[2:]
+    cut = args.index("--no-fastmath") if "--no-fastmath" in args else len(args)
+    counts = [int(a) for a in args[:cut]] or [100, 1000]
     load0 = os.getloadavg()[0]
-    result = compare(rev, counts)
+    result = compare(rev, counts, args[cut + 1:])
     table(f"rod-steps/s of snakes on two cores, element-steps/s of a rod on one (median of {PAIRS} in "
           f"alternation): this checkout against {rev}",
-          ["workload", "this", rev, "ratio", "spread this", f"spread {rev}", "largest |dx| (m)"],
+          ["workload", "this", rev, "ratio", "spread this", f"spread {rev}", "largest |dx| (m)",
+           "|dx| no fast-math (m)"],
           [[f"{r['size']} {r['workload']}", r["median"]["this"], r["median"][rev], r["ratio_of_medians"],
-            r["spread"]["this"], r["spread"][rev], r["largest_position_difference_m"]] for r in result["rows"]])
+            r["spread"]["this"], r["spread"][rev], r["largest_position_difference_m"],
+            r.get("largest_position_difference_no_fastmath_m", "-")] for r in result["rows"]])
     write_json(__file__, {**result, "load_average_1min": [load0, os.getloadavg()[0]]})
 
 
