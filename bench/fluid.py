@@ -30,6 +30,8 @@ def wire(n):
 FLUIDS = {
     "drag": dict(drag=(1.2, 0.008)),
     "drag + added mass + buoyancy": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True),
+    "the same, Morison's added mass": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
+                                           added_mass_law="morison"),
     "the same in a current": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
                                   velocity=(0.0, 0.5, 0.0)),
     "the same in two wave components": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,

@@ -11,9 +11,10 @@ Account kernels (optional, beside a load kernel): kernel(effect, model, state, h
   just before and just after every kick: the work the effect's load does in the kick, h times
   its load dotted with the mean of the velocities before and after (what the kick gives the
   kinetic energy, exactly)
-Inertia kernels (optional, beside a flow kernel): kernel(effect, model, state, loads), run
-  after the loads are evaluated and their work accounted, just before the kick divides them
-  by the masses: an effect that adds mass (a fluid's added mass) turns f into m M^-1 f
+Inertia kernels (optional, beside a flow kernel): kernel(effect, model, state, (loads, h)),
+  run after the loads of a kick of h are evaluated and their work accounted, just before the
+  kick divides them by the masses: an effect that adds mass (a fluid's added mass) turns f
+  into m M^-1 f (and adds the forces of that mass turning)
 Constraint kernels, a pair (kinematic effects: prescribed motion), run after every stage:
   after a drift of h:  kernel(effect, model, state, h)          -> set the prescribed pose
                        at the stage's end time state.clock[0], and its velocity
@@ -131,7 +132,7 @@ apply_loads = _chain(LOAD_KERNELS, "load")
 apply_flows = _chain(FLOW_KERNELS, "flow")
 # apply_accounts(effects, model, state, h / 2): the work of every load effect that keeps one
 apply_accounts = _chain(ACCOUNTS, "account", optional=True)
-# apply_inertias(effects, model, state, loads): the loads as the masses of the effects that add some see them
+# apply_inertias(effects, model, state, (loads, h)): the loads as the masses of the effects that add some see them
 apply_inertias = _chain(INERTIAS, "inertia", optional=True)
 
 

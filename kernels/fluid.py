@@ -13,8 +13,9 @@ factor over time) plus linear (Airy) waves. What the medium does to a line split
   falling or dragged along a fixed direction; at a node, where line ends of several
   directions meet, by one linearly implicit step (unconditionally stable);
 - added mass: a submerged vertex's mass is the matrix m + a_n (1 - t t^T) + a_t t t^T
-  (t its tangent), the kick's forces are divided by it (``add_fluid_mass``), and the flows
-  above use it.
+  (t its tangent), the kick's forces are divided by it, and the flows above use it; where
+  a_n and a_t differ, the fluid turning with the line adds forces of its own (both in
+  kernels/added_mass.py).
 The half flows run drag, then forces before the kick, and forces, then drag after it, so
 that the step stays symmetric (p.turn remembers which half is next).
 Lines are listed by row (p.lines); quantities per unit rest length are per row. Vertical is
@@ -28,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from .backend import ENTRY, PASS, STEP
-from .compose import flow_kernel, inertia_kernel
+from .compose import flow_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
 from .layout import columns, uint
@@ -80,6 +81,9 @@ class FluidParams(NamedTuple):
     buoy_added: np.ndarray   # (b,) its added mass when submerged, C_a rho V
     buoy_sample: np.ndarray  # (b, 7) as the kick's first half flow found it: the submerged fraction f, U, A
     medium: np.ndarray       # (2,) rho and g
+    turning: np.ndarray      # (6, nv) scratch of kernels/added_mass.py: the forces of the entrained fluid as
+                             # the lines turn, and the velocities they are taken at; (6, 0) when the added
+                             # mass of every line is the same across and along it
 
 
 @njit(**CACHED, inline="always")
@@ -768,41 +772,3 @@ def flow_fluid(p, model, state, h):
         drag_vertices(p, model, state, h)
         drag_nodes(p, model, state, h)
         p.turn[0] = 0
-
-
-@njit(**PASS)
-def divide_line(f, S, vmass, first, n):
-    """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
-    with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m)."""
-    for k in range(n):
-        i = first + uint(k)
-        m = vmass[i]
-        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i],
-                                          S[7][i], S[8][i], S[9][i])
-
-
-@inertia_kernel(FluidParams)
-@njit(**STEP)
-def add_fluid_mass(p, model, state, loads):
-    """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
-    so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
-    parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
-    f, S = columns(loads.f), sample_rows(p)
-    vmass = model.vertex_mass
-    nl = model.line_vertex_offsets.shape[0] - 1
-    for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
-            continue
-        divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
-                    model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
-    for nd in range(model.node_mass.shape[0]):
-        if not node_free(p, model, nd):
-            continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
-        m = model.node_mass[nd]
-        if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
-            continue
-        fn = loads.node_f[nd]
-        g = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0], fn[1], fn[2])
-        fn[0], fn[1], fn[2] = m * g[0], m * g[1], m * g[2]

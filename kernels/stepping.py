@@ -94,7 +94,7 @@ def kick_loads(model, state, loads, effects, h, backend):
     apply_flows(flow_effects, model, state, 0.5 * h)
     evaluate_loads(model, state, loads, load_effects, backend)
     apply_accounts(load_effects, model, state, 0.5 * h)
-    apply_inertias(flow_effects, model, state, loads)
+    apply_inertias(flow_effects, model, state, (loads, h))
     kick_state(model, state, loads, h, backend)
     apply_accounts(load_effects, model, state, 0.5 * h)
     apply_flows(flow_effects, model, state, 0.5 * h)

@@ -14,6 +14,7 @@ from ..core import checks
 from .contact import chosen_lines, chosen_parts
 from .drives import Drive
 from .loads import Gravity, checked_table
+from ..kernels.added_mass import TURNING_ROWS
 from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_entrained_energy, sample_fluid
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
@@ -90,7 +91,11 @@ class Fluid(Effect):
     - drag (Morison): -1/2 rho C_dn d l |u_n| u_n - 1/2 rho C_dt pi d l |u_t| u_t (the
       tangential part on the surface area, as MoorDyn), or with ``resistance = [c_n, c_t]``
       (Stokes flow) -c_n l u_n - c_t l u_t;
-    - added mass: its mass becomes m + C_an rho A l (1 - t t^T) + C_at rho A l t t^T;
+    - added mass: its mass becomes m + C_an rho A l (1 - t t^T) + C_at rho A l t t^T; with
+      ``added_mass_law = "lagrange"`` (the default) the fluid it carries also pushes as it
+      turns with the line (kernels/added_mass.py: Lagrange's equations for its kinetic
+      energy; Munk's moment on a line moving obliquely), with "morison" it does not (Morison's
+      equation, as MoorDyn);
     - the medium's inertia force rho A l ((1 + C_an) A_n + (1 + C_at) A_t) where the medium
       accelerates (waves, a current changing in time) - Froude-Krylov plus added mass;
     - buoyancy: rho g A times the submerged length of each element (cut at the still surface),
@@ -126,6 +131,9 @@ class Fluid(Effect):
             Key("resistance", pair, RESISTANCE, doc="Stokes-flow drag per length [c_n, c_t] (instead of drag)"),
             Key("diameter", positive, LENGTH, doc="hydrodynamic diameter (default: each line's section, 2 sqrt(A/pi))"),
             Key("added_mass", pair, doc="added-mass coefficients [C_an, C_at]"),
+            Key("added_mass_law", choice("lagrange", "morison"),
+                doc="lagrange: with the forces of the entrained fluid turning with the line (Munk's moment); "
+                    "morison: without, as Morison's equation and MoorDyn"),
             Key("buoyancy", boolean, doc="whether the displaced medium lifts the lines"),
             Key("surface", number, LENGTH, doc="z of the still free surface (default: the medium fills space)"),
             Key("depth", positive, LENGTH, doc="water depth below the still surface (waves; default deep)"),
@@ -167,6 +175,8 @@ class Fluid(Effect):
         if p.buoy.shape != (nn,) or p.buoy_sample.shape != (b, 7) or p.medium.shape != (2,) or any(
                 getattr(p, name).shape != (b,) for name in ("buoy_volume", "buoy_radius", "buoy_drag", "buoy_added")):
             return "fluid: buoy needs one entry per node, the buoy rows one per buoy node, medium two"
+        if p.turning.shape not in ((TURNING_ROWS, nv), (TURNING_ROWS, 0)):
+            return f"fluid: turning needs {TURNING_ROWS} rows of one per vertex, or none"
         return (index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
                 or index_error("fluid.buoy_node", p.buoy_node, nn) or index_error("fluid.buoy", p.buoy[p.buoy >= 0], b))
 
@@ -175,7 +185,8 @@ class Fluid(Effect):
                  values=None, turbulence_intensity=None, turbulence_length=IEC_LENGTH, turbulence_duration=600.0,
                  turbulence_step=0.1, turbulence_seed=0, drag=(0.0, 0.0), resistance=None,
                  diameter: float | None = None,
-                 added_mass=(0.0, 0.0), buoyancy: bool = False, surface: float | None = None,
+                 added_mass=(0.0, 0.0), added_mass_law: str = "lagrange", buoyancy: bool = False,
+                 surface: float | None = None,
                  depth: float | None = None, wave_amplitudes=None, wave_periods=None, wave_headings=None,
                  wave_phases=None, stretching: str = "wheeler", lines=None, buoys=None, buoy_volumes=None,
                  buoy_drag_areas=None, buoy_added_mass=None):
@@ -200,6 +211,9 @@ class Fluid(Effect):
             raise ValueError("Fluid: give drag (Morison, turbulent) or resistance (Stokes flow), not both")
         self.diameter = None if diameter is None else checks.positive(who, "diameter", diameter)
         self.added_coefficients = self._coefficients("added_mass", added_mass)
+        if added_mass_law not in ("lagrange", "morison"):
+            raise ValueError(f"Fluid: added_mass_law must be 'lagrange' or 'morison', got {added_mass_law!r}")
+        self.added_mass_law = added_mass_law
         if not isinstance(buoyancy, (bool, np.bool_)):
             raise ValueError(f"Fluid: buoyancy must be true or false, got {buoyancy!r}")
         self.buoyancy = bool(buoyancy)
@@ -298,6 +312,7 @@ class Fluid(Effect):
         g = self._g(on)
         rho = self.density
         nl, nn = len(on.net.lines), len(on.net.nodes)
+        nv = on.model.vertex_mass.shape[0]
         k = len(lines)
         rows = {name: np.zeros(k) for name in ("drag_n", "drag_t", "added_n", "added_t", "inertia_n",
                                                "inertia_t", "buoyancy")}
@@ -337,11 +352,17 @@ class Fluid(Effect):
                            wave_phase=ph.copy(), node_skip=skip,
                            sample=np.zeros((SAMPLE_ROWS, on.model.vertex_mass.shape[0])),
                            turn=np.zeros(1, dtype=np.int64),
-                           dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn))
+                           dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
+                           turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)))
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             typed_call(sample_fluid, p, on.model, on.state)
         return p
+
+    def _turns(self, rows: dict) -> bool:
+        """Whether the entrained fluid's turning forces act (kernels/added_mass.py): Lagrange's
+        law, and some line's added mass differs across and along it."""
+        return self.added_mass_law == "lagrange" and bool(np.any(rows["added_n"] != rows["added_t"]))
 
     def _buoy_rows(self, on: Binding, rho: float, g: float, nn: int) -> dict:
         nodes, volume, area, added = self.buoys
@@ -359,8 +380,8 @@ class Fluid(Effect):
     def potential(self, p, on: Binding) -> float:
         """Buoyancy's potential, -rho g A times the integral of min(z, surface) over each line's
         elements and the buoys' upthrust potential, plus the kinetic energy of the entrained
-        fluid (kernels/fluid.entrained_energy: 1/2 v^T M_a v with the added mass the step holds,
-        as the last kick, or the start, sampled it)."""
+        fluid (kernels/fluid.entrained_energy: 1/2 v^T M_a v, M_a the added mass of the present
+        positions; see entrained)."""
         m, x = on.model, on.state.x
         e = 0.0
         for j, l in enumerate(p.lines):
@@ -372,9 +393,21 @@ class Fluid(Effect):
                                                   * _mean_min(za, zb, p.surface)))
         for b, nd in enumerate(p.buoy_node):
             e += p.medium[0] * p.medium[1] * _cap_integral(p.surface - on.state.node_x[nd, 2], p.buoy_radius[b])
-        if np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added):
-            e += typed_call(fluid_entrained_energy, p, m, on.state)
-        return e
+        return e + self.entrained(p, on)[1]
+
+    @staticmethod
+    def entrained(p, on: Binding) -> tuple[float, float]:
+        """(held, now): the kinetic energy of the fluid the lines carry with the added mass the
+        step holds (sampled at the last kick's positions, half a step before the present
+        ones) and with the added mass of the present positions. The accounts use the first;
+        the energy is the second, so that it is the same function of the state whatever the
+        step: (0, 0) without added mass."""
+        if not (np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added)):
+            return 0.0, 0.0
+        held = typed_call(fluid_entrained_energy, p, on.model, on.state)
+        now = p._replace(sample=p.sample.copy(), buoy_sample=p.buoy_sample.copy())
+        typed_call(sample_fluid, now, on.model, on.state)
+        return held, typed_call(fluid_entrained_energy, now, on.model, on.state)
 
     def exchange(self, p, on: Binding) -> float:
         """Upthrust of the lines in the medium times the diagonal of the net's bounding box."""
@@ -411,9 +444,14 @@ class Fluid(Effect):
     def supplied(self, sim) -> float:
         """Work a moving or accelerating medium has done on the net so far (J): drag's share
         from the medium's motion, the inertia force's, and the change of the entrained fluid's
-        kinetic energy as the added mass changes (a line turning, entering or leaving the
-        water), which Morison's M v' = f leaves out of its forces."""
-        return float(self.params(sim).supplied[0])
+        kinetic energy as the added mass changes plus the work of the forces of that fluid
+        turning with the lines (kernels/added_mass.py): in still water the two cancel to the
+        step's order, and what is left is the fluid a line takes along or leaves behind as it
+        enters or leaves the water, which Morison's M v' = f leaves out of its forces."""
+        p = self.params(sim)
+        held, now = self.entrained(p, Binding(sim.net, sim.model, sim.state))
+        # the held added mass catches up with the present positions, as at the next kick
+        return float(p.supplied[0]) + now - held
 
     def start(self, sim):
         """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):

@@ -1,0 +1,294 @@
+"""Kernels of the fluid a line carries with it (its added mass), as the kick sees it.
+
+A wet vertex i carries the entrained fluid's kinetic energy T_i = 1/2 u^T M_i u, u = v - U,
+M_i = w_i l_i (a_n 1 + (a_t - a_n) t t^T) (w_i its wetness, l_i its Voronoi length, t the
+unit chord c / |c| between its neighbours, the end element's at a line end). Lagrange's
+equations for the line and this fluid,
+
+    d/dt ((m + M) u) - dT/dx = f,   so   (m + M) v' = f - M' u + sum_k dT_k/dx,
+
+hold two forces beside the kick's f / (m + M) (``add_fluid_mass``) that Morison's equation
+leaves out (``add_turning_forces``):
+- -M' u, the entrained momentum turning with the line, M' = w l (a_t - a_n) (t' t^T + t t'^T),
+  t' = (1 - t t^T)(v_b - v_a) / |c| (a, b the vertices of the chord);
+- dT_k/dx through the tangent of vertex k: q_k = w l (a_t - a_n) (t.u) (u - (t.u) t) / |c| on
+  vertex b, -q_k on vertex a. On a straight line moving obliquely (the chord couples add up
+  to (a_t - a_n) L (u.t) |u x t|) it is Munk's moment, which turns a slender body broadside.
+Both vanish where the added mass is the same across and along the line. Their sum over a line
+is -sum M' u, the rate of the entrained momentum at fixed velocities, so line and fluid
+together keep their momentum; their power is -1/2 u^T M' u, what the resampled added mass
+gives the entrained energy at the next kick, so line and fluid together keep their energy.
+They are quadratic in the velocities and evaluated at the kick's midpoint velocities (one
+predictor half kick: second order, as the step). A free node takes the forces on its line
+ends (force and moment about its centre of mass); a fixed or driven one leaves them.
+"""
+
+import math
+
+from numba import njit
+
+from .backend import PASS, STEP
+from .compiler import CACHED, INNER
+from .compose import inertia_kernel
+from .fluid import FluidParams, node_free, node_mass_matrix, sample_rows, split
+from .layout import columns, uint
+from .rotations import cross, quat_rotate, solve_sym3
+
+TURNING_ROWS = 9   # rows of p.turning: the forces G (3), the velocities V they are taken at (3), q (3)
+
+
+@njit(**CACHED, inline="always")
+def turns(p, j):
+    """Whether row j's added mass differs across and along its line (its fluid turns with it)."""
+    return p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0
+
+
+@njit(**CACHED, inline="always")
+def turning_rows(p):
+    """The rows of p.turning as three column tuples: G, V, Q."""
+    T = p.turning
+    return (T[0], T[1], T[2]), (T[3], T[4], T[5]), (T[6], T[7], T[8])
+
+
+@njit(**CACHED, inline="always")
+def end_arm(model, state, a):
+    """Return line end a's offset from its node's centre of mass, in the lab frame."""
+    q, o = state.node_q[model.attach_node[a]], model.attach_offset[a]
+    return quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+
+
+@njit(**PASS)
+def copy_columns(to, v, first, n):
+    """Update the columns ``to`` at the n vertices first.. to the columns v."""
+    for k in range(n):
+        i = first + uint(k)
+        to[0][i], to[1][i], to[2][i] = v[0][i], v[1][i], v[2][i]
+
+
+@njit(**INNER)
+def take_velocities(p, model, state, V):
+    """Update the columns V at the vertices of the lines whose fluid turns by their velocities:
+    an interior vertex's own, a line end's as its node moves it (v + omega x r)."""
+    v = columns(state.v)
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or not turns(p, j):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        copy_columns(V, v, uint(lo + 1), hi - lo - 2)
+        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
+            nd = model.attach_node[a]
+            q, w, r = state.node_q[nd], state.node_w[nd], end_arm(model, state, a)
+            wl = quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
+            c = cross(wl[0], wl[1], wl[2], r[0], r[1], r[2])
+            vn = state.node_v[nd]
+            V[0][i], V[1][i], V[2][i] = vn[0] + c[0], vn[1] + c[1], vn[2] + c[2]
+
+
+@njit(**CACHED, inline="always")
+def own_terms(G, Q, V, S, x, vlen, i, a, b, da):
+    """Update G at vertex i by -M'u and Q at i by q (module docstring), its chord from vertex a
+    to b, at the velocity columns V (x: the position columns; da = a_t - a_n per length)."""
+    cx, cy, cz = x[0][b] - x[0][a], x[1][b] - x[1][a], x[2][b] - x[2][a]
+    inv = 1.0 / math.sqrt(max(cx * cx + cy * cy + cz * cz, 1e-300))   # coincident: nothing turns
+    tx, ty, tz = S[7][i], S[8][i], S[9][i]
+    c = da * S[0][i] * vlen[i]
+    ux, uy, uz = V[0][i] - S[1][i], V[1][i] - S[2][i], V[2][i] - S[3][i]
+    ut = ux * tx + uy * ty + uz * tz
+    dx, dy, dz = (V[0][b] - V[0][a]) * inv, (V[1][b] - V[1][a]) * inv, (V[2][b] - V[2][a]) * inv
+    dt = dx * tx + dy * ty + dz * tz
+    rx, ry, rz = dx - dt * tx, dy - dt * ty, dz - dt * tz            # t'
+    ru = rx * ux + ry * uy + rz * uz
+    G[0][i] = -c * (ut * rx + ru * tx)
+    G[1][i] = -c * (ut * ry + ru * ty)
+    G[2][i] = -c * (ut * rz + ru * tz)
+    g = c * ut * inv
+    Q[0][i], Q[1][i], Q[2][i] = g * (ux - ut * tx), g * (uy - ut * ty), g * (uz - ut * tz)
+
+
+@njit(**PASS)
+def interior_terms(G, Q, V, S, x, vlen, first, n, da):
+    """Update G and Q at the n interior vertices first.. (own_terms; chords between neighbours)."""
+    for k in range(n):
+        i = first + uint(k)
+        own_terms(G, Q, V, S, x, vlen, i, i - uint(1), i + uint(1), da)
+
+
+@njit(**PASS)
+def spread_terms(G, Q, first, n):
+    """Update G at the n interior vertices first.. by q of the vertex before (whose chord ends
+    here) less q of the vertex after (whose chord starts here)."""
+    for k in range(n):
+        i = first + uint(k)
+        G[0][i] += Q[0][i - uint(1)] - Q[0][i + uint(1)]
+        G[1][i] += Q[1][i - uint(1)] - Q[1][i + uint(1)]
+        G[2][i] += Q[2][i - uint(1)] - Q[2][i + uint(1)]
+
+
+@njit(**INNER)
+def turning_forces(p, model, state, G, Q, V):
+    """Update the columns G at the vertices of the lines whose fluid turns by its forces at
+    the velocity columns V (Q: scratch for q)."""
+    S, x = sample_rows(p), columns(state.x)
+    vlen = model.voronoi_rest_length
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or not turns(p, j):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        da = p.added_t[j] - p.added_n[j]
+        own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da)       # the ends: their end element's chord
+        own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da)
+        interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da)
+        spread_terms(G, Q, uint(lo + 1), hi - lo - 2)
+        for k in range(3):
+            G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
+            G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
+
+
+@njit(**INNER)
+def end_sums(p, model, state, G, nd):
+    """Return (force, moment about the centre of mass) of the forces G on node nd's line ends
+    whose fluid turns."""
+    fx = fy = fz = mx = my = mz = 0.0
+    for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        a = model.node_attach_list[s]
+        l = a // 2
+        j = p.line_row[l] if l < p.line_row.shape[0] else -1
+        if j < 0 or not turns(p, j):
+            continue
+        i = model.attach_vertex[a]
+        gx, gy, gz = G[0][i], G[1][i], G[2][i]
+        r = end_arm(model, state, a)
+        c = cross(r[0], r[1], r[2], gx, gy, gz)
+        fx, fy, fz, mx, my, mz = fx + gx, fy + gy, fz + gz, mx + c[0], my + c[1], mz + c[2]
+    return (fx, fy, fz), (mx, my, mz)
+
+
+@njit(**PASS)
+def predict_line(V, S, f, G, first, n, h):
+    """Update the velocity columns V at the n vertices first.. by a kick of h with the force
+    columns f + G, through the sampled inverse masses."""
+    for k in range(n):
+        i = first + uint(k)
+        d = split(S[14][i], S[15][i], f[0][i] + G[0][i], f[1][i] + G[1][i], f[2][i] + G[2][i],
+                  S[7][i], S[8][i], S[9][i])
+        V[0][i] += h * d[0]
+        V[1][i] += h * d[1]
+        V[2][i] += h * d[2]
+
+
+@njit(**INNER)
+def predict_velocities(p, model, state, loads, G, V, h):
+    """Update the velocity columns V by a kick of h with the loads and the forces G (the
+    added mass included; a node's line ends by its translation alone)."""
+    S, f = sample_rows(p), columns(loads.f)
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or not turns(p, j):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        predict_line(V, S, f, G, uint(lo + 1), hi - lo - 2, h)
+        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
+            nd = model.attach_node[a]
+            if not node_free(p, model, nd):
+                continue
+            g, _ = end_sums(p, model, state, G, nd)
+            fn = loads.node_f[nd]
+            a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+            d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
+            V[0][i] += h * d[0]
+            V[1][i] += h * d[1]
+            V[2][i] += h * d[2]
+
+
+@njit(**PASS)
+def add_line_forces(f, G, V, first, n):
+    """Update the force columns f at the n vertices first.. by G; return the power of G at V."""
+    power = 0.0
+    for k in range(n):
+        i = first + uint(k)
+        f[0][i] += G[0][i]
+        f[1][i] += G[1][i]
+        f[2][i] += G[2][i]
+        power += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]
+    return power
+
+
+@njit(**INNER)
+def add_turning_forces(p, model, state, loads, h):
+    """Update loads.f (nv, 3) at the interior vertices, loads.node_f and loads.node_tau at the
+    free nodes by the turning fluid's forces at the kick's midpoint velocities (module
+    docstring); p.supplied by their work over the kick of h, which with the resampled
+    entrained energy (flow_fluid) is what the line and its fluid exchange with the medium:
+    nothing in still water, to the step's order."""
+    G, V, Q = turning_rows(p)
+    take_velocities(p, model, state, V)
+    turning_forces(p, model, state, G, Q, V)
+    predict_velocities(p, model, state, loads, G, V, 0.5 * h)
+    turning_forces(p, model, state, G, Q, V)
+    f = columns(loads.f)
+    nl = model.line_vertex_offsets.shape[0] - 1
+    work = 0.0
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or not turns(p, j):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        work += add_line_forces(f, G, V, uint(lo + 1), hi - lo - 2)
+        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
+            if node_free(p, model, model.attach_node[a]):
+                work += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]
+    for nd in range(model.node_mass.shape[0]):
+        if node_free(p, model, nd):
+            g, m = end_sums(p, model, state, G, nd)
+            for k in range(3):
+                loads.node_f[nd, k] += g[k]
+                loads.node_tau[nd, k] += m[k]
+    p.supplied[0] += h * work
+
+
+@njit(**PASS)
+def divide_line(f, S, vmass, first, n):
+    """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
+    with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m)."""
+    for k in range(n):
+        i = first + uint(k)
+        m = vmass[i]
+        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i],
+                                          S[7][i], S[8][i], S[9][i])
+
+
+@inertia_kernel(FluidParams)
+@njit(**STEP)
+def add_fluid_mass(p, model, state, arg):
+    """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
+    given arg = (loads, h), the kick's loads and length: the turning fluid's forces added
+    (add_turning_forces), then all turned so that the kick's f / m is M^-1 f, M the mass with
+    the added mass of the wet line parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a
+    node's sum over its wet ends)."""
+    loads, h = arg
+    if p.turning.shape[1] > 0:
+        add_turning_forces(p, model, state, loads, h)
+    f, S = columns(loads.f), sample_rows(p)
+    vmass = model.vertex_mass
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+            continue
+        divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
+                    model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
+    for nd in range(model.node_mass.shape[0]):
+        if not node_free(p, model, nd):
+            continue
+        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+        m = model.node_mass[nd]
+        if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
+            continue
+        fn = loads.node_f[nd]
+        g = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0], fn[1], fn[2])
+        fn[0], fn[1], fn[2] = m * g[0], m * g[1], m * g[2]
