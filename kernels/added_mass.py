@@ -18,8 +18,9 @@ Both vanish where the added mass is the same across and along the line. Their su
 is -sum M' u, the rate of the entrained momentum at fixed velocities, so line and fluid
 together keep their momentum; their power is -1/2 u^T M' u, what the resampled added mass
 gives the entrained energy at the next kick, so line and fluid together keep their energy.
-They are quadratic in the velocities and evaluated at the kick's midpoint velocities (one
-predictor half kick: second order, as the step). A free node takes the forces on its line
+They are quadratic in the velocities and evaluated at the kick's midpoint velocities,
+predicted by half a kick with the last kick's forces (second order, as the step: they are
+state, p.turning, and a checkpoint keeps them). A free node takes the forces on its line
 ends (force and moment about its centre of mass); a fixed or driven one leaves them.
 """
 
@@ -34,7 +35,8 @@ from .fluid import FluidParams, node_free, node_mass_matrix, sample_rows, split
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, solve_sym3
 
-TURNING_ROWS = 9   # rows of p.turning: the forces G (3), the velocities V they are taken at (3), q (3)
+TURNING_ROWS = 9   # rows of p.turning: the forces G (3, the last kick's until the next), the velocities V they
+                   # are taken at (3), q (3)
 
 
 @njit(**CACHED, inline="always")
@@ -227,7 +229,8 @@ def add_turning_forces(p, model, state, loads, h):
     nothing in still water, to the step's order."""
     G, V, Q = turning_rows(p)
     take_velocities(p, model, state, V)
-    turning_forces(p, model, state, G, Q, V)
+    # G holds the last kick's forces: an O(h) error in them is an O(h^2) one in the midpoint
+    # velocities, and the step stays second order for one evaluation a kick instead of two
     predict_velocities(p, model, state, loads, G, V, 0.5 * h)
     turning_forces(p, model, state, G, Q, V)
     f = columns(loads.f)

