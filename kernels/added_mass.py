@@ -46,6 +46,16 @@ def turns(p, j):
 
 
 @njit(**CACHED, inline="always")
+def turning_span(p, model, j):
+    """Return (l, lo, hi): row j's line and its vertices lo..hi-1 when its fluid turns, else
+    hi = 0."""
+    l = p.lines[j]
+    if l < 0 or l >= model.line_vertex_offsets.shape[0] - 1 or not turns(p, j):
+        return l, 0, 0
+    return l, model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+
+
+@njit(**CACHED, inline="always")
 def turning_rows(p):
     """The rows of p.turning as three column tuples: G, V, Q."""
     T = p.turning
@@ -72,12 +82,10 @@ def take_velocities(p, model, state, V):
     """Update the columns V at the vertices of the lines whose fluid turns by their velocities:
     an interior vertex's own, a line end's as its node moves it (v + omega x r)."""
     v = columns(state.v)
-    nl = model.line_vertex_offsets.shape[0] - 1
     for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or not turns(p, j):
+        l, lo, hi = turning_span(p, model, j)
+        if hi == 0:
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         copy_columns(V, v, uint(lo + 1), hi - lo - 2)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
@@ -134,12 +142,10 @@ def turning_forces(p, model, state, G, Q, V):
     the velocity columns V (Q: scratch for q)."""
     S, x = sample_rows(p), columns(state.x)
     vlen = model.voronoi_rest_length
-    nl = model.line_vertex_offsets.shape[0] - 1
     for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or not turns(p, j):
+        l, lo, hi = turning_span(p, model, j)
+        if hi == 0:
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         da = p.added_t[j] - p.added_n[j]
         own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da)       # the ends: their end element's chord
         own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da)
@@ -187,12 +193,10 @@ def predict_velocities(p, model, state, loads, G, V, h):
     """Update the velocity columns V by a kick of h with the loads and the forces G (the
     added mass included; a node's line ends by its translation alone)."""
     S, f = sample_rows(p), columns(loads.f)
-    nl = model.line_vertex_offsets.shape[0] - 1
     for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or not turns(p, j):
+        l, lo, hi = turning_span(p, model, j)
+        if hi == 0:
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         predict_line(V, S, f, G, uint(lo + 1), hi - lo - 2, h)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
@@ -234,13 +238,11 @@ def add_turning_forces(p, model, state, loads, h):
     predict_velocities(p, model, state, loads, G, V, 0.5 * h)
     turning_forces(p, model, state, G, Q, V)
     f = columns(loads.f)
-    nl = model.line_vertex_offsets.shape[0] - 1
     work = 0.0
     for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or not turns(p, j):
+        l, lo, hi = turning_span(p, model, j)
+        if hi == 0:
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         work += add_line_forces(f, G, V, uint(lo + 1), hi - lo - 2)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             if node_free(p, model, model.attach_node[a]):
