@@ -77,25 +77,6 @@ def copy_columns(to, v, first, n):
         to[0][i], to[1][i], to[2][i] = v[0][i], v[1][i], v[2][i]
 
 
-@njit(**INNER)
-def take_velocities(p, model, state, V):
-    """Update the columns V at the vertices of the lines whose fluid turns by their velocities:
-    an interior vertex's own, a line end's as its node moves it (v + omega x r)."""
-    v = columns(state.v)
-    for j in range(p.lines.shape[0]):
-        l, lo, hi = turning_span(p, model, j)
-        if hi == 0:
-            continue
-        copy_columns(V, v, uint(lo + 1), hi - lo - 2)
-        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
-            nd = model.attach_node[a]
-            q, w, r = state.node_q[nd], state.node_w[nd], end_arm(model, state, a)
-            wl = quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
-            c = cross(wl[0], wl[1], wl[2], r[0], r[1], r[2])
-            vn = state.node_v[nd]
-            V[0][i], V[1][i], V[2][i] = vn[0] + c[0], vn[1] + c[1], vn[2] + c[2]
-
-
 @njit(**CACHED, inline="always")
 def own_terms(G, Q, V, S, x, vlen, i, a, b, da):
     """Update G at vertex i by -M'u and Q at i by q (module docstring), its chord from vertex a
@@ -136,24 +117,18 @@ def spread_terms(G, Q, first, n):
         G[2][i] += Q[2][i - uint(1)] - Q[2][i + uint(1)]
 
 
-@njit(**INNER)
-def turning_forces(p, model, state, G, Q, V):
-    """Update the columns G at the vertices of the lines whose fluid turns by its forces at
-    the velocity columns V (Q: scratch for q)."""
-    S, x = sample_rows(p), columns(state.x)
-    vlen = model.voronoi_rest_length
-    for j in range(p.lines.shape[0]):
-        l, lo, hi = turning_span(p, model, j)
-        if hi == 0:
-            continue
-        da = p.added_t[j] - p.added_n[j]
-        own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da)       # the ends: their end element's chord
-        own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da)
-        interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da)
-        spread_terms(G, Q, uint(lo + 1), hi - lo - 2)
-        for k in range(3):
-            G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
-            G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
+@njit(**PASS)
+def line_turning(G, Q, V, S, x, vlen, lo, hi, da):
+    """Update the force columns G at the vertices lo..hi-1 of one line by the turning fluid's
+    forces at the velocity columns V (Q: scratch for q; own_terms, the ends on their end
+    element's chord)."""
+    own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da)
+    own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da)
+    interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da)
+    spread_terms(G, Q, uint(lo + 1), hi - lo - 2)
+    for k in range(3):
+        G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
+        G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
 
 
 @njit(**INNER)
@@ -188,29 +163,6 @@ def predict_line(V, S, f, G, first, n, h):
         V[2][i] += h * d[2]
 
 
-@njit(**INNER)
-def predict_velocities(p, model, state, loads, G, V, h):
-    """Update the velocity columns V by a kick of h with the loads and the forces G (the
-    added mass included; a node's line ends by its translation alone)."""
-    S, f = sample_rows(p), columns(loads.f)
-    for j in range(p.lines.shape[0]):
-        l, lo, hi = turning_span(p, model, j)
-        if hi == 0:
-            continue
-        predict_line(V, S, f, G, uint(lo + 1), hi - lo - 2, h)
-        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
-            nd = model.attach_node[a]
-            if not node_free(p, model, nd):
-                continue
-            g, _ = end_sums(p, model, state, G, nd)
-            fn = loads.node_f[nd]
-            a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
-            d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
-            V[0][i] += h * d[0]
-            V[1][i] += h * d[1]
-            V[2][i] += h * d[2]
-
-
 @njit(**PASS)
 def add_line_forces(f, G, V, first, n):
     """Update the force columns f at the n vertices first.. by G; return the power of G at V."""
@@ -230,19 +182,39 @@ def add_turning_forces(p, model, state, loads, h):
     free nodes by the turning fluid's forces at the kick's midpoint velocities (module
     docstring); p.supplied by their work over the kick of h, which with the resampled
     entrained energy (flow_fluid) is what the line and its fluid exchange with the medium:
-    nothing in still water, to the step's order."""
+    nothing in still water, to the step's order. (One kernel of its own: the records passed
+    to each of several cost more compiling than their arithmetic.)"""
     G, V, Q = turning_rows(p)
-    take_velocities(p, model, state, V)
-    # G holds the last kick's forces: an O(h) error in them is an O(h^2) one in the midpoint
-    # velocities, and the step stays second order for one evaluation a kick instead of two
-    predict_velocities(p, model, state, loads, G, V, 0.5 * h)
-    turning_forces(p, model, state, G, Q, V)
-    f = columns(loads.f)
+    S, x, v, f = sample_rows(p), columns(state.x), columns(state.v), columns(loads.f)
+    # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
+    # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
+    # evaluation a kick instead of two (a line end: its node's motion; its translation on)
+    for j in range(p.lines.shape[0]):
+        l, lo, hi = turning_span(p, model, j)
+        if hi == 0:
+            continue
+        copy_columns(V, v, uint(lo + 1), hi - lo - 2)
+        predict_line(V, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h)
+        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
+            nd = model.attach_node[a]
+            q, w, r = state.node_q[nd], state.node_w[nd], end_arm(model, state, a)
+            wl = quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
+            c = cross(wl[0], wl[1], wl[2], r[0], r[1], r[2])
+            vn = state.node_v[nd]
+            d = (0.0, 0.0, 0.0)
+            if node_free(p, model, nd):
+                g, _ = end_sums(p, model, state, G, nd)
+                fn = loads.node_f[nd]
+                a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+                d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
+            for k in range(3):
+                V[k][i] = vn[k] + c[k] + 0.5 * h * d[k]
     work = 0.0
     for j in range(p.lines.shape[0]):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
+        line_turning(G, Q, V, S, x, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j])
         work += add_line_forces(f, G, V, uint(lo + 1), hi - lo - 2)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             if node_free(p, model, model.attach_node[a]):
