@@ -63,11 +63,7 @@ class Sliders(Effect):
     def bind(self, on: Binding):
         m = on.model
         k = len(self.sliders)
-        vo, lengths = m.line_vertex_offsets, m.element_rest_length
-        arc = np.zeros(m.vertex_mass.shape[0])
-        for l in range(vo.shape[0] - 1):
-            e0 = m.line_element_offsets[l]
-            arc[vo[l] + 1:vo[l + 1]] = np.cumsum(lengths[e0:m.line_element_offsets[l + 1]])
+        arc = vertex_arcs(m)
         weight = m.node_inv_mass.copy()
         for e in on.effects:   # a driven node goes where its drive says, whatever pushes it
             if isinstance(e, Drive):
@@ -78,12 +74,8 @@ class Sliders(Effect):
                              for arc_before in np.concatenate([[0.0], np.cumsum([l.length for l in sl.lines])[:-1]])])
         at, link = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
         for j, sl in enumerate(self.sliders):
-            before = path_arc[offsets[j]:offsets[j + 1]]
-            here = int(np.searchsorted(before, sl.s, side="right")) - 1
+            here, at[j], _ = where_on_path(m, arc, sl)
             link[j] = offsets[j] + here
-            l = path_lines[link[j]]
-            local = int(np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s - before[here], side="right")) - 1
-            at[j] = vo[l] + min(max(local, 0), vo[l + 1] - vo[l] - 2)
         return SlidingParams(
             node=np.array([sl.node.index for sl in self.sliders], dtype=np.int64), path_offsets=offsets,
             path_lines=path_lines, path_arc=path_arc.reshape(-1), link=link, node_weight=weight, arc=arc,
@@ -148,6 +140,40 @@ class Sliders(Effect):
 
     def describe(self) -> str:
         return f"Sliders({len(self.sliders)} rings and eyelets)"
+
+
+def vertex_arcs(model) -> np.ndarray:
+    """(nv,) unstretched arc length of each vertex from its line's start."""
+    vo, eo = model.line_vertex_offsets, model.line_element_offsets
+    arc = np.zeros(model.vertex_mass.shape[0])
+    for l in range(vo.shape[0] - 1):
+        arc[vo[l] + 1:vo[l + 1]] = np.cumsum(model.element_rest_length[eo[l]:eo[l + 1]])
+    return arc
+
+
+def where_on_path(model, arc, sl) -> tuple[int, int, float]:
+    """(here, i, t): slider sl's line (its index in sl.lines), the first vertex (global) of
+    the element it is on at its material coordinate, and its fraction of that element."""
+    vo = model.line_vertex_offsets
+    before = np.concatenate([[0.0], np.cumsum([line.length for line in sl.lines])[:-1]])
+    here = int(np.searchsorted(before, sl.s, side="right")) - 1
+    l = sl.lines[here].index
+    local = int(np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s - before[here], side="right")) - 1
+    i = vo[l] + min(max(local, 0), vo[l + 1] - vo[l] - 2)
+    span = arc[i + 1] - arc[i]
+    return here, i, min(max((sl.s - before[here] - arc[i]) / span, 0.0), 1.0) if span > 0 else 0.0
+
+
+def places(net, model, state) -> list:
+    """[(node, i, t, dx/ds)] of the net's sliders in ``state`` (engine/linearised.linearise):
+    each node's index, the element it is on (first vertex i, fraction t) and the line's
+    tangent per unit material coordinate there."""
+    arc = vertex_arcs(model)
+    out = []
+    for sl in net.sliders:
+        _, i, t = where_on_path(model, arc, sl)
+        out.append((sl.node.index, i, t, (state.x[i + 1] - state.x[i]) / (arc[i + 1] - arc[i])))
+    return out
 
 
 def sliders(net, grids=None) -> Sliders | None:

@@ -71,8 +71,9 @@ class Linearisation:
 
     Raw coordinates (length 3 nv + 3 ne + 6 nn): every vertex dx, every element alpha, every
     node dc and phi. ``T`` (raw x reduced) maps q to them; ``reduced`` (N,) lists the raw index
-    of each reduced coordinate. ``x0, q0, node_x0, node_q0`` are the rest state. K equals
-    jacobian^T diag(weights) jacobian."""
+    of each reduced coordinate (-1: a slider's material coordinate, which has none). ``x0,
+    q0, node_x0, node_q0`` are the rest state. K equals jacobian^T diag(weights) jacobian; M
+    is diagonal unless the net has sliders."""
 
     K: sp.csr_matrix
     M: sp.csr_matrix
@@ -95,6 +96,13 @@ class Linearisation:
         nv, ne, nn = self.sizes
         cut = np.cumsum([3 * nv, 3 * ne, 3 * nn])
         return tuple(p.reshape(-1, 3) for p in np.split(raw, cut))
+
+    def restrict(self, raw: np.ndarray) -> np.ndarray:
+        """The reduced coordinates of raw vectors (rows; columns for several) whose sliders
+        keep their material coordinates (rigid motions): their raw entries, 0 for s."""
+        out = raw[np.maximum(self.reduced, 0)]
+        out[self.reduced < 0] = 0.0
+        return out
 
     def raw_displacement(self, state: State) -> np.ndarray:
         """Raw coordinates of ``state`` relative to the rest state (finite rotations as
@@ -156,14 +164,48 @@ def check_stress_free(model, geo: _Geometry, net: Net, hint: str):
                              f"free ({qty} = {np.abs(arr[i]).max():.3g}{unit}); {hint}")
 
 
+def _slide(T, M, reduced, to_red, sliders, node_block):
+    """(T, M, reduced) with each slider's node translation given by its line's, the node at
+    fraction t of the element from vertex i: dc = (1 - t) dx_i + t dx_{i+1} + (dx/ds) ds, ds
+    a reduced coordinate of its own (appended). ``sliders``: [(node, i, t, dx/ds (3,))]; the
+    node's own translation coordinates leave (a fixed or driven eyelet has none: refused)."""
+    import scipy.sparse as sp
+
+    n0, k = T.shape[1], len(sliders)
+    rows = T.tocsr()
+    Z = sp.lil_matrix((n0, n0 + k))
+    Z.setdiag(1.0)
+    drop: set[int] = set()
+    for j, (nd, i, t, dxds) in enumerate(sliders):
+        cols = to_red[3 * (node_block + nd) + np.arange(3)]
+        if np.any(cols < 0):
+            raise ValueError("modes: an eyelet fixed or driven in space is not in the modes (rings and "
+                             "eyelets on free nodes are)")
+        sub = ((1.0 - t) * rows[3 * i:3 * i + 3] + t * rows[3 * i + 3:3 * i + 6]).toarray()
+        for a in range(3):
+            Z[cols[a], cols[a]] = 0.0
+            for c in np.flatnonzero(sub[a]):
+                Z[cols[a], c] = sub[a, c]
+            Z[cols[a], n0 + j] = dxds[a]
+        drop.update(int(c) for c in cols)
+    gone = sorted(drop)
+    Z = Z.tocsr()
+    if Z[gone][:, gone].nnz:
+        raise ValueError("modes: a ring on a line that hangs from another slider is not in the modes")
+    keep = np.setdiff1d(np.arange(n0 + k), gone)
+    Z = Z[:, keep]
+    return (T @ Z).tocsr(), (Z.T @ M @ Z).tocsr(), np.concatenate([reduced, np.full(k, -1)])[keep]
+
+
 def linearise(model, state: State, net: Net, hint: str = REST_HINT, joints=(),
-              strained: bool = False) -> Linearisation:
+              strained: bool = False, sliders=()) -> Linearisation:
     """Exact stiffness K and mass M of the net linearised about ``state`` (stress free, else
     ValueError ending with ``hint``; with ``strained`` any state, K then without the geometric
     stiffness of its strains). ``joints``: [(point, S)], the condensed 3x3 bending
     stiffness of each articulated end's boundary point (cosnet.effects.articulations.condensed_bending),
     which the model does not hold; each enters factored, S = U diag(s) U^T, as three strain rows
-    U^T d theta of weights s."""
+    U^T d theta of weights s. ``sliders``: [(node, i, t, dx/ds)] (cosnet.effects.sliders.places):
+    each slider's node held on its line, its material coordinate a reduced coordinate (_slide)."""
     import scipy.sparse as sp
 
     geo = _geometry(model, state)
@@ -212,6 +254,11 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT, joints=(),
     t_cols = np.concatenate([np.arange(reduced.size), to_red[ec[keep]]])
     T = sp.coo_matrix((np.concatenate([np.ones(reduced.size), ev[keep]]), (t_rows, t_cols)),
                       shape=(raw_n, reduced.size)).tocsr()
+    mass = np.concatenate([np.repeat(model.vertex_mass, 3), model.element_inertia.ravel(),
+                           np.repeat(model.node_mass, 3), model.node_inertia.ravel()])
+    M = sp.diags(mass[reduced]).tocsr()
+    if sliders:
+        T, M, reduced = _slide(T, M, reduced, to_red, sliders, CA)
     A = (G @ T).tocsr()
     if joints:
         turn = sp.lil_matrix((A.shape[0], A.shape[0]))
@@ -224,9 +271,6 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT, joints=(),
         A = (turn.tocsr() @ A).tocsr()
     K = (A.T @ sp.diags(W) @ A).tocsr()
     K = (0.5 * (K + K.T)).tocsr()
-    mass = np.concatenate([np.repeat(model.vertex_mass, 3), model.element_inertia.ravel(),
-                           np.repeat(model.node_mass, 3), model.node_inertia.ravel()])
-    M = sp.diags(mass[reduced]).tocsr()
     return Linearisation(K, M, T, reduced, A, W, model, st.x.copy(), st.q.copy(), st.node_x.copy(), st.node_q.copy())
 
 

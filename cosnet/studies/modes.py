@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..effects.articulations import condensed_bending
+from ..effects.sliders import places
 from ..engine.flatten import flatten
 from .lincos import allowed_rigid_motions
 from ..engine.linearised import REST_HINT, Linearisation, frame_matrices, linearise
@@ -57,7 +58,7 @@ def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
     D, R = frame_matrices(lin.q0), frame_matrices(lin.node_q0)
     clamped = np.zeros(3 * (nv + ne + 2 * nn), dtype=bool)
     clamped[3 * (nv + ne):] = True            # node coordinates not among the reduced ones
-    clamped[lin.reduced] = False
+    clamped[lin.reduced[lin.reduced >= 0]] = False
     basis = []
     for c in range(ncomp):
         vm, em, nm = line_comp[vline] == c, line_comp[eline] == c, comp == c
@@ -76,7 +77,7 @@ def rigid_basis(lin: Linearisation, net: Net) -> np.ndarray:
         raw = np.column_stack(cols)
         null = allowed_rigid_motions(raw[clamped])
         if null.shape[1]:
-            basis.append(raw[lin.reduced] @ null)
+            basis.append(lin.restrict(raw) @ null)
     return np.column_stack(basis) if basis else np.zeros((lin.reduced.size, 0))
 
 
@@ -155,7 +156,7 @@ class DiscreteModes:
         """(k,) modal coordinates u_j^T M q of sim's displacement q from the rest state."""
         self._check_sim(sim)
         place_line_ends(sim.model, sim.state)
-        q = self.lin.raw_displacement(sim.state)[self.lin.reduced]
+        q = self.lin.restrict(self.lin.raw_displacement(sim.state))
         return self.vectors.T @ (self.lin.M @ q)
 
 
@@ -169,24 +170,24 @@ def _solve(lin: Linearisation, rigid: np.ndarray, count: int, sigma: float):
 
     K, M = lin.K, lin.M
     n, r = K.shape[0], rigid.shape[1]
-    m = M.diagonal()
+    m = M.diagonal()   # M is diagonal but for sliders' couplings (engine/linearised._slide)
     # rigid modes and free joints' mechanisms make K singular: shift below zero by a tiny
     # fraction of the stiffest omega^2
     shift = sigma * sigma - 1e-9 * float(np.max(K.diagonal() / m))
     want = min(count + r, n)
     if n <= DENSE_LIMIT or want >= n - 1:
-        vals, vecs = scipy.linalg.eigh(K.toarray(), np.diag(m))
+        vals, vecs = scipy.linalg.eigh(K.toarray(), M.toarray())
     else:
         vals, vecs = eigsh(K.tocsc(), k=want, M=M.tocsc(), sigma=shift, which="LM")
     if r:
-        vecs = vecs / np.sqrt(np.einsum("ij,i,ij->j", vecs, m, vecs))
-        g = rigid.T @ (m[:, None] * rigid)
+        vecs = vecs / np.sqrt(np.einsum("ij,ij->j", vecs, M @ vecs))
+        g = rigid.T @ (M @ rigid)
         # remove the rigid motions (the elastic modes are M-orthogonal to them); what is left of
         # a computed rigid mode is round-off
-        vecs = vecs - rigid @ np.linalg.solve(g, rigid.T @ (m[:, None] * vecs))
-        vecs = vecs[:, np.einsum("ij,i,ij->j", vecs, m, vecs) > 0.5]
+        vecs = vecs - rigid @ np.linalg.solve(g, rigid.T @ (M @ vecs))
+        vecs = vecs[:, np.einsum("ij,ij->j", vecs, M @ vecs) > 0.5]
     jv = lin.jacobian @ vecs
-    vals, y = scipy.linalg.eigh(jv.T @ (lin.weights[:, None] * jv), vecs.T @ (m[:, None] * vecs))
+    vals, y = scipy.linalg.eigh(jv.T @ (lin.weights[:, None] * jv), vecs.T @ (M @ vecs))
     vecs = vecs @ y
     omega = np.sqrt(np.maximum(vals, 0.0))
     pick = np.sort(np.argsort(np.abs(omega - sigma), kind="stable")[:count])
@@ -228,7 +229,8 @@ def modes(net_or_sim, count: int = 6, sigma: float = 0.0, method: str = "discret
         raise ValueError(f"modes: count must be a positive integer, got {count!r}")
     if not math.isfinite(sigma) or sigma < 0:
         raise ValueError(f"modes: sigma must be a frequency >= 0 (rad/s), got {sigma!r}")
-    lin = linearise(model, state, net, hint, condensed_bending(net, model, state, grids))
+    lin = linearise(model, state, net, hint, condensed_bending(net, model, state, grids),
+                    sliders=places(net, model, state))
     n = lin.K.shape[0]
     rigid = rigid_basis(lin, net)
     if count > n - rigid.shape[1]:
