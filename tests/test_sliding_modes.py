@@ -69,10 +69,26 @@ def test_a_ring_at_the_tip_lowers_the_bending_mode_as_a_tip_mass_and_slides_free
     assert weld["axial"] == pytest.approx(carried, rel=1e-3)
 
 
-def test_an_eyelet_fixed_in_space_is_refused_in_one_line():
+def test_an_eyelet_fixed_at_the_tip_props_the_cantilever_and_lets_it_slide_along():
+    # the line passes through a fixed point at its tip: across, a pinned support (the clamped-
+    # pinned rod's beta L = 3.9266); along, nothing (the quarter wave); no mode at zero frequency
+    c = math.sqrt(E / RHO)
+    quarter_wave = 0.5 * math.pi * c / LENGTH
     net = cantilever()
-    net.add_eyelet(net.lines[0], s=0.5 * LENGTH)
-    with pytest.raises(ValueError, match="^modes: an eyelet fixed or driven in space is not in the modes"):
+    net.add_eyelet(net.lines[0], s=LENGTH)
+    low = cosnet.modes(net, count=3)
+    area = math.pi * RADIUS ** 2
+    beta = brentq(lambda b: math.tan(b) - math.tanh(b), 3.5, 4.5)
+    propped = beta ** 2 * math.sqrt(E * area * RADIUS ** 2 / 4 / (RHO * area * LENGTH ** 4))
+    assert low.omega[0] == pytest.approx(propped, rel=5e-3)
+    assert by_kind(cosnet.modes(net, count=3, sigma=quarter_wave))["axial"] == pytest.approx(
+        by_kind(cosnet.modes(cantilever(), count=3, sigma=quarter_wave))["axial"], rel=1e-9)
+
+
+def test_an_eyelet_where_the_line_is_held_is_refused_in_one_line():
+    net = cantilever()
+    net.add_eyelet(net.lines[0], s=0.0)
+    with pytest.raises(ValueError, match="^modes: a slider whose node and element are both held in space"):
         cosnet.modes(net, count=4)
 
 

@@ -164,37 +164,38 @@ def check_stress_free(model, geo: _Geometry, net: Net, hint: str):
                              f"free ({qty} = {np.abs(arr[i]).max():.3g}{unit}); {hint}")
 
 
-def _slide(T, M, reduced, to_red, sliders, node_block):
-    """(T, M, reduced) with each slider's node translation given by its line's, the node at
-    fraction t of the element from vertex i: dc = (1 - t) dx_i + t dx_{i+1} + (dx/ds) ds, ds
-    a reduced coordinate of its own (appended). ``sliders``: [(node, i, t, dx/ds (3,))]; the
-    node's own translation coordinates leave (a fixed or driven eyelet has none: refused)."""
+def _slide(T, M, reduced, sliders, node_block):
+    """(T, M, reduced) with each slider's node held on its line: the node's translation equals
+    its element's, (1 - t) dx_i + t dx_{i+1}, plus the line's tangent times ds, ds a reduced
+    coordinate of its own (appended). Three coordinates leave per slider, solved from those
+    three equations: the node's own translation where it is free (a ring), else those of the
+    element's vertex nearer it (an eyelet fixed in space: the line is held at its point).
+    ``sliders``: [(node, i, t, dx/ds (3,))]; M then couples them (no longer diagonal)."""
     import scipy.sparse as sp
 
-    n0, k = T.shape[1], len(sliders)
-    rows = T.tocsr()
-    Z = sp.lil_matrix((n0, n0 + k))
-    Z.setdiag(1.0)
-    drop: set[int] = set()
-    for j, (nd, i, t, dxds) in enumerate(sliders):
-        cols = to_red[3 * (node_block + nd) + np.arange(3)]
-        if np.any(cols < 0):
-            raise ValueError("modes: an eyelet fixed or driven in space is not in the modes (rings and "
-                             "eyelets on free nodes are)")
-        sub = ((1.0 - t) * rows[3 * i:3 * i + 3] + t * rows[3 * i + 3:3 * i + 6]).toarray()
-        for a in range(3):
-            Z[cols[a], cols[a]] = 0.0
-            for c in np.flatnonzero(sub[a]):
-                Z[cols[a], c] = sub[a, c]
-            Z[cols[a], n0 + j] = dxds[a]
-        drop.update(int(c) for c in cols)
-    gone = sorted(drop)
-    Z = Z.tocsr()
-    if Z[gone][:, gone].nnz:
-        raise ValueError("modes: a ring on a line that hangs from another slider is not in the modes")
-    keep = np.setdiff1d(np.arange(n0 + k), gone)
-    Z = Z[:, keep]
-    return (T @ Z).tocsr(), (Z.T @ M @ Z).tocsr(), np.concatenate([reduced, np.full(k, -1)])[keep]
+    reduced = np.asarray(reduced)
+    for nd, i, t, dxds in sliders:
+        n = T.shape[1] + 1
+        T = sp.hstack([T, sp.csr_matrix((T.shape[0], 1))]).tocsr()
+        M = sp.block_diag([M, sp.csr_matrix((1, 1))]).tocsr()
+        node, near, far = (T[r:r + 3].toarray() for r in (3 * (node_block + nd), 3 * i, 3 * i + 3))
+        c = (1.0 - t) * near + t * far - node
+        c[:, n - 1] = dxds
+        # the three coordinates to solve for: the node's translation, else a vertex's (its own,
+        # or its node's at a line end), the nearer first; each a block of the identity in T
+        own = [np.flatnonzero(np.isclose(np.abs(b).max(axis=0), 1.0)) for b in (node, near, far)]
+        groups = [own[0]] + (own[1:] if t < 0.5 else own[:0:-1])
+        pick = next((g for g in groups if g.size == 3 and np.linalg.cond(c[:, g]) < 1e8), None)
+        if pick is None:
+            raise ValueError("modes: a slider whose node and element are both held in space is not in the modes")
+        rest = np.setdiff1d(np.arange(n), pick)
+        Z = sp.lil_matrix((n, rest.size))
+        Z[rest, np.arange(rest.size)] = 1.0
+        Z[pick] = -np.linalg.solve(c[:, pick], c[:, rest])
+        Z = Z.tocsr()
+        T, M = (T @ Z).tocsr(), (Z.T @ M @ Z).tocsr()
+        reduced = np.concatenate([reduced, [-1]])[rest]
+    return T, M, reduced
 
 
 def linearise(model, state: State, net: Net, hint: str = REST_HINT, joints=(),
@@ -258,7 +259,7 @@ def linearise(model, state: State, net: Net, hint: str = REST_HINT, joints=(),
                            np.repeat(model.node_mass, 3), model.node_inertia.ravel()])
     M = sp.diags(mass[reduced]).tocsr()
     if sliders:
-        T, M, reduced = _slide(T, M, reduced, to_red, sliders, CA)
+        T, M, reduced = _slide(T, M, reduced, sliders, CA)
     A = (G @ T).tocsr()
     if joints:
         turn = sp.lil_matrix((A.shape[0], A.shape[0]))
