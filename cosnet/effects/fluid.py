@@ -350,7 +350,7 @@ class Fluid(Effect):
                            power=np.array(self.power), times=tt.copy(), values=tv.copy(), wave_a=a.copy(),
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
                            wave_phase=ph.copy(), node_skip=skip,
-                           sample=np.zeros((SAMPLE_ROWS, on.model.vertex_mass.shape[0])),
+                           sample=np.zeros((SAMPLE_ROWS, nv)),
                            turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)))
@@ -393,21 +393,21 @@ class Fluid(Effect):
                                                   * _mean_min(za, zb, p.surface)))
         for b, nd in enumerate(p.buoy_node):
             e += p.medium[0] * p.medium[1] * _cap_integral(p.surface - on.state.node_x[nd, 2], p.buoy_radius[b])
-        return e + self.entrained(p, on)[1]
+        return e + self.entrained(p, on, held=False)
 
     @staticmethod
-    def entrained(p, on: Binding) -> tuple[float, float]:
-        """(held, now): the kinetic energy of the fluid the lines carry with the added mass the
-        step holds (sampled at the last kick's positions, half a step before the present
-        ones) and with the added mass of the present positions. The accounts use the first;
-        the energy is the second, so that it is the same function of the state whatever the
-        step: (0, 0) without added mass."""
+    def entrained(p, on: Binding, held: bool) -> float:
+        """The kinetic energy of the fluid the lines carry: with ``held`` with the added mass
+        the step holds (sampled at the last kick's positions, half a step before the present
+        ones), which the accounts use, else with the added mass of the present positions,
+        which the energy uses so that it is the same function of the state whatever the step
+        (0 without added mass)."""
         if not (np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added)):
-            return 0.0, 0.0
-        held = typed_call(fluid_entrained_energy, p, on.model, on.state)
-        now = p._replace(sample=p.sample.copy(), buoy_sample=p.buoy_sample.copy())
-        typed_call(sample_fluid, now, on.model, on.state)
-        return held, typed_call(fluid_entrained_energy, now, on.model, on.state)
+            return 0.0
+        if not held:
+            p = p._replace(sample=p.sample.copy(), buoy_sample=p.buoy_sample.copy())
+            typed_call(sample_fluid, p, on.model, on.state)
+        return typed_call(fluid_entrained_energy, p, on.model, on.state)
 
     def exchange(self, p, on: Binding) -> float:
         """Upthrust of the lines in the medium times the diagonal of the net's bounding box."""
@@ -448,10 +448,9 @@ class Fluid(Effect):
         turning with the lines (kernels/added_mass.py): in still water the two cancel to the
         step's order, and what is left is the fluid a line takes along or leaves behind as it
         enters or leaves the water, which Morison's M v' = f leaves out of its forces."""
-        p = self.params(sim)
-        held, now = self.entrained(p, Binding(sim.net, sim.model, sim.state))
+        p, on = self.params(sim), Binding(sim.net, sim.model, sim.state)
         # the held added mass catches up with the present positions, as at the next kick
-        return float(p.supplied[0]) + now - held
+        return float(p.supplied[0]) + self.entrained(p, on, held=False) - self.entrained(p, on, held=True)
 
     def start(self, sim):
         """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):

@@ -70,8 +70,7 @@ class Sliders(Effect):
                 weight[e.node.index] = 0.0
         offsets = np.concatenate([[0], np.cumsum([len(sl.lines) for sl in self.sliders])]).astype(np.int64)
         path_lines = np.array([l.index for sl in self.sliders for l in sl.lines], dtype=np.int64)
-        path_arc = np.array([arc_before for sl in self.sliders
-                             for arc_before in np.concatenate([[0.0], np.cumsum([l.length for l in sl.lines])[:-1]])])
+        path_arc = np.concatenate([path_starts(sl) for sl in self.sliders])
         at, link = np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64)
         for j, sl in enumerate(self.sliders):
             here, at[j], _ = where_on_path(m, arc, sl)
@@ -151,11 +150,16 @@ def vertex_arcs(model) -> np.ndarray:
     return arc
 
 
+def path_starts(sl) -> np.ndarray:
+    """Unstretched arc length of slider sl's path before each of its lines."""
+    return np.concatenate([[0.0], np.cumsum([line.length for line in sl.lines])[:-1]])
+
+
 def where_on_path(model, arc, sl) -> tuple[int, int, float]:
     """(here, i, t): slider sl's line (its index in sl.lines), the first vertex (global) of
     the element it is on at its material coordinate, and its fraction of that element."""
     vo = model.line_vertex_offsets
-    before = np.concatenate([[0.0], np.cumsum([line.length for line in sl.lines])[:-1]])
+    before = path_starts(sl)
     here = int(np.searchsorted(before, sl.s, side="right")) - 1
     l = sl.lines[here].index
     local = int(np.searchsorted(arc[vo[l]:vo[l + 1]], sl.s - before[here], side="right")) - 1

@@ -173,7 +173,6 @@ def _slide(T, M, reduced, sliders, node_block):
     ``sliders``: [(node, i, t, dx/ds (3,))]; M then couples them (no longer diagonal)."""
     import scipy.sparse as sp
 
-    reduced = np.asarray(reduced)
     for nd, i, t, dxds in sliders:
         n = T.shape[1] + 1
         T = sp.hstack([T, sp.csr_matrix((T.shape[0], 1))]).tocsr()
