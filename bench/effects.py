@@ -12,6 +12,7 @@ import sys
 import cosnet
 from cosnet.engine.flatten import flatten
 from cosnet.kernels.backend import Serial
+from cosnet.kernels.compose import empty_slots
 from cosnet.kernels.layout import empty_loads
 from cosnet.kernels.stepping import advance_verlet
 from harness import best_of, table, write_json
@@ -66,7 +67,8 @@ def bare_run(net, dt, steps):
     """A closure running ``steps`` steps of advance_verlet directly, with no effects."""
     model, state, _ = flatten(net)
     loads = empty_loads(model)
-    return lambda: advance_verlet(model, state, loads, ((), (), ()), dt, steps, Serial())
+    records = ((), (), (), empty_slots(((), (), ())))
+    return lambda: advance_verlet(model, state, loads, records, dt, steps, Serial())
 
 
 def stable_steps(ks):

@@ -190,22 +190,17 @@ def accuracy(rotary=ROTARY, until=10.0, settle=4.0):
 
 def profile(count):
     from numba import njit
-    from cosnet.kernels.compose import apply_loads, apply_flows
+    from cosnet.kernels.compose import KERNELS
     from profile_step import best, loop_drift_state, loop_evaluate, loop_internal, loop_kick_state
 
     @njit
-    def loop_one(model, state, loads, eff, k):
+    def loop_one(kernel, model, state, last, eff, k):
         for _ in range(k):
-            apply_loads(eff, model, state, loads)
-
-    @njit
-    def loop_flows(model, state, eff, h, k):
-        for _ in range(k):
-            apply_flows(eff, model, state, h)
+            kernel(eff, model, state, last)
 
     sim = cn_snakes(count, 1)
     sim.run(steps=10)
-    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.load_records, sim.backend
+    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_records, sim.backend
     k = max(20, int(2e6 / (count * ELEMENTS)))
     stages = {"evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
               "  internal loads": lambda: loop_internal(m, s, l, k),
@@ -213,9 +208,9 @@ def profile(count):
               "drift_state": lambda: loop_drift_state(m, s, 0.0, be, k)}
     for e, p in zip(sim.effects, sim.records):
         if type(e).stage == "load":
-            stages[f"  {type(e).__name__}"] = lambda p=p: loop_one(m, s, l, (p,), k)
+            stages[f"  {type(e).__name__}"] = lambda p=p: loop_one(KERNELS[type(p)], m, s, l, p, k)
         elif type(e).stage == "flow":
-            stages[f"flow {type(e).__name__}"] = lambda p=p: loop_flows(m, s, (p,), 0.0, k)
+            stages[f"flow {type(e).__name__}"] = lambda p=p: loop_one(KERNELS[type(p)], m, s, 0.0, p, k)
     t_step = best(lambda: sim.run(steps=k), 3) / k
     out = {name: 1e9 * best(fn, 3) / k for name, fn in stages.items()}
     out["whole step (sim.run)"] = 1e9 * t_step

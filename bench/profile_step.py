@@ -97,7 +97,7 @@ def profile(n):
     net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=n)
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=1)
     sim.run(steps=100)
-    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.load_records, sim.backend
+    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_records, sim.backend
     h = 0.0   # zero-length drifts/kicks: the same work, the state stays put
     k = max(200, int(2e6 / n))
     stages = {

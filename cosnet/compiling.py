@@ -226,29 +226,36 @@ _HELPER = "import sys; from cosnet.compiling import compile_kick; compile_kick(s
 
 
 def compile_kick(path, threads: int):
-    """Compile (into numba's cache) the kick of a scene's step: the loads, internal and
-    declared, and the velocity update, for the types the step will call it with. The larger
-    half of a step's compilation, and the half the step reaches last. A scene with drives
-    first gets the loads on their own, as the drives' reactions in its frame 0 ask for them.
-    The Verlet step inlines its kick: the kernels the kick calls are compiled, not the kick.
-    The simulation is built for its types alone: the kernels building it runs from Python
-    (the fluid's sample, a drive's pose) are left to the parent, which needs them first."""
-    from numba import typeof, types
+    """Compile (into numba's cache) the kernels a scene's step calls through its slots
+    (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
+    effects', the drift's, for the types the step will call them with; a scene with drives
+    also gets the loads on their own, as the drives' reactions in its frame 0 ask for them.
+    The kick is typed as well (the Verlet step inlines it: its callees, not the kick). The
+    simulation is built for its types alone: the kernels building it runs from Python (the
+    fluid's sample, a drive's pose) are left to the parent, which needs them first."""
+    from numba import types
 
     from .kernels import layout
-    from .kernels.stepping import advance_verlet, evaluate_loads, kick_loads, kick_loads_inline
+    from .kernels.compose import CORE, bind_slots
+    from .kernels.slots import core_type
+    from .kernels.stepping import advance_verlet, drift_positions_at, evaluate_loads, kick_loads, kick_loads_inline
     from .scene.loader import load_scene
     layout.TYPING_ONLY[0] = True   # the parent compiles what building the simulation runs
     sim = load_scene(path).simulation(threads=threads)
     layout.TYPING_ONLY[0] = False
     model, state, loads, records, _, _, backend = sim.step_signature()
-    # The parent, typing its loads, compiles the effects' load kernels first to last; taking
-    # them last to first, the two processes share them rather than one waiting for the other.
-    for t in reversed(records[0].types):
-        compile_callees(_load_effects(), (types.Tuple((t,)), model, state, loads), flags_of=advance_verlet)
+    # The parent, typing its step, compiles the drift's kernel first and the effects' kernels
+    # first to last; taking the kick's own kernels first (the larger part) and the effects'
+    # last to first, the two processes share the work rather than one waiting for the other.
+    slots = sim.step_records[3]
+    core = [r for r, kernel in enumerate(CORE) if kernel is not drift_positions_at]
+    rows = core + list(range(len(slots) - 1, len(CORE) - 1, -1))
+    rows += [r for r in range(len(CORE)) if r not in core]
+    bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel, rows)
     if any(e.reads_loads for e in sim.effects):   # as Simulation.evaluate_loads types it
-        evaluate_loads.compile((model, state, loads, typeof(sim.load_records), backend))
-    args = (model, state, loads, records, types.float64, backend)
+        evaluate_loads.compile((model, state, loads, records, backend))
+    pointers = types.Tuple((types.CPointer(core_type(model, state, loads, backend)), types.CPointer(records)))
+    args = (pointers, types.float64)
     if sim.stepper == "verlet":
         compile_callees(kick_loads_inline, args, flags_of=advance_verlet)
     else:
@@ -278,20 +285,6 @@ def compile_callees(dispatcher, args, flags_of=None):
             pm.finalize()
             return [pm]
     TypeOnly(dispatcher.typingctx, dispatcher.targetctx, None, args, None, flags, {}).compile_extra(dispatcher.py_func)
-
-
-@functools.cache
-def _load_effects():
-    """A kernel applying a tuple of load effects (typed by compile_kick, one effect at a time)."""
-    from numba import njit
-
-    from .kernels.backend import STEP
-    from .kernels.compose import apply_loads
-
-    @njit(**STEP)
-    def load_effects(effects, model, state, loads):
-        apply_loads(effects, model, state, loads)
-    return load_effects
 
 
 @functools.cache

@@ -1,9 +1,12 @@
 """Compile-time composition of effect kernels.
 
 An effect is a ``NamedTuple`` of parameters (its declaration) registered with one ``@njit``
-kernel. A simulation passes the tuple of its declared effects to the step; ``apply_loads`` and
-``apply_flows`` unroll that tuple at compile time into a straight sequence of kernel calls, so
-the step that runs contains exactly the declared effects: no flags, no loops over absent ones.
+kernel. A simulation passes the tuples of its declared effects to the step; ``apply_loads`` and
+``apply_flows`` unroll them at compile time into a straight sequence of kernel calls, so the
+step that runs calls exactly the declared effects: no flags, no loops over absent ones.
+The calls go through addresses (the step records' slots, ``bind_slots``, kernels/slots.py):
+each kernel is compiled once in a library of its own and every combination of effects calls
+it there, so a new combination compiles its step and none of the kernels again.
 
 Load kernels:  kernel(effect, model, state, loads)  -> add to loads (forces/torques)
 Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g. damping)
@@ -22,13 +25,21 @@ Constraint kernels, a pair (kinematic effects: prescribed motion), run after eve
                        prescribed components, given the loads that made it
 """
 
+import inspect
 import io
+import os
 import pickle
 import types as _pytypes
 
+import numba
+import numpy as np
 from numba import njit
-from numba.core import caching, types
+from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
+
+from .backend import STEP
+from .compiler import stable_cache_key
+from .slots import call_slot, core_type, deref, load_table, slot_argtypes, slot_key
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
@@ -43,12 +54,19 @@ def _inner(kernel):
     """The kernel as the step calls it: without numba's Python entry wrapper (a function
     receiving the model and state records compiles several times slower with it). A kernel
     declared that way already is used as it is; others get a wrapper-less twin, and stay
-    callable from Python."""
+    callable from Python. The twin is cached as its kernel is, under a key of its own: the two
+    share one index file (one function, one source line), and numba's key (the argument types)
+    would let either load the other's code, the twin's lacking the entry Python calls."""
     options = dict(kernel.targetoptions)
     if options.get("no_cpython_wrapper"):
         return kernel
     options.pop("nopython", None)
-    return njit(**options, no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
+    twin = njit(**options, no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
+    if isinstance(kernel._cache, caching.Cache):
+        twin.enable_caching()
+        key = kernel._cache._index_key   # the kernel's (stable_cache_key's, for a closure)
+        twin._cache._index_key = lambda sig, codegen: key(sig, codegen) + ("without entry wrapper",)
+    return twin
 
 
 def load_kernel(declaration):
@@ -94,46 +112,199 @@ def constraint_kernels(declaration, after_drift, after_kick):
     KERNELS[declaration] = after_drift
 
 
-def _chain(registry, what, optional=False):
-    """Return an intrinsic f(effects, model, state, arg) emitting, into its caller, one call
-    kernel(effects[i], model, state, arg) per effect in order (the kernel of each effect's
-    type, looked up in registry when the caller is compiled); ``optional``: effects without
-    one are skipped."""
+# The step's hooks in slot order: (what, registry, group of the step records it serves,
+# whether every effect of that group must have a kernel there).
+HOOKS = (("load", LOAD_KERNELS, 0, True), ("flow", FLOW_KERNELS, 1, True),
+         ("account", ACCOUNTS, 0, False), ("inertia", INERTIAS, 1, False),
+         ("drift constraint", DRIFT_CONSTRAINTS, 2, True), ("kick constraint", KICK_CONSTRAINTS, 2, True))
+# The slot kernels every step calls (internal loads, the velocity and position updates), in
+# the slots of their registration, before the effects' (kernels/slots.py).
+CORE: list = []
+_WRAPPERS: dict = {}   # (effect kernel, hook) -> the slot kernel calling it
+
+
+def slot_layout(groups):
+    """Return [(hook index, group index, effect index, kernel)] in the order of the effect
+    slots (after the CORE ones), given the three tuples (load, flow, constraint) of effect
+    record classes of a step. The same whether computed from numba types (when a step is
+    typed) or from the records (when bound)."""
+    layout = []
+    for k, (what, registry, g, required) in enumerate(HOOKS):
+        for i, cls in enumerate(groups[g]):
+            kernel = registry.get(cls)
+            if kernel is None and required:
+                raise TypeError(f"no {what} kernel registered for effect record {cls.__name__}")
+            if kernel is not None:
+                layout.append((k, g, i, kernel))
+    return layout
+
+
+def _classes(groups):
+    return [tuple(getattr(t, "instance_class", t) for t in g) for g in groups]
+
+
+def slot_wrapper(kernel, hook):
+    """The slot kernel (kernels/slots.py) calling the effect kernel ``kernel`` as hook ``hook``
+    (an index of HOOKS) calls it: compiled once per kernel and types, LLVM inlining the kernel
+    into it, so that the step passes it four words and no records."""
+    held = _WRAPPERS.get((kernel, hook))
+    if held is not None:
+        return held
+    what = HOOKS[hook][0]
+    if what == "load":
+        def call(core, record, h, order):
+            model, state, loads, _ = deref(core)
+            kernel(deref(record), model, state, loads)
+    elif what in ("inertia", "kick constraint"):
+        def call(core, record, h, order):
+            model, state, loads, _ = deref(core)
+            kernel(deref(record), model, state, (loads, h))
+    else:
+        def call(core, record, h, order):
+            model, state, _, _ = deref(core)
+            kernel(deref(record), model, state, h)
+    held = _WRAPPERS[(kernel, hook)] = stable_cache_key(njit(**STEP)(call))
+    stamp = _source_stamp(kernel)
+    if stamp is None:
+        held._cache = caching.NullCache()
+    else:
+        key = held._cache._index_key
+        held._cache._index_key = lambda sig, codegen: key(sig, codegen) + (stamp,)
+    return held
+
+
+def _source_stamp(kernel):
+    """The modification time and size of the file defining ``kernel`` (None: no file). A
+    wrapper's cached code holds its kernel's: it is keyed by the kernel's file as well, which
+    numba's key for the wrapper, by its own file, would not see change."""
+    try:
+        st = os.stat(inspect.getsourcefile(kernel.py_func))
+    except (TypeError, OSError):
+        return None
+    return (st.st_mtime, st.st_size)
+
+
+def empty_slots(records) -> np.ndarray:
+    """The slots of a step of ``records`` (three tuples of effect records), unbound: a step
+    called with them raises rather than calling anything."""
+    n = len(CORE) + len(slot_layout([tuple(type(r) for r in group) for group in records]))
+    return np.zeros((n, 3), np.int64)
+
+
+def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None) -> None:
+    """Update ``slots`` (empty_slots) given the step records and the numba types of the model,
+    state, loads and backend: compile (or load from the cache) every slot kernel the step
+    calls, under the compiler flags of ``flags_of`` (the step: a kernel leaving fast-math, the
+    error model or reference counting unset takes its caller's), and write its address here;
+    ``rows``: those slots alone, in that order (a second process compiling alongside)."""
+    from numba.core import compiler
+    from numba.core.targetconfig import ConfigStack
+    flags = compiler.Flags()
+    flags_of.targetdescr.options.parse_as_flags(flags, flags_of.targetoptions)
+    core = core_type(model, state, loads, backend)
+    groups = numba.typeof(tuple(records)).types
+    calls = [(kernel, slot_argtypes(core)) for kernel in CORE]
+    calls += [(slot_wrapper(kernel, k), slot_argtypes(core, groups[g].types[i]))
+              for k, g, i, kernel in slot_layout(_classes(g.types for g in groups))]
+    if slots.shape != (len(calls), 3):
+        raise ValueError(f"slots of shape {slots.shape} for a step of {len(calls)} kernels")
+    for row in range(len(calls)) if rows is None else rows:
+        kernel, argtypes = calls[row]
+        with ConfigStack().enter(flags):
+            kernel.compile(argtypes)
+        cres = kernel.overloads[argtypes]
+        slots[row] = (cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name),
+                      slot_key(kernel, argtypes), os.getpid())
+
+
+def _resolve(typingctx, kernel, args, what):
+    fnty = typingctx.resolve_value_type(kernel)
+    sig = typingctx.resolve_function_type(fnty, tuple(args), {})
+    if sig is None or sig.return_type != types.none:
+        raise TypeError(f"{what} kernel {kernel.py_func.__qualname__} must return nothing")
+    return sig
+
+
+def _pointed(ptrs, what):
+    """(core type, step records type) given the type of step_pointers' result."""
+    if not (isinstance(ptrs, types.BaseTuple) and len(ptrs) == 2
+            and all(isinstance(t, types.CPointer) for t in ptrs.types)):
+        raise TypeError(f"{what}: the step's pointers (slots.step_pointers) expected, got {ptrs}")
+    return ptrs.types[0].dtype, ptrs.types[1].dtype
+
+
+def core_kernel(kernel):
+    """Register the slot kernel ``kernel`` (kernel(core, record, h, order), kernels/slots.py)
+    as one every step calls, in the next CORE slot. Returns an intrinsic f(ptrs, h, order)
+    calling it there (ptrs: slots.step_pointers' result)."""
+    row = len(CORE)
+    CORE.append(kernel)
+    what = kernel.py_func.__qualname__
+
     @intrinsic
-    def apply(typingctx, effects, model, state, arg):
-        try:
-            kernels = [registry.get(t.instance_class) if optional else registry[t.instance_class]
-                       for t in effects.types]
-        except (AttributeError, KeyError):
-            raise TypeError(f"no {what} kernel registered for effect types {effects}") from None
-        calls = []
-        for kernel, t in zip(kernels, effects.types):
-            if kernel is None:
-                calls.append(None)
-                continue
-            fnty = typingctx.resolve_value_type(kernel)
-            calls.append((fnty, typingctx.resolve_function_type(fnty, (t, model, state, arg), {})))
+    def call(typingctx, ptrs, h, order):
+        core, effects = _pointed(ptrs, what)
+        argtypes = slot_argtypes(core)
+        sig = _resolve(typingctx, kernel, argtypes, what)
+        key = slot_key(kernel, argtypes)
 
         def codegen(context, builder, signature, args):
-            effs, m, s, a = args
-            for i, call in enumerate(calls):
-                if call is None:
-                    continue
-                fnty, sig = call
-                context.get_function(fnty, sig)(builder, (builder.extract_value(effs, i), m, s, a))
+            p_core, p_effects = cgutils.unpack_tuple(builder, args[0])
+            table = load_table(context, builder, effects, p_effects, len(CORE))
+            values = (p_core, context.get_constant_null(types.voidptr),
+                      context.cast(builder, args[1], h, types.float64),
+                      context.cast(builder, args[2], order, types.int64))
+            call_slot(context, builder, table, row, key, sig, values, what)
             return context.get_dummy_value()
-        return types.none(effects, model, state, arg), codegen
+        return types.none(ptrs, h, order), codegen
+    return call
+
+
+def _chain(hook):
+    """Return an intrinsic f(ptrs, h) emitting, into its caller, one call of the hook's kernel
+    of every effect of its group that has one, in order, each through its slot (ptrs:
+    slots.step_pointers' result; h the time the hook's kernels take)."""
+    what, _, g, _ = HOOKS[hook]
+
+    @intrinsic
+    def apply(typingctx, ptrs, h):
+        core, effects = _pointed(ptrs, f"apply {what}")
+        layout = slot_layout(_classes(t.types for t in effects.types[:3]))
+        calls = []
+        for row, (k, gg, i, kernel) in enumerate(layout):
+            if k == hook:
+                wrapper = slot_wrapper(kernel, hook)
+                argtypes = slot_argtypes(core, effects.types[gg].types[i])
+                sig = _resolve(typingctx, wrapper, argtypes, what)
+                calls.append((len(CORE) + row, i, sig, slot_key(wrapper, argtypes)))
+
+        def codegen(context, builder, signature, args):
+            if not calls:
+                return context.get_dummy_value()
+            p_core, p_effects = cgutils.unpack_tuple(builder, args[0])
+            table = load_table(context, builder, effects, p_effects, len(CORE) + len(layout))
+            step = context.cast(builder, args[1], h, types.float64)
+            zero = context.get_constant(types.int64, 0)
+            for row, i, sig, key in calls:
+                record = cgutils.gep_inbounds(builder, p_effects, 0, g, i)
+                call_slot(context, builder, table, row, key, sig, (p_core, record, step, zero), what)
+            return context.get_dummy_value()
+        return types.none(ptrs, h), codegen
     return apply
 
 
-# apply_loads(effects, model, state, loads): add the loads of every effect of the tuple
-apply_loads = _chain(LOAD_KERNELS, "load")
-# apply_flows(effects, model, state, h): the velocity flow of every effect for time h
-apply_flows = _chain(FLOW_KERNELS, "flow")
-# apply_accounts(effects, model, state, h / 2): the work of every load effect that keeps one
-apply_accounts = _chain(ACCOUNTS, "account", optional=True)
-# apply_inertias(effects, model, state, (loads, h)): the loads as the masses of the effects that add some see them
-apply_inertias = _chain(INERTIAS, "inertia", optional=True)
+# apply_loads(ptrs, 0): add the loads of every load effect
+apply_loads = _chain(0)
+# apply_flows(ptrs, h): the velocity flow of every flow effect for time h
+apply_flows = _chain(1)
+# apply_accounts(ptrs, h / 2): the work of every load effect that keeps one
+apply_accounts = _chain(2)
+# apply_inertias(ptrs, h): the loads as the masses of the effects that add some see them
+apply_inertias = _chain(3)
+# apply_drift_constraints(ptrs, h): every prescribed pose after a drift of h
+apply_drift_constraints = _chain(4)
+# apply_kick_constraints(ptrs, h): every prescribed velocity after a kick of h
+apply_kick_constraints = _chain(5)
 
 
 class UnresolvedRecord:
@@ -167,7 +338,3 @@ def _tolerate_unresolved_records():
 
 
 _tolerate_unresolved_records()
-# apply_drift_constraints(effects, model, state, h): every prescribed pose after a drift
-apply_drift_constraints = _chain(DRIFT_CONSTRAINTS, "drift constraint")
-# apply_kick_constraints(effects, model, state, (loads, h)): every prescribed velocity after a kick
-apply_kick_constraints = _chain(KICK_CONSTRAINTS, "kick constraint")

@@ -20,9 +20,10 @@ from numba import njit
 
 from .backend import ENTRY, STEP
 from .compose import (apply_accounts, apply_drift_constraints, apply_flows, apply_inertias, apply_kick_constraints,
-                      apply_loads)
+                      apply_loads, core_kernel)
 from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads_on, kick_state
+from .slots import deref, slots_bound_here, step_pointers
 
 # Omelyan, Mryglod & Folk (2002), position-extended Forest-Ruth-like coefficients
 PEFRL_XI = 0.1786178958448091
@@ -72,71 +73,121 @@ def stability_interval(name: str) -> float:
     return float(grid[-1])
 
 
-@njit(**ENTRY, inline="always")  # one caller: kick_loads (tests call it from Python)
-def evaluate_loads(model, state, loads, load_effects, backend):
-    """Update loads given the state: internal loads (3.2)/(3.3), the declared effects, then
-    the node balances (4.3)/(4.4)."""
+# The step's own kernels: slot kernels (kernels/slots.py), each compiled once in a library of
+# its own and called through its slot. A step, compiled anew for every combination of effects,
+# holds the loop and the calls alone, and LLVM optimises none of these again for it.
+@njit(**STEP)
+def start_loads_at(core, record, h, order):
+    """Update loads given the state: the node balances zeroed, the internal loads (3.2)/(3.3)."""
+    model, state, loads, backend = deref(core)
     loads.node_f[:] = 0.0
     loads.node_tau[:] = 0.0
     internal_loads_on(backend, model, state, loads)
-    apply_loads(load_effects, model, state, loads)
+
+
+@njit(**STEP)
+def gather_loads_at(core, record, h, order):
+    """Update loads.node_f, node_tau given the loads on the line ends: (4.3)/(4.4)."""
+    model, state, loads, backend = deref(core)
     gather_node_loads_on(backend, model.node_mass.shape[0], model, state, loads, 0.0)
 
 
 @njit(**STEP)
-def kick_loads(model, state, loads, effects, h, backend):
-    """Update velocities by a kick of length h, wrapped in half flows of the velocity effects,
-    then restore the prescribed ones. effects = (load, flow, constraint) effect tuples. The
-    load effects that keep an account of their work see the velocities on both sides of the
-    kick; flow effects that add mass (a fluid's) turn the loads into what the kick divides by
-    the masses alone."""
-    load_effects, flow_effects, constraint_effects = effects
-    apply_flows(flow_effects, model, state, 0.5 * h)
-    evaluate_loads(model, state, loads, load_effects, backend)
-    apply_accounts(load_effects, model, state, 0.5 * h)
-    apply_inertias(flow_effects, model, state, (loads, h))
+def kick_velocities_at(core, record, h, order):
+    """Update velocities and body angular momenta given the loads over time h (motion.kick_state)."""
+    model, state, loads, backend = deref(core)
     kick_state(model, state, loads, h, backend)
-    apply_accounts(load_effects, model, state, 0.5 * h)
-    apply_flows(flow_effects, model, state, 0.5 * h)
-    apply_kick_constraints(constraint_effects, model, state, (loads, h))
 
 
-# The kick as advance_verlet calls it, once per step: inlined by numba, so that LLVM optimises
-# the step's loop and kick once, in one module. Called as a kernel of its own, the kick was
-# optimised first apart and then again inside the loop: about 2.5 s more for every new
-# combination of effects. advance_pefrl calls the kick four times and keeps the call.
+@njit(**STEP)
+def drift_positions_at(core, record, h, order):
+    """Update state by the free flight of time h, at the scheme's order (motion.drift_state)."""
+    model, state, _, backend = deref(core)
+    drift_state(model, state, h, order, backend)
+
+
+start_loads = core_kernel(start_loads_at)
+gather_loads = core_kernel(gather_loads_at)
+kick_velocities = core_kernel(kick_velocities_at)
+drift_positions = core_kernel(drift_positions_at)
+
+
+@njit(**STEP, inline="always")
+def evaluate_loads_at(ptrs):
+    """Update loads given the state: internal loads (3.2)/(3.3), the declared effects, then
+    the node balances (4.3)/(4.4). ptrs: slots.step_pointers' result."""
+    start_loads(ptrs, 0.0, 0)
+    apply_loads(ptrs, 0.0)
+    gather_loads(ptrs, 0.0, 0)
+
+
+@njit(**ENTRY)
+def evaluate_loads(model, state, loads, effects, backend):
+    """Update loads given the state (evaluate_loads_at); effects: the step records, bound
+    (compose.bind_slots)."""
+    if not slots_bound_here(effects):
+        raise RuntimeError("evaluate_loads: kernels not bound in this process (compose.bind_slots)")
+    evaluate_loads_at(step_pointers(model, state, loads, effects, backend))
+
+
+@njit(**STEP)
+def kick_loads(ptrs, h):
+    """Update velocities by a kick of length h, wrapped in half flows of the velocity effects,
+    then restore the prescribed ones (ptrs: slots.step_pointers' result). The load effects
+    that keep an account of their work see the velocities on both sides of the kick; flow
+    effects that add mass (a fluid's) turn the loads into what the kick divides by the
+    masses alone."""
+    apply_flows(ptrs, 0.5 * h)
+    evaluate_loads_at(ptrs)
+    apply_accounts(ptrs, 0.5 * h)
+    apply_inertias(ptrs, h)
+    kick_velocities(ptrs, h, 0)
+    apply_accounts(ptrs, 0.5 * h)
+    apply_flows(ptrs, 0.5 * h)
+    apply_kick_constraints(ptrs, h)
+
+
+# The kick as advance_verlet calls it, once per step: inlined by numba (one call a step, no
+# function of its own to compile). advance_pefrl calls the kick four times and keeps the call.
 kick_loads_inline = njit(**STEP, inline="always")(kick_loads.py_func)
 
 
 @njit(**STEP, inline="always")
-def drift(model, state, effects, h, order, backend):
+def drift(ptrs, h, order):
     """Update state by the free flight of time h, then set the prescribed poses at its end."""
-    drift_state(model, state, h, order, backend)
-    apply_drift_constraints(effects[2], model, state, h)
+    drift_positions(ptrs, h, order)
+    apply_drift_constraints(ptrs, h)
 
 
 @njit(**ENTRY)
 def advance_verlet(model, state, loads, effects, h, steps, backend):
     """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h;
-    effects = (load, flow, constraint) tuples of effect parameter records."""
-    drift(model, state, effects, 0.5 * h, 2, backend)
+    effects = (load, flow, constraint) tuples of effect parameter records and their kernels'
+    slots (compose.bind_slots)."""
+    if not slots_bound_here(effects):
+        raise RuntimeError("advance_verlet: kernels not bound in this process (compose.bind_slots)")
+    ptrs = step_pointers(model, state, loads, effects, backend)
+    drift(ptrs, 0.5 * h, 2)
     for s in range(steps):
-        kick_loads_inline(model, state, loads, effects, h, backend)
-        drift(model, state, effects, h if s < steps - 1 else 0.5 * h, 2, backend)
+        kick_loads_inline(ptrs, h)
+        drift(ptrs, h if s < steps - 1 else 0.5 * h, 2)
 
 
 @njit(**ENTRY)
 def advance_pefrl(model, state, loads, effects, h, steps, backend):
     """Update state by ``steps`` PEFRL steps (fourth order):
     D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi)."""
+    if not slots_bound_here(effects):
+        raise RuntimeError("advance_pefrl: kernels not bound in this process (compose.bind_slots)")
     xi, lam, chi = PEFRL_XI * h, PEFRL_LAMBDA * h, PEFRL_CHI * h
-    drift(model, state, effects, xi, 4, backend)
+    ptrs = step_pointers(model, state, loads, effects, backend)
+    drift(ptrs, xi, 4)
     for s in range(steps):
-        kick_loads(model, state, loads, effects, 0.5 * h - lam, backend)
-        drift(model, state, effects, chi, 4, backend)
-        kick_loads(model, state, loads, effects, lam, backend)
-        drift(model, state, effects, h - 2.0 * (chi + xi), 4, backend)
-        kick_loads(model, state, loads, effects, lam, backend)
-        drift(model, state, effects, chi, 4, backend)
-        kick_loads(model, state, loads, effects, 0.5 * h - lam, backend)
-        drift(model, state, effects, 2.0 * xi if s < steps - 1 else xi, 4, backend)
+        kick_loads(ptrs, 0.5 * h - lam)
+        drift(ptrs, chi, 4)
+        kick_loads(ptrs, lam)
+        drift(ptrs, h - 2.0 * (chi + xi), 4)
+        kick_loads(ptrs, lam)
+        drift(ptrs, chi, 4)
+        kick_loads(ptrs, 0.5 * h - lam)
+        drift(ptrs, 2.0 * xi if s < steps - 1 else xi, 4)

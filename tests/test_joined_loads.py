@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import cosnet
+from cosnet.kernels.layout import typed_call
 from cosnet.kernels.stepping import evaluate_loads
 from nets import free_net
 
@@ -24,7 +25,7 @@ def _loads(net):
 
 def _node_loads(sim):
     sim.state.clock[0] = T
-    evaluate_loads(sim.model, sim.state, sim.loads, sim.load_records, sim.backend)
+    typed_call(evaluate_loads, sim.model, sim.state, sim.loads, sim.bind_kernels(), sim.backend)
     return sim.loads.node_f.copy(), sim.loads.node_tau.copy()
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from typing import Any
 
 import numba
@@ -18,7 +19,8 @@ from .registry import ACCOUNTS, Binding, Effect, implied_effects
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
-from ..kernels.layout import Model, State, empty_loads, record_type, typed_call
+from ..kernels.compose import bind_slots, empty_slots
+from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type, typed_call
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, evaluate_loads, stability_interval, steps_to
 from ..core.net import Line, Net, Node
@@ -99,7 +101,7 @@ class Simulation:
     kernel_effects: list   # the effect class of each kernel record
     load_records: tuple
     flow_records: tuple
-    step_records: tuple    # (load, flow, constraint) records, as the stepper takes them
+    step_records: tuple    # (load, flow, constraint) records and their kernels' slots, as the stepper takes them
     advance_kernel: Any
     backend: Any
     _compiled_step: Any    # (the records it was typed for, the stepper's compiled entry)
@@ -134,7 +136,9 @@ class Simulation:
         self.load_records = tuple(p for stage, p, _ in kernel_records if stage == "load")
         self.flow_records = tuple(p for stage, p, _ in kernel_records if stage == "flow")
         constraints = tuple(p for stage, p, _ in kernel_records if stage == "constraint")
-        self.step_records = (self.load_records, self.flow_records, constraints)
+        groups = (self.load_records, self.flow_records, constraints)
+        self.step_records = groups + (empty_slots(groups),)
+        self._slots_process = None
         self.advance_kernel = STEPPERS[stepper]
         self._compiled_step = None
         self.threads = self._choose_threads(threads)
@@ -276,6 +280,17 @@ class Simulation:
         return (record_type(self.model), record_type(self.state), record_type(self.loads),
                 numba.typeof(self.step_records), numba.types.float64, numba.types.int64, numba.typeof(self.backend))
 
+    def bind_kernels(self):
+        """Compile (or load) the effect kernels the step calls and write their addresses in
+        this process into the step records' slots (kernels.compose.bind_slots); returns the
+        step records. Done once per process: a step called with slots bound elsewhere raises."""
+        if TYPING_ONLY[0] or self._slots_process == os.getpid():
+            return self.step_records
+        model, state, loads, _, _, _, backend = self.step_signature()
+        bind_slots(self.step_records[3], self.step_records[:3], model, state, loads, backend, self.advance_kernel)
+        self._slots_process = os.getpid()
+        return self.step_records
+
     def _stepper(self):
         """The stepper compiled (or loaded from the cache) for step_signature, called directly:
         numba's own dispatch would type the records by their flags alone. Kept while the
@@ -284,8 +299,9 @@ class Simulation:
         held = self._compiled_step
         if held is None or any(a is not b for a, b in zip(key, held[0])):
             sig = self.step_signature()
-            self.advance_kernel.compile(sig)
+            self.advance_kernel.compile(sig)   # typing it compiles the effect kernels it calls
             held = self._compiled_step = (key, self.advance_kernel.overloads[sig].entry_point)
+        self.bind_kernels()
         return held[1]
 
     def _check_locked_axes(self):
@@ -414,7 +430,7 @@ class Simulation:
         if drive is None:
             return np.zeros(3), np.zeros(3)
         place_line_ends(self.model, self.state)
-        typed_call(evaluate_loads, self.model, self.state, self.loads, self.load_records, self.backend)
+        typed_call(evaluate_loads, self.model, self.state, self.loads, self.bind_kernels(), self.backend)
         return drive.reaction(self, self.loads)
 
     def driver_work(self) -> float:

@@ -1,0 +1,120 @@
+"""Calls through addresses: how a step calls kernels compiled apart from it.
+
+Numba links a copy of every function a kernel calls into the kernel's own module, and LLVM
+optimises the copy again there: a step compiled for a new combination of effects re-optimised
+the internal loads, the updates and every effect kernel in it. A step calls them instead
+through addresses held in its records (the slots, an (n, 3) int64 array: address, key,
+process), each kernel compiled once, in a library of its own, whatever steps call it.
+
+Every such kernel takes the same four arguments, so that a call passes four words rather than
+the few hundred numba would flatten the model, state and loads records into:
+    kernel(core, record, h, order) -> None
+core a pointer to the tuple (model, state, loads, backend) and record a pointer to one effect's
+parameter record (or NULL), both stored once by the step (``step_pointers``) and read by the
+kernel (``deref``). A slot's key names the kernel and the types it was compiled for; a call
+whose slot holds another key raises instead of calling, and a step checks, once per call, that
+its slots were bound in the process running it (``slots_bound_here``).
+"""
+
+import hashlib
+
+from numba import njit
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+
+from .backend import STEP
+
+SLOT_ADDRESS, SLOT_KEY, SLOT_PROCESS = 0, 1, 2   # the columns of a slot
+_getpid = types.ExternalFunction("getpid", types.int32())
+
+
+def slot_key(kernel, argtypes) -> int:
+    """A 62-bit key naming ``kernel`` (a njit function, by module and name) compiled for
+    ``argtypes`` (numba types)."""
+    f = kernel.py_func
+    text = f"{f.__module__}.{f.__qualname__}{tuple(argtypes)}"
+    return int.from_bytes(hashlib.sha1(text.encode()).digest()[:8], "little") >> 2
+
+
+def core_type(model, state, loads, backend):
+    """The numba type a slot kernel's ``core`` points to."""
+    return types.Tuple((model, state, loads, backend))
+
+
+def slot_argtypes(core, record=None):
+    """The argument types of a slot kernel given its core's type and its record's (None: none)."""
+    return (types.CPointer(core), types.voidptr if record is None else types.CPointer(record),
+            types.float64, types.int64)
+
+
+def _store(context, builder, ty, value):
+    model = context.data_model_manager[ty]
+    ptr = cgutils.alloca_once(builder, model.get_data_type())
+    builder.store(model.as_data(builder, value), ptr)
+    return ptr
+
+
+@intrinsic
+def step_pointers(typingctx, model, state, loads, effects, backend):
+    """Return (pointer to (model, state, loads, backend), pointer to effects), the records
+    stored once in the caller's frame (valid while the caller runs)."""
+    core = core_type(model, state, loads, backend)
+    result = types.Tuple((types.CPointer(core), types.CPointer(effects)))
+
+    def codegen(context, builder, signature, args):
+        m, s, ld, effs, b = args
+        value = context.make_tuple(builder, core, (m, s, ld, b))
+        pointers = (_store(context, builder, core, value), _store(context, builder, effects, effs))
+        return context.make_tuple(builder, result, pointers)
+    return result(model, state, loads, effects, backend), codegen
+
+
+@intrinsic
+def deref(typingctx, pointer):
+    """Return the value ``pointer`` (a CPointer from step_pointers) points to."""
+    if not isinstance(pointer, types.CPointer):
+        raise TypeError(f"deref: a pointer expected, got {pointer}")
+
+    def codegen(context, builder, signature, args):
+        return context.data_model_manager[pointer.dtype].load_from_data_pointer(builder, args[0])
+    return pointer.dtype(pointer), codegen
+
+
+def load_table(context, builder, effects, pointer, rows_needed):
+    """The slots array of the step records ``pointer`` points to (of type ``effects``), checked
+    to have ``rows_needed`` rows (else the caller raises)."""
+    slots_t = effects.types[3]
+    data = cgutils.gep_inbounds(builder, pointer, 0, 3)
+    table = context.make_array(slots_t)(
+        context, builder, context.data_model_manager[slots_t].load_from_data_pointer(builder, data))
+    rows = cgutils.unpack_tuple(builder, table.shape)[0]
+    with cgutils.if_unlikely(builder, builder.icmp_signed("<", rows, rows.type(rows_needed))):
+        context.call_conv.return_user_exc(builder, RuntimeError, ("kernel slots missing: compose.bind_slots",))
+    return table
+
+
+def call_slot(context, builder, table, row, key, sig, args, what):
+    """Emit a call of the slot kernel of signature ``sig`` whose address slot ``row`` holds,
+    after checking that its key is ``key``; an error status from it propagates."""
+    address = builder.load(cgutils.gep(builder, table.data, 3 * row + SLOT_ADDRESS))
+    held = builder.load(cgutils.gep(builder, table.data, 3 * row + SLOT_KEY))
+    with cgutils.if_unlikely(builder, builder.icmp_signed("!=", held, held.type(key))):
+        context.call_conv.return_user_exc(builder, RuntimeError,
+                                          (f"kernel slot {row} not bound to the {what} kernel of this step",))
+    fnty = context.call_conv.get_function_type(sig.return_type, sig.args)
+    callee = builder.inttoptr(address, fnty.as_pointer())
+    status, _ = context.call_conv.call_function(builder, callee, sig.return_type, sig.args, args)
+    with cgutils.if_unlikely(builder, status.is_error):
+        context.call_conv.return_status_propagate(builder, status)
+
+
+@njit(**STEP, inline="always")
+def slots_bound_here(effects):
+    """Whether every slot of the step records was bound in this process (an address taken in
+    another process, which a copied simulation would carry, means nothing here)."""
+    slots = effects[3]
+    pid = _getpid()
+    for k in range(slots.shape[0]):
+        if slots[k, SLOT_PROCESS] != pid:
+            return False
+    return True
