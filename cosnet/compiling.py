@@ -236,22 +236,17 @@ def compile_kick(path, threads: int):
     from numba import types
 
     from .kernels import layout
-    from .kernels.compose import CORE, bind_slots
+    from .kernels.compose import bind_slots
     from .kernels.slots import core_type
-    from .kernels.stepping import advance_verlet, drift_positions_at, evaluate_loads, kick_loads, kick_loads_inline
+    from .kernels.stepping import advance_verlet, compile_orders, evaluate_loads, kick_loads, kick_loads_inline
     from .scene.loader import load_scene
     layout.TYPING_ONLY[0] = True   # the parent compiles what building the simulation runs
     sim = load_scene(path).simulation(threads=threads)
     layout.TYPING_ONLY[0] = False
     model, state, loads, records, _, _, backend = sim.step_signature()
-    # The parent, typing its step, compiles the drift's kernel first and the effects' kernels
-    # first to last; taking the kick's own kernels first (the larger part) and the effects'
-    # last to first, the two processes share the work rather than one waiting for the other.
     slots = sim.step_records[3]
-    core = [r for r, kernel in enumerate(CORE) if kernel is not drift_positions_at]
-    rows = core + list(range(len(slots) - 1, len(CORE) - 1, -1))
-    rows += [r for r in range(len(CORE)) if r not in core]
-    bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel, rows)
+    bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel,
+               compile_orders(len(slots))[1])
     if any(e.reads_loads for e in sim.effects):   # as Simulation.evaluate_loads types it
         evaluate_loads.compile((model, state, loads, records, backend))
     pointers = types.Tuple((types.CPointer(core_type(model, state, loads, backend)), types.CPointer(records)))

@@ -151,6 +151,7 @@ def slot_wrapper(kernel, hook):
     if held is not None:
         return held
     what = HOOKS[hook][0]
+    kernel = _inline_twin(kernel)
     if what == "load":
         def call(core, record, h, order):
             model, state, loads, _ = deref(core)
@@ -171,6 +172,20 @@ def slot_wrapper(kernel, hook):
         key = held._cache._index_key
         held._cache._index_key = lambda sig, codegen: key(sig, codegen) + (stamp,)
     return held
+
+
+def _inline_twin(kernel):
+    """``kernel`` as numba inlines it where called: typed and compiled once, inside its
+    wrapper, rather than once alone and again there. A kernel that sets fast-math, the error
+    model or reference counting otherwise than the step keeps its own compilation (inlined,
+    its code would take the wrapper's)."""
+    options = dict(kernel.targetoptions)
+    if any(k in options and options[k] != v for k, v in STEP.items()
+           if k in ("fastmath", "error_model", "_nrt")):
+        return kernel
+    for k in ("nopython", "no_cpython_wrapper", "no_cfunc_wrapper", "inline"):
+        options.pop(k, None)
+    return njit(**options, inline="always", no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
 
 
 def _source_stamp(kernel):

@@ -19,8 +19,8 @@ import numpy as np
 from numba import njit
 
 from .backend import ENTRY, STEP
-from .compose import (apply_accounts, apply_drift_constraints, apply_flows, apply_inertias, apply_kick_constraints,
-                      apply_loads, core_kernel)
+from .compose import (CORE, apply_accounts, apply_drift_constraints, apply_flows, apply_inertias,
+                      apply_kick_constraints, apply_loads, core_kernel)
 from .elastic import internal_loads_on
 from .motion import drift_state, gather_node_loads_on, kick_state
 from .slots import deref, slots_bound_here, step_pointers
@@ -110,6 +110,18 @@ start_loads = core_kernel(start_loads_at)
 gather_loads = core_kernel(gather_loads_at)
 kick_velocities = core_kernel(kick_velocities_at)
 drift_positions = core_kernel(drift_positions_at)
+
+
+def compile_orders(slots: int) -> tuple[list, list]:
+    """(a run's order, a second process's order) of compiling the kernels of a step of
+    ``slots`` slots. The run, which first compiles the watch's kernels for frame 0, takes the
+    drift's, then the kick's own last to first, then the effects' first to last; the second
+    process the kick's own first to last (the larger part), the effects' last to first, the
+    drift's: the two meet rather than one waiting for the other."""
+    drift = CORE.index(drift_positions_at)
+    kick = [r for r in range(len(CORE)) if r != drift]
+    effects = list(range(len(CORE), slots))
+    return [drift] + kick[::-1] + effects, kick + effects[::-1] + [drift]
 
 
 @njit(**STEP, inline="always")

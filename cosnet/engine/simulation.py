@@ -22,7 +22,8 @@ from ..kernels.backend import Parallel, Serial
 from ..kernels.compose import bind_slots, empty_slots
 from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type, typed_call
 from ..kernels.motion import place_line_ends
-from ..kernels.stepping import CHUNK_STEPS, advance_pefrl, advance_verlet, evaluate_loads, stability_interval, steps_to
+from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders, evaluate_loads,
+                                stability_interval, steps_to)
 from ..core.net import Line, Net, Node
 from ..core.rotations import matrix_from_quat
 from .watch import InstabilityError, Watch, locate  # noqa: F401  (InstabilityError: cosnet's export)
@@ -287,7 +288,9 @@ class Simulation:
         if TYPING_ONLY[0] or self._slots_process == os.getpid():
             return self.step_records
         model, state, loads, _, _, _, backend = self.step_signature()
-        bind_slots(self.step_records[3], self.step_records[:3], model, state, loads, backend, self.advance_kernel)
+        slots = self.step_records[3]
+        bind_slots(slots, self.step_records[:3], model, state, loads, backend, self.advance_kernel,
+                   compile_orders(len(slots))[0])
         self._slots_process = os.getpid()
         return self.step_records
 
@@ -295,13 +298,13 @@ class Simulation:
         """The stepper compiled (or loaded from the cache) for step_signature, called directly:
         numba's own dispatch would type the records by their flags alone. Kept while the
         records are the same objects (their arrays, flags included, the same)."""
+        self.bind_kernels()   # first: compiling the kernels in an order shared with compile_kick
         key = (self.model, self.state, self.loads, self.step_records, self.backend)
         held = self._compiled_step
         if held is None or any(a is not b for a, b in zip(key, held[0])):
             sig = self.step_signature()
-            self.advance_kernel.compile(sig)   # typing it compiles the effect kernels it calls
+            self.advance_kernel.compile(sig)
             held = self._compiled_step = (key, self.advance_kernel.overloads[sig].entry_point)
-        self.bind_kernels()
         return held[1]
 
     def _check_locked_axes(self):
