@@ -282,9 +282,10 @@ class Simulation:
                 numba.typeof(self.step_records), numba.types.float64, numba.types.int64, numba.typeof(self.backend))
 
     def bind_kernels(self):
-        """Compile (or load) the effect kernels the step calls and write their addresses in
-        this process into the step records' slots (kernels.compose.bind_slots); returns the
-        step records. Done once per process: a step called with slots bound elsewhere raises."""
+        """Compile (or load) the kernels the step calls (its own and the effects') and write
+        their addresses in this process into the step records' slots (kernels.compose.bind_slots);
+        returns the step records. Done once per process: a step called with slots bound
+        elsewhere raises."""
         if TYPING_ONLY[0] or self._slots_process == os.getpid():
             return self.step_records
         model, state, loads, _, _, _, backend = self.step_signature()
