@@ -14,7 +14,6 @@ kernel can say how many kernels remain and about how long they take on this mach
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import os
 import subprocess
@@ -230,15 +229,15 @@ def compile_kick(path, threads: int):
     (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
     effects', the drift's, for the types the step will call them with; a scene with drives
     also gets the loads on their own, as the drives' reactions in its frame 0 ask for them.
-    The kick is typed as well (the Verlet step inlines it: its callees, not the kick). The
-    simulation is built for its types alone: the kernels building it runs from Python (the
+    PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built for its
+    types alone: the kernels building it runs from Python (the
     fluid's sample, a drive's pose) are left to the parent, which needs them first."""
     from numba import types
 
     from .kernels import layout
     from .kernels.compose import bind_slots
-    from .kernels.slots import core_type
-    from .kernels.stepping import advance_verlet, compile_orders, evaluate_loads, kick_loads, kick_loads_inline
+    from .kernels.slots import pointers_type
+    from .kernels.stepping import compile_orders, evaluate_loads, kick_loads
     from .scene.loader import load_scene
     layout.TYPING_ONLY[0] = True   # the parent compiles what building the simulation runs
     sim = load_scene(path).simulation(threads=threads)
@@ -249,55 +248,8 @@ def compile_kick(path, threads: int):
                compile_orders(len(slots))[1])
     if any(e.reads_loads for e in sim.effects):   # as Simulation.evaluate_loads types it
         evaluate_loads.compile((model, state, loads, records, backend))
-    pointers = types.Tuple((types.CPointer(core_type(model, state, loads, backend)), types.CPointer(records)))
-    args = (pointers, types.float64)
-    if sim.stepper == "verlet":
-        compile_callees(kick_loads_inline, args, flags_of=advance_verlet)
-    else:
-        kick_loads.compile(args)
-
-
-def compile_callees(dispatcher, args, flags_of=None):
-    """Compile (or load) every kernel ``dispatcher``'s function calls with ``args`` (numba
-    types), as typing it does, without building a library of the function itself. The
-    untyped passes run first, as in a compilation: they inline the inline="always" callees,
-    which are then typed in place rather than compiled on their own. The typing runs under
-    the compiler flags of ``flags_of`` (default: the dispatcher itself), the function whose
-    compilation inlines this one: a callee that leaves fast-math, the error model or reference
-    counting unset is compiled with its caller's, and the cache keeps what was compiled first,
-    so the callees must get here what the step's own compilation would give them."""
-    from numba.core import compiler, compiler_machinery, typed_passes
-    owner = flags_of or dispatcher
-    flags = compiler.Flags()
-    owner.targetdescr.options.parse_as_flags(flags, owner.targetoptions)
-
-    class TypeOnly(compiler.CompilerBase):
-        def define_pipelines(self):
-            pm = compiler_machinery.PassManager("type only")
-            pm.passes.extend(compiler.DefaultPassBuilder.define_untyped_pipeline(self.state).passes)
-            pm.add_pass(typed_passes.NopythonTypeInference, "nopython frontend")
-            pm.add_pass(_typed(), "done")
-            pm.finalize()
-            return [pm]
-    TypeOnly(dispatcher.typingctx, dispatcher.targetctx, None, args, None, flags, {}).compile_extra(dispatcher.py_func)
-
-
-@functools.cache
-def _typed():
-    """A compiler pass ending a pipeline once its function is typed (its result: the types)."""
-    from numba.core import compiler_machinery
-
-    @compiler_machinery.register_pass(mutates_CFG=False, analysis_only=True)
-    class Typed(compiler_machinery.FunctionPass):
-        _name = "cosnet_typed"
-
-        def __init__(self):
-            compiler_machinery.FunctionPass.__init__(self)
-
-        def run_pass(self, state):
-            state.cr = state.typemap
-            return False
-    return Typed
+    if sim.stepper == "pefrl":   # its kick is a kernel of its own (the Verlet step inlines it)
+        kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
 
 
 @contextlib.contextmanager

@@ -150,8 +150,9 @@ def slot_wrapper(kernel, hook):
     held = _WRAPPERS.get((kernel, hook))
     if held is not None:
         return held
-    what = HOOKS[hook][0]
-    kernel = _inline_twin(kernel)
+    what, f = HOOKS[hook][0], kernel.py_func
+    name = f"{what}:{f.__module__}.{f.__qualname__}"
+    registered, kernel = kernel, _inline_twin(kernel)
     if what == "load":
         def call(core, record, h, order):
             model, state, loads, _ = deref(core)
@@ -164,7 +165,8 @@ def slot_wrapper(kernel, hook):
         def call(core, record, h, order):
             model, state, _, _ = deref(core)
             kernel(deref(record), model, state, h)
-    held = _WRAPPERS[(kernel, hook)] = stable_cache_key(njit(**STEP)(call))
+    held = _WRAPPERS[(registered, hook)] = stable_cache_key(njit(**STEP)(call))
+    held.slot_name = name   # the wrappers share one function name: their keys name their kernel
     stamp = _source_stamp(kernel)
     if stamp is None:
         held._cache = caching.NullCache()

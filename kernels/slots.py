@@ -29,10 +29,11 @@ _getpid = types.ExternalFunction("getpid", types.int32())
 
 
 def slot_key(kernel, argtypes) -> int:
-    """A 62-bit key naming ``kernel`` (a njit function, by module and name) compiled for
-    ``argtypes`` (numba types)."""
+    """A 62-bit key naming ``kernel`` (a njit function, by its ``slot_name`` if it has one,
+    else by module and name) compiled for ``argtypes`` (numba types)."""
     f = kernel.py_func
-    text = f"{f.__module__}.{f.__qualname__}{tuple(argtypes)}"
+    name = getattr(kernel, "slot_name", None) or f"{f.__module__}.{f.__qualname__}"
+    text = f"{name}{tuple(argtypes)}"
     return int.from_bytes(hashlib.sha1(text.encode()).digest()[:8], "little") >> 2
 
 
@@ -54,12 +55,17 @@ def _store(context, builder, ty, value):
     return ptr
 
 
+def pointers_type(model, state, loads, effects, backend):
+    """The numba type of step_pointers' result."""
+    return types.Tuple((types.CPointer(core_type(model, state, loads, backend)), types.CPointer(effects)))
+
+
 @intrinsic
 def step_pointers(typingctx, model, state, loads, effects, backend):
     """Return (pointer to (model, state, loads, backend), pointer to effects), the records
     stored once in the caller's frame (valid while the caller runs)."""
     core = core_type(model, state, loads, backend)
-    result = types.Tuple((types.CPointer(core), types.CPointer(effects)))
+    result = pointers_type(model, state, loads, effects, backend)
 
     def codegen(context, builder, signature, args):
         m, s, ld, effs, b = args

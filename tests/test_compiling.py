@@ -230,35 +230,6 @@ def test_nets_of_one_element_lines_or_none_share_the_step_of_longer_lines():
     assert energies(model, state) == energies(one.model, one.state)
 
 
-def test_the_callees_compiled_alongside_get_the_flags_the_step_gives_them():
-    """compile_callees types a function as the compilation that inlines it would: a callee
-    leaving fast-math and the error model unset gets the caller's (here numpy's error model:
-    no zero-division test raising; fast-math flags on the division), not numba's defaults."""
-    from numba import njit, types
-
-    from cosnet.compiling import compile_callees
-    fast = {"contract", "arcp", "reassoc", "nsz"}
-
-    @njit
-    def callee(a, b):
-        return a / b
-
-    @njit(fastmath=fast, error_model="numpy", inline="always")
-    def inner(a, b):
-        return callee(a, b)
-
-    @njit(fastmath=fast, error_model="numpy")
-    def outer(a, b):
-        return inner(a, b)
-
-    sig = (types.float64, types.float64)
-    compile_callees(inner, sig, flags_of=outer)
-    assert list(callee.overloads) == [sig] and not inner.overloads
-    code = callee.inspect_llvm(sig)
-    assert "division by zero" not in code
-    assert "fdiv reassoc nsz arcp contract double" in code
-
-
 def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
     """A line in water whose model has no active lines holds an empty rest-strain array, which
     numba's own dispatch types row-major and the stepper column-major (record_type). The

@@ -12,7 +12,7 @@ from numba import njit
 import cosnet
 from cosnet.compiling import CompileLog
 from cosnet.engine.registry import Effect
-from cosnet.kernels.compose import load_kernel
+from cosnet.kernels.compose import CORE, load_kernel
 from cosnet.kernels.compiler import CACHED
 from nets import free_net
 
@@ -64,7 +64,8 @@ def test_a_new_effect_kind_compiles_its_step_and_its_own_kernels_alone():
 
 
 def _stepped(effects):
-    sim = cosnet.Simulation(free_net(n=3), effects)
+    net = free_net(n=3)
+    sim = cosnet.Simulation(net, effects(net))
     sim.run(steps=1)
     return sim, sim._stepper()
 
@@ -75,12 +76,16 @@ def _call(sim, step, slots):
 
 
 def test_a_slot_holding_another_kernel_raises_instead_of_calling_it():
-    sim, step = _stepped([cosnet.Gravity(), cosnet.Damping(0.5)])
+    sim, step = _stepped(lambda net: [cosnet.NodeLoad(net.nodes[0], force=(0.0, 0.0, 1.0)), cosnet.Damping(0.5)])
     slots = sim.step_records[3]
-    swapped = slots.copy()
-    swapped[[-1, -2]] = swapped[[-2, -1]]     # two effect kernels exchanged
-    with pytest.raises(RuntimeError, match="not bound to the"):
-        _call(sim, step, swapped)
+    rows = len(slots)
+    assert rows == len(CORE) + 3   # the node load's load and account kernels, damping's flow
+    for a in range(rows):
+        for b in range(a + 1, rows):   # any two kernels exchanged, one effect's two hooks too
+            swapped = slots.copy()
+            swapped[[a, b]] = swapped[[b, a]]
+            with pytest.raises(RuntimeError, match="not bound to the"):
+                _call(sim, step, swapped)
     with pytest.raises(RuntimeError, match="slots missing"):
         _call(sim, step, np.ascontiguousarray(slots[:-1]))
     unbound = np.zeros_like(slots)             # as a copied simulation's: another process's
