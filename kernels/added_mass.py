@@ -229,6 +229,14 @@ def add_turning_forces(p, model, state, loads, h):
 
 
 @njit(**PASS)
+def add_upthrust(fz, up, first, n):
+    """Update the vertical force column fz at the n vertices first.. by the sampled upthrust."""
+    for k in range(n):
+        i = first + uint(k)
+        fz[i] += up[i]
+
+
+@njit(**PASS)
 def divide_line(f, S, vmass, first, n):
     """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
     with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m)."""
@@ -243,16 +251,21 @@ def divide_line(f, S, vmass, first, n):
 @njit(**STEP)
 def add_fluid_mass(p, model, state, arg):
     """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
-    given arg = (loads, h), the kick's loads and length: the turning fluid's forces added
-    (add_turning_forces), then all turned so that the kick's f / m is M^-1 f, M the mass with
-    the added mass of the wet line parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a
-    node's sum over its wet ends)."""
+    given arg = (loads, h), the kick's loads and length: the upthrust (as sample_upthrust
+    found it) and the turning fluid's forces added (add_turning_forces), then all turned so
+    that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line parts (the
+    vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
     loads, h = arg
-    if p.turning.shape[1] > 0:
-        add_turning_forces(p, model, state, loads, h)
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l >= 0 and l < nl and p.buoyancy[j] != 0.0:
+            add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
+                         model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
+    if p.turning.shape[1] > 0:
+        add_turning_forces(p, model, state, loads, h)
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):

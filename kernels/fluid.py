@@ -16,8 +16,8 @@ factor over time) plus linear (Airy) waves. What the medium does to a line split
   (t its tangent), the kick's forces are divided by it, and the flows above use it; where
   a_n and a_t differ, the fluid turning with the line adds forces of its own (both in
   kernels/added_mass.py).
-The half flows run drag, then forces before the kick, and forces, then drag after it, so
-that the step stays symmetric (p.turn remembers which half is next).
+Drag runs once a kick, before it on one kick and after it on the next, so that two steps
+form a symmetric sequence (flow_fluid; p.turn remembers where it is).
 Lines are listed by row (p.lines); quantities per unit rest length are per row. Vertical is
 +z; the free surface, when there is one, is the plane z = p.surface at rest.
 """
@@ -70,7 +70,9 @@ class FluidParams(NamedTuple):
                              # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
                              # interior vertices the medium's inertia force (3), the upthrust, and
                              # the inverse masses across and along the line, added mass included
-    turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
+    wet_inverse: np.ndarray  # (2, nv) 1 / (m + l a_n), 1 / (m + l a_t) of each interior vertex of a line in the
+                             # medium: its inverse masses across and along the line where it is wet
+    turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side drag runs on
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
     buoy: np.ndarray         # (nn,) int64 each node's buoy row (a volume of its own in the medium), -1: none
@@ -261,14 +263,14 @@ def sample_inertia(S, vlen, first, n, cn, ct):
 
 
 @njit(**PASS)
-def sample_masses(S, vlen, vmass, first, n, an, at):
+def sample_masses(S, dry, wet0, wet1, first, n):
     """Update rows 14-15 of the sample (S) at the n vertices first.. by the inverse of the
-    vertex mass with the added mass across (an per length) and along (at) the line where it
-    is wet: the divisions the half flows and the kick would otherwise each repeat."""
+    vertex mass with the added mass across and along the line where it is wet (dry: the dry
+    inverse masses, wet0 and wet1 the wet ones, p.wet_inverse): the divisions the flows and
+    the kick would otherwise each repeat, made once when the simulation is built."""
     for k in range(n):
         i = first + uint(k)
-        m, wl = vmass[i], S[0][i] * vlen[i]
-        S[14][i], S[15][i] = 1.0 / (m + wl * an), 1.0 / (m + wl * at)
+        S[14][i], S[15][i] = dry[i] + S[0][i] * (wet0[i] - dry[i]), dry[i] + S[0][i] * (wet1[i] - dry[i])
 
 
 @njit(**PASS)
@@ -293,17 +295,76 @@ def sample_still(z, S, lo, n, surface, c0, c1, c2):
         S[4][i], S[5][i], S[6][i] = 0.0, 0.0, 0.0
 
 
+@njit(**CACHED, inline="always")
+def still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, entrained):
+    """Update the wetness, tangent and inverse masses of interior vertex i in a still medium
+    (sample_still_line); return the change of 1/2 v^T M_a v they make (0 unless ``entrained``)."""
+    a, b = i - uint(1), i + uint(1)
+    tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
+    inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))   # coincident: no tangent
+    tx, ty, tz = tx * inv, ty * inv, tz * inv
+    w = 1.0 if c[2][i] <= surface else 0.0
+    de = 0.0
+    if entrained:   # M_a = w l (a_n 1 + (a_t - a_n) t t^T), before and after
+        vx, vy, vz = v[0][i], v[1][i], v[2][i]
+        vv = vx * vx + vy * vy + vz * vz
+        ut, uo = vx * tx + vy * ty + vz * tz, vx * S[7][i] + vy * S[8][i] + vz * S[9][i]
+        de = 0.5 * vlen[i] * (w * (an * vv + (at - an) * ut * ut) - S[0][i] * (an * vv + (at - an) * uo * uo))
+    S[0][i] = w
+    S[7][i], S[8][i], S[9][i] = tx, ty, tz
+    S[14][i], S[15][i] = dry[i] + w * (wet0[i] - dry[i]), dry[i] + w * (wet1[i] - dry[i])
+    return de
+
+
+@njit(**PASS)
+def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained, drag):
+    """Update rows 0 (wetness), 7-9 (tangent) and 14-15 (inverse masses, as sample_masses) of
+    the sample (S) at the n interior vertices first.. of a line in a still medium, in one pass
+    (c: the position columns, v: the velocity columns), and with ``drag`` = (k_n h, k_t h, U)
+    the velocities by the exact flow of Morison's drag for h in the same pass (drag_vertex;
+    None: no drag). Return the change of the entrained fluid's kinetic energy at the velocities
+    before the drag (0 unless ``entrained``: a loop each way), the energy the drag dissipated
+    and the work the medium supplied."""
+    de = dissipated = supplied = 0.0
+    if entrained:
+        for k in range(n):
+            i = first + uint(k)
+            de += still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, True)
+            if drag is not None:
+                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2])
+                dissipated += d
+                supplied += g
+    else:
+        for k in range(n):
+            i = first + uint(k)
+            still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, False)
+            if drag is not None:
+                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2])
+                dissipated += d
+                supplied += g
+    return de, dissipated, supplied
+
+
 @njit(**INNER)
-def sample_medium(p, model, state):
+def sample_medium(p, model, state, whole, hd):
     """Update p.sample at every vertex of the lines in the medium given the positions and the
     clock: they hold still through a kick and the flows around it, so the medium is sampled
-    once per kick. (Loops over vertices without calls or branches, which LLVM vectorises.)"""
+    once per kick. With hd > 0 in a still medium under Morison's law, the lines' interior
+    velocities also by the exact flow of drag for hd in the same pass (as drag_vertices, whose
+    work there it does; see flow_fluid). A still medium's velocity and acceleration rows never change: they are
+    written when ``whole`` (a run's first sample, sample_fluid) or when a line's first vertex
+    does not hold them. Return the change of the
+    entrained fluid's kinetic energy at the lines' interior vertices at the present velocities,
+    in a still medium (0 otherwise: flow_fluid measures it around the sample). (Loops over
+    vertices without calls or branches, which LLVM vectorises.)"""
     x = state.x
-    c, S = columns(x), sample_rows(p)
+    c, S, v = columns(x), sample_rows(p), columns(state.v)
     t = state.clock[0]
     nl = model.line_vertex_offsets.shape[0] - 1
     still = still_medium(p)
     c0, c1, c2, surface = p.current[0], p.current[1], p.current[2], p.surface
+    vlen, dry, wet0, wet1 = model.voronoi_rest_length, model.vertex_inv_mass, p.wet_inverse[0], p.wet_inverse[1]
+    de = dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl:
@@ -312,22 +373,39 @@ def sample_medium(p, model, state):
         for i in (lo, hi - 1):
             tan = line_tangent(x, i, lo, hi)
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
-        sample_chords(c, S, uint(lo), hi - lo - 2)
         if still:
-            sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)
+            an, at = p.added_n[j], p.added_t[j]
+            if whole or not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0):
+                sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)   # (a guard: the rows were set)
+            else:
+                for i in (lo, hi - 1):
+                    S[0][i] = 1.0 if c[2][i] <= surface else 0.0
+            entrained = not whole and (an != 0.0 or at != 0.0)
+            first, n = uint(lo + 1), hi - lo - 2
+            if hd > 0.0 and p.law == MORISON and (p.drag_n[j] != 0.0 or p.drag_t[j] != 0.0):
+                e, d, g = sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained,
+                                            (hd * p.drag_n[j], hd * p.drag_t[j], (c0, c1, c2)))
+                dissipated, supplied = dissipated + d, supplied + g
+            else:
+                e, _, _ = sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained,
+                                            None)
+            de += e
         else:
+            sample_chords(c, S, uint(lo), hi - lo - 2)
             for i in range(lo, hi):
                 wet, um, acc = medium_at(p, c[0][i], c[1][i], c[2][i], t)
                 S[0][i] = 1.0 if wet else 0.0
                 S[1][i], S[2][i], S[3][i] = um[0], um[1], um[2]
                 S[4][i], S[5][i], S[6][i] = acc[0], acc[1], acc[2]
-        sample_masses(S, model.voronoi_rest_length, model.vertex_mass, uint(lo + 1), hi - lo - 2,
-                      p.added_n[j], p.added_t[j])
+            sample_masses(S, dry, wet0, wet1, uint(lo + 1), hi - lo - 2)
         if p.buoyancy[j] != 0.0:
             sample_upthrust(c[2], S, model.element_rest_length, uint(lo), uint(model.line_element_offsets[l]),
                             hi - lo - 2, p.buoyancy[j], surface)
         if not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
-            sample_inertia(S, model.voronoi_rest_length, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
+            sample_inertia(S, vlen, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
+    p.dissipated[0] += dissipated
+    p.supplied[0] += supplied
+    return de
 
 
 @njit(**CACHED, inline="always")
@@ -375,15 +453,16 @@ def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
 
 @njit(**INNER)
 def push_vertices(p, model, state, h):
-    """Update state.v of the interior vertices by the impulse h of the forces of position and
-    time (as sample_upthrust and sample_inertia found them), through the added mass; p.supplied by the inertia
-    force's work. (Contiguous columns, unsigned indices: vectorised as drag_vertices.)"""
+    """Update state.v of the interior vertices by the impulse h of the medium's inertia force
+    (as sample_inertia found it), through the added mass; p.supplied by its work. (The
+    upthrust is a load of the kick: add_fluid_mass. Contiguous columns, unsigned indices:
+    vectorised as drag_vertices.)"""
     v, S = columns(state.v), sample_rows(p)
     nl = model.line_vertex_offsets.shape[0] - 1
     supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
-        if l < 0 or l >= nl or (p.buoyancy[j] == 0.0 and p.inertia_n[j] == 0.0 and p.inertia_t[j] == 0.0):
+        if l < 0 or l >= nl or (p.inertia_n[j] == 0.0 and p.inertia_t[j] == 0.0):
             continue
         supplied += push_line(v, S, uint(model.line_vertex_offsets[l] + 1),
                               model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2, h)
@@ -393,13 +472,12 @@ def push_vertices(p, model, state, h):
 @njit(**PASS)
 def push_line(v, S, first, n, h):
     """Update the velocity columns v at the n vertices first.. by the impulse h of the sampled
-    forces of position and time through the sampled inverse masses; return the inertia
-    force's work."""
+    inertia force through the sampled inverse masses; return its work."""
     supplied = 0.0
     for k in range(n):
         i = first + uint(k)
-        ix, iy, iz = h * S[10][i], h * S[11][i], h * S[12][i]     # the inertia force's impulse
-        dx, dy, dz = split(S[14][i], S[15][i], ix, iy, iz + h * S[13][i], S[7][i], S[8][i], S[9][i])
+        ix, iy, iz = h * S[10][i], h * S[11][i], h * S[12][i]
+        dx, dy, dz = split(S[14][i], S[15][i], ix, iy, iz, S[7][i], S[8][i], S[9][i])
         supplied += ix * (v[0][i] + 0.5 * dx) + iy * (v[1][i] + 0.5 * dy) + iz * (v[2][i] + 0.5 * dz)
         v[0][i] += dx
         v[1][i] += dy
@@ -408,12 +486,17 @@ def push_line(v, S, first, n, h):
 
 
 @njit(**CACHED, inline="always")
-def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
+def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U):
     """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
-    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses;
-    return the energy it dissipated and the work the medium supplied."""
+    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses, and the
+    medium's velocity U (a 3-tuple: a still medium's current; None: as sampled); return the
+    energy it dissipated and the work the medium supplied."""
     wl = S[0][i] * vlen[i]                             # 0 where the vertex is dry
-    Ux, Uy, Uz, tx, ty, tz = S[1][i], S[2][i], S[3][i], S[7][i], S[8][i], S[9][i]
+    if U is None:
+        Ux, Uy, Uz = S[1][i], S[2][i], S[3][i]
+    else:
+        Ux, Uy, Uz = U
+    tx, ty, tz = S[7][i], S[8][i], S[9][i]
     ux, uy, uz = v[0][i] - Ux, v[1][i] - Uy, v[2][i] - Uz
     ut = ux * tx + uy * ty + uz * tz
     nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
@@ -436,18 +519,18 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear):
 
 
 @njit(**PASS)
-def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear):
+def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, U):
     """Update the velocity columns v at the n vertices first.. by the exact flow of drag
     (drag_vertex; a loop per law); return the energy dissipated and the work supplied."""
     dissipated = supplied = 0.0
     if linear:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True)
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, U)
             dissipated += d
             supplied += g
     else:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False)
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, U)
             dissipated += d
             supplied += g
     return dissipated, supplied
@@ -471,14 +554,19 @@ def drag_vertices(p, model, state, h):
     v, S = columns(state.v), sample_rows(p)
     vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
+    still, c0, c1, c2 = still_medium(p), p.current[0], p.current[1], p.current[2]
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0):
             continue
-        d, g = drag_line(v, S, vlen, vmass, uint(model.line_vertex_offsets[l] + 1),
-                         model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
-                         h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR)
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        first, n = uint(lo + 1), hi - lo - 2
+        kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR
+        if still:   # (the current as three numbers: three rows fewer to read)
+            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, (c0, c1, c2))
+        else:
+            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, None)
         dissipated += d
         supplied += g
     p.dissipated[0] += dissipated
@@ -716,11 +804,26 @@ def entrained_energy(p, model, state):
         if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
             continue
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-        an, at = p.added_n[j], p.added_t[j]
-        e += entrained_line(v, S, vlen, uint(lo + 1), hi - lo - 2, an, at)
+        e += entrained_line(v, S, vlen, uint(lo + 1), hi - lo - 2, p.added_n[j], p.added_t[j])
+    return e + nodes_entrained(p, model, state)
+
+
+@njit(**INNER)
+def nodes_entrained(p, model, state):
+    """Return the share of entrained_energy at the nodes the medium moves: their line ends'
+    and their buoys'."""
+    v, S = columns(state.v), sample_rows(p)
+    vlen = model.voronoi_rest_length
+    nl = model.line_vertex_offsets.shape[0] - 1
+    e = 0.0
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+            continue
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         for i, end in ((lo, 0), (hi - 1, 1)):
             if node_free(p, model, model.attach_node[2 * l + end]):
-                e += entrained_at(v, S, vlen, uint(i), an, at)
+                e += entrained_at(v, S, vlen, uint(i), p.added_n[j], p.added_t[j])
     for b in range(p.buoy_node.shape[0]):
         nd = p.buoy_node[b]
         if node_free(p, model, nd):
@@ -739,35 +842,67 @@ def fluid_entrained_energy(p, model, state):
 def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""
-    sample_medium(p, model, state)
+    sample_medium(p, model, state, True, 0.0)
     sample_buoys(p, state, state.clock[0])
+
+
+@njit(**INNER)
+def resample(p, model, state, hd):
+    """Update p.sample given the positions and the clock (sample_medium, sample_buoys, with
+    the drag flow of hd where sample_medium takes it); p.supplied by the change of the entrained
+    fluid's kinetic energy this makes at the present velocities (see flow_fluid). In a still
+    medium the lines' interior share is found by the sample's own pass."""
+    if not has_added_mass(p):
+        sample_medium(p, model, state, False, hd)
+        sample_buoys(p, state, state.clock[0])
+    elif still_medium(p):
+        before = nodes_entrained(p, model, state)
+        de = sample_medium(p, model, state, False, hd)
+        sample_buoys(p, state, state.clock[0])
+        p.supplied[0] += de + nodes_entrained(p, model, state) - before
+    else:
+        before = entrained_energy(p, model, state)
+        sample_medium(p, model, state, False, hd)
+        sample_buoys(p, state, state.clock[0])
+        p.supplied[0] += entrained_energy(p, model, state) - before
 
 
 @flow_kernel(FluidParams)
 @njit(**STEP)
 def flow_fluid(p, model, state, h):
-    """Update state.v, state.node_v, state.node_w by half of what the medium does over a kick
-    of 2 h: drag then the forces of position and time before the kick, the reverse after it;
-    p.dissipated and p.supplied by their work (the medium's own kinetic energy through the
-    added mass counted as the line's). A new sample changes the added mass (the lines turned,
-    entered or left the water since the last kick) at the velocities of the drift between:
-    the entrained fluid's kinetic energy then changes by work Morison's M v' = f leaves out
-    of its forces, counted in p.supplied, so the energy balance still closes."""
-    if p.turn[0] == 0:
-        added = has_added_mass(p)
-        before = entrained_energy(p, model, state) if added else 0.0
-        sample_medium(p, model, state)
-        sample_buoys(p, state, state.clock[0])
-        if added:
-            p.supplied[0] += entrained_energy(p, model, state) - before
-        drag_vertices(p, model, state, h)
-        drag_nodes(p, model, state, h)
+    """Update state.v, state.node_v, state.node_w by what the medium does over a kick of 2 h
+    beside the kick's loads: drag and the forces of position and time the kick does not
+    carry (the medium's inertia force at the lines' vertices; the nodes' upthrust and inertia
+    force), once a kick, before it on one kick and after it on the next (p.turn: bit 0 the
+    half, bit 1 the side), so that two steps form a symmetric sequence (second order) and a
+    step costs one drag flow instead of two half ones; p.dissipated and p.supplied by their
+    work (the medium's own kinetic energy through the added mass counted as the line's).
+    Before the kick, the medium is sampled (in a still medium under Morison's law, with the
+    lines' drag in the same pass when it runs there): a new sample changes the added mass (the
+    lines turned, entered or left the water since the last kick) at the velocities of the drift
+    between: the entrained fluid's kinetic energy then changes by work Morison's M v' = f
+    leaves out of its forces, counted in p.supplied, so the energy balance still closes."""
+    after = p.turn[0] & 1
+    side = (p.turn[0] >> 1) & 1
+    fused = side == 0 and still_medium(p) and p.law == MORISON
+    if after == 0:
+        resample(p, model, state, 2.0 * h if fused else 0.0)
+    if side == after:
+        if after == 1:
+            push_all(p, model, state, 2.0 * h)
+        if not fused:
+            drag_vertices(p, model, state, 2.0 * h)
+        drag_nodes(p, model, state, 2.0 * h)
+        if after == 0:
+            push_all(p, model, state, 2.0 * h)
+    p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
+
+
+@njit(**INNER)
+def push_all(p, model, state, h):
+    """Update the velocities by the impulse h of the forces of position and time the kick does
+    not carry: the inertia force of a medium that is not still at the lines' vertices, and the
+    upthrust and inertia force at the free nodes."""
+    if not still_medium(p):
         push_vertices(p, model, state, h)
-        push_nodes(p, model, state, h)
-        p.turn[0] = 1
-    else:
-        push_vertices(p, model, state, h)
-        push_nodes(p, model, state, h)
-        drag_vertices(p, model, state, h)
-        drag_nodes(p, model, state, h)
-        p.turn[0] = 0
+    push_nodes(p, model, state, h)

@@ -175,6 +175,8 @@ class Fluid(Effect):
         if p.buoy.shape != (nn,) or p.buoy_sample.shape != (b, 7) or p.medium.shape != (2,) or any(
                 getattr(p, name).shape != (b,) for name in ("buoy_volume", "buoy_radius", "buoy_drag", "buoy_added")):
             return "fluid: buoy needs one entry per node, the buoy rows one per buoy node, medium two"
+        if p.wet_inverse.shape != (2, nv):
+            return "fluid: wet_inverse needs two rows of one per vertex"
         if p.turning.shape not in ((TURNING_ROWS, nv), (TURNING_ROWS, 0)):
             return f"fluid: turning needs {TURNING_ROWS} rows of one per vertex, or none"
         return (index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
@@ -351,6 +353,7 @@ class Fluid(Effect):
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
                            wave_phase=ph.copy(), node_skip=skip,
                            sample=np.zeros((SAMPLE_ROWS, nv)),
+                           wet_inverse=self._wet_inverse(on.model, lines, rows),
                            turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)))
@@ -358,6 +361,19 @@ class Fluid(Effect):
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             typed_call(sample_fluid, p, on.model, on.state)
         return p
+
+    @staticmethod
+    def _wet_inverse(m, lines, rows: dict) -> np.ndarray:
+        """1 / (m + l a_n) and 1 / (m + l a_t) at each interior vertex of the lines in the
+        medium (FluidParams.wet_inverse)."""
+        inv = np.zeros((2, m.vertex_mass.shape[0]))
+        for j, line in enumerate(lines):
+            lo, hi = m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1
+            mass, vlen = m.vertex_mass[lo:hi], m.voronoi_rest_length[lo:hi]
+            for r, added in enumerate((rows["added_n"][j], rows["added_t"][j])):
+                total = mass + vlen * added
+                np.divide(1.0, total, out=inv[r, lo:hi], where=total > 0)   # (a massless vertex: 0, as dry)
+        return inv
 
     def _turns(self, rows: dict) -> bool:
         """Whether the entrained fluid's turning forces act (kernels/added_mass.py): Lagrange's
