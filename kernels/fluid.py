@@ -72,6 +72,9 @@ class FluidParams(NamedTuple):
                              # the inverse masses across and along the line, added mass included
     wet_inverse: np.ndarray  # (2, nv) 1 / (m + l a_n), 1 / (m + l a_t) of each interior vertex of a line in the
                              # medium: its inverse masses across and along the line where it is wet
+    decay: np.ndarray        # (2, nv) scratch of the linear law: exp(-c h l / m) across and along the line at each
+                             # wet interior vertex for a flow of h = decay_h (decay_factors)
+    decay_h: np.ndarray      # (1,) the h of decay (nan: none yet)
     turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side drag runs on
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
@@ -331,7 +334,7 @@ def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at,
             i = first + uint(k)
             de += still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, True)
             if drag is not None:
-                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2])
+                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2], (wet0, wet1))
                 dissipated += d
                 supplied += g
     else:
@@ -339,7 +342,7 @@ def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at,
             i = first + uint(k)
             still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, False)
             if drag is not None:
-                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2])
+                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2], (wet0, wet1))
                 dissipated += d
                 supplied += g
     return de, dissipated, supplied
@@ -486,11 +489,12 @@ def push_line(v, S, first, n, h):
 
 
 @njit(**CACHED, inline="always")
-def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U):
+def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U, decay):
     """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
-    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses, and the
-    medium's velocity U (a 3-tuple: a still medium's current; None: as sampled); return the
-    energy it dissipated and the work the medium supplied."""
+    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses, the
+    medium's velocity U (a 3-tuple: a still medium's current; None: as sampled) and, for the
+    linear law, the decay factors of a wet vertex over the flow (p.decay: across, along);
+    return the energy it dissipated and the work the medium supplied."""
     wl = S[0][i] * vlen[i]                             # 0 where the vertex is dry
     if U is None:
         Ux, Uy, Uz = S[1][i], S[2][i], S[3][i]
@@ -502,7 +506,7 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U):
     nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
     sn = math.sqrt(nx * nx + ny * ny + nz * nz)
     if linear:
-        rt, rn = math.exp(-wl * kt * S[15][i]), math.exp(-wl * kn * S[14][i])
+        rt, rn = 1.0 + S[0][i] * (decay[1][i] - 1.0), 1.0 + S[0][i] * (decay[0][i] - 1.0)
         m = vmass[i]
         jt, jn = (m + vlen[i] * at) * (rt - 1.0), (m + vlen[i] * an) * (rn - 1.0)   # impulse per relative velocity
     else:   # m (r - 1) = -w k s r; both r from one division (the step is bound by their throughput)
@@ -519,18 +523,18 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U):
 
 
 @njit(**PASS)
-def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, U):
+def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, U, decay):
     """Update the velocity columns v at the n vertices first.. by the exact flow of drag
     (drag_vertex; a loop per law); return the energy dissipated and the work supplied."""
     dissipated = supplied = 0.0
     if linear:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, U)
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, U, decay)
             dissipated += d
             supplied += g
     else:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, U)
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, U, decay)
             dissipated += d
             supplied += g
     return dissipated, supplied
@@ -541,6 +545,24 @@ def sample_rows(p):
     """The rows of p.sample as contiguous 1-D views."""
     S = p.sample
     return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12], S[13], S[14], S[15]
+
+
+@njit(**INNER)
+def decay_factors(p, model, h):
+    """Update p.decay to the linear law's decay of a wet interior vertex's relative velocity
+    over a flow of h, exp(-c h l / m) across and along the line (m with the added mass of that
+    direction), and p.decay_h to h: they depend on h alone, so a run of equal kicks takes its
+    exponentials once instead of two a vertex a kick."""
+    nl = model.line_vertex_offsets.shape[0] - 1
+    vlen = model.voronoi_rest_length
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if l < 0 or l >= nl:
+            continue
+        for i in range(model.line_vertex_offsets[l] + 1, model.line_vertex_offsets[l + 1] - 1):
+            p.decay[0, i] = math.exp(-h * p.drag_n[j] * vlen[i] * p.wet_inverse[0, i])
+            p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
+    p.decay_h[0] = h
 
 
 @njit(**INNER)
@@ -555,6 +577,9 @@ def drag_vertices(p, model, state, h):
     vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     still, c0, c1, c2 = still_medium(p), p.current[0], p.current[1], p.current[2]
+    if p.law == LINEAR and p.decay_h[0] != h:
+        decay_factors(p, model, h)
+    decay = (p.decay[0], p.decay[1])
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
@@ -564,9 +589,9 @@ def drag_vertices(p, model, state, h):
         first, n = uint(lo + 1), hi - lo - 2
         kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR
         if still:   # (the current as three numbers: three rows fewer to read)
-            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, (c0, c1, c2))
+            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, (c0, c1, c2), decay)
         else:
-            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, None)
+            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, None, decay)
         dissipated += d
         supplied += g
     p.dissipated[0] += dissipated

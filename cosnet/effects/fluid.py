@@ -175,8 +175,8 @@ class Fluid(Effect):
         if p.buoy.shape != (nn,) or p.buoy_sample.shape != (b, 7) or p.medium.shape != (2,) or any(
                 getattr(p, name).shape != (b,) for name in ("buoy_volume", "buoy_radius", "buoy_drag", "buoy_added")):
             return "fluid: buoy needs one entry per node, the buoy rows one per buoy node, medium two"
-        if p.wet_inverse.shape != (2, nv):
-            return "fluid: wet_inverse needs two rows of one per vertex"
+        if p.wet_inverse.shape != (2, nv) or p.decay.shape != (2, nv) or p.decay_h.shape != (1,):
+            return "fluid: wet_inverse and decay need two rows of one per vertex, decay_h one entry"
         if p.turning.shape not in ((TURNING_ROWS, nv), (TURNING_ROWS, 0)):
             return f"fluid: turning needs {TURNING_ROWS} rows of one per vertex, or none"
         return (index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
@@ -354,6 +354,7 @@ class Fluid(Effect):
                            wave_phase=ph.copy(), node_skip=skip,
                            sample=np.zeros((SAMPLE_ROWS, nv)),
                            wet_inverse=self._wet_inverse(on.model, lines, rows),
+                           decay=np.zeros((2, nv)), decay_h=np.full(1, np.nan),
                            turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)))
