@@ -24,7 +24,6 @@ state, p.turning, and a checkpoint keeps them). A free node takes the forces on 
 ends (force and moment about its centre of mass); a fixed or driven one leaves them.
 """
 
-import math
 
 from numba import njit
 
@@ -69,21 +68,14 @@ def end_arm(model, state, a):
     return quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
 
 
-@njit(**PASS)
-def copy_columns(to, v, first, n):
-    """Update the columns ``to`` at the n vertices first.. to the columns v."""
-    for k in range(n):
-        i = first + uint(k)
-        to[0][i], to[1][i], to[2][i] = v[0][i], v[1][i], v[2][i]
-
-
 @njit(**CACHED, inline="always")
 def own_terms(G, Q, V, S, x, vlen, i, a, b, da):
     """Update G at vertex i by -M'u and Q at i by q (module docstring), its chord from vertex a
     to b, at the velocity columns V (x: the position columns; da = a_t - a_n per length)."""
-    cx, cy, cz = x[0][b] - x[0][a], x[1][b] - x[1][a], x[2][b] - x[2][a]
-    inv = 1.0 / math.sqrt(max(cx * cx + cy * cy + cz * cz, 1e-300))   # coincident: nothing turns
     tx, ty, tz = S[7][i], S[8][i], S[9][i]
+    # the chord's length is its projection on the sampled tangent, which is the same chord
+    # normalised (no second square root); coincident ends: no tangent, nothing turns
+    inv = 1.0 / max((x[0][b] - x[0][a]) * tx + (x[1][b] - x[1][a]) * ty + (x[2][b] - x[2][a]) * tz, 1e-150)
     c = da * S[0][i] * vlen[i]
     ux, uy, uz = V[0][i] - S[1][i], V[1][i] - S[2][i], V[2][i] - S[3][i]
     ut = ux * tx + uy * ty + uz * tz
@@ -107,25 +99,14 @@ def interior_terms(G, Q, V, S, x, vlen, first, n, da):
 
 
 @njit(**PASS)
-def spread_terms(G, Q, first, n):
-    """Update G at the n interior vertices first.. by q of the vertex before (whose chord ends
-    here) less q of the vertex after (whose chord starts here)."""
-    for k in range(n):
-        i = first + uint(k)
-        G[0][i] += Q[0][i - uint(1)] - Q[0][i + uint(1)]
-        G[1][i] += Q[1][i - uint(1)] - Q[1][i + uint(1)]
-        G[2][i] += Q[2][i - uint(1)] - Q[2][i + uint(1)]
-
-
-@njit(**PASS)
 def line_turning(G, Q, V, S, x, vlen, lo, hi, da):
     """Update the force columns G at the vertices lo..hi-1 of one line by the turning fluid's
     forces at the velocity columns V (Q: scratch for q; own_terms, the ends on their end
-    element's chord)."""
+    element's chord), but for q's share at the interior vertices, which add_line_forces
+    spreads as it adds G to the loads."""
     own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da)
     own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da)
     interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da)
-    spread_terms(G, Q, uint(lo + 1), hi - lo - 2)
     for k in range(3):
         G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
         G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
@@ -151,28 +132,34 @@ def end_sums(p, model, state, G, nd):
 
 
 @njit(**PASS)
-def predict_line(V, S, f, G, first, n, h):
-    """Update the velocity columns V at the n vertices first.. by a kick of h with the force
-    columns f + G, through the sampled inverse masses."""
+def predict_line(V, v, S, f, G, first, n, h):
+    """Update the velocity columns V at the n vertices first.. to v after a kick of h with the
+    force columns f + G, through the sampled inverse masses."""
     for k in range(n):
         i = first + uint(k)
         d = split(S[14][i], S[15][i], f[0][i] + G[0][i], f[1][i] + G[1][i], f[2][i] + G[2][i],
                   S[7][i], S[8][i], S[9][i])
-        V[0][i] += h * d[0]
-        V[1][i] += h * d[1]
-        V[2][i] += h * d[2]
+        V[0][i] = v[0][i] + h * d[0]
+        V[1][i] = v[1][i] + h * d[1]
+        V[2][i] = v[2][i] + h * d[2]
 
 
 @njit(**PASS)
-def add_line_forces(f, G, V, first, n):
-    """Update the force columns f at the n vertices first.. by G; return the power of G at V."""
+def add_line_forces(f, G, Q, V, first, n):
+    """Update G at the n interior vertices first.. by q of the vertex before (whose chord ends
+    here) less q of the vertex after (whose chord starts here), and the force columns f there
+    by G; return the power of G at V."""
     power = 0.0
     for k in range(n):
         i = first + uint(k)
-        f[0][i] += G[0][i]
-        f[1][i] += G[1][i]
-        f[2][i] += G[2][i]
-        power += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]
+        gx = G[0][i] + Q[0][i - uint(1)] - Q[0][i + uint(1)]
+        gy = G[1][i] + Q[1][i - uint(1)] - Q[1][i + uint(1)]
+        gz = G[2][i] + Q[2][i - uint(1)] - Q[2][i + uint(1)]
+        G[0][i], G[1][i], G[2][i] = gx, gy, gz
+        f[0][i] += gx
+        f[1][i] += gy
+        f[2][i] += gz
+        power += gx * V[0][i] + gy * V[1][i] + gz * V[2][i]
     return power
 
 
@@ -193,8 +180,7 @@ def add_turning_forces(p, model, state, loads, h):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        copy_columns(V, v, uint(lo + 1), hi - lo - 2)
-        predict_line(V, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h)
+        predict_line(V, v, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
             q, w, r = state.node_q[nd], state.node_w[nd], end_arm(model, state, a)
@@ -215,7 +201,7 @@ def add_turning_forces(p, model, state, loads, h):
         if hi == 0:
             continue
         line_turning(G, Q, V, S, x, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j])
-        work += add_line_forces(f, G, V, uint(lo + 1), hi - lo - 2)
+        work += add_line_forces(f, G, Q, V, uint(lo + 1), hi - lo - 2)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             if node_free(p, model, model.attach_node[a]):
                 work += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]
@@ -237,14 +223,22 @@ def add_upthrust(fz, up, first, n):
 
 
 @njit(**PASS)
-def divide_line(f, S, vmass, first, n):
+def divide_line(f, S, vmass, first, n, upthrust):
     """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
-    with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m)."""
-    for k in range(n):
-        i = first + uint(k)
-        m = vmass[i]
-        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i],
-                                          S[7][i], S[8][i], S[9][i])
+    with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m),
+    with ``upthrust`` the sampled upthrust (row 13) added first (a loop each way)."""
+    if upthrust:
+        for k in range(n):
+            i = first + uint(k)
+            m = vmass[i]
+            f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i] + S[13][i],
+                                              S[7][i], S[8][i], S[9][i])
+    else:
+        for k in range(n):
+            i = first + uint(k)
+            m = vmass[i]
+            f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i],
+                                              S[7][i], S[8][i], S[9][i])
 
 
 @inertia_kernel(FluidParams)
@@ -259,19 +253,21 @@ def add_fluid_mass(p, model, state, arg):
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
-    for j in range(p.lines.shape[0]):
+    turning = p.turning.shape[1] > 0
+    for j in range(p.lines.shape[0]):   # (the turning forces' predictor needs it; else the division adds it)
         l = p.lines[j]
-        if l >= 0 and l < nl and p.buoyancy[j] != 0.0:
+        if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and (turning or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0)):
             add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
                          model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
-    if p.turning.shape[1] > 0:
+    if turning:
         add_turning_forces(p, model, state, loads, h)
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
             continue
         divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
-                    model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
+                    model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
+                    p.buoyancy[j] != 0.0 and not turning)
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
