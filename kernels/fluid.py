@@ -73,7 +73,7 @@ class FluidParams(NamedTuple):
     wet_inverse: np.ndarray  # (2, nv) 1 / (m + l a_n), 1 / (m + l a_t) of each interior vertex of a line in the
                              # medium: its inverse masses across and along the line where it is wet
     decay: np.ndarray        # (2, nv) scratch of the linear law: exp(-c h l / m) across and along the line at each
-                             # wet interior vertex for a flow of h = decay_h (decay_factors)
+                             # wet interior vertex for a flow of h = decay_h (drag_vertices)
     decay_h: np.ndarray      # (1,) the h of decay (nan: none yet)
     turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side drag runs on
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
@@ -320,46 +320,30 @@ def still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, entrained):
 
 
 @njit(**PASS)
-def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained, drag):
+def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained):
     """Update rows 0 (wetness), 7-9 (tangent) and 14-15 (inverse masses, as sample_masses) of
     the sample (S) at the n interior vertices first.. of a line in a still medium, in one pass
-    (c: the position columns, v: the velocity columns), and with ``drag`` = (k_n h, k_t h, U)
-    the velocities by the exact flow of Morison's drag for h in the same pass (drag_vertex;
-    None: no drag). Return the change of the entrained fluid's kinetic energy at the velocities
-    before the drag (0 unless ``entrained``: a loop each way), the energy the drag dissipated
-    and the work the medium supplied."""
-    de = dissipated = supplied = 0.0
+    (c: the position columns, v: the velocity columns); return the change of the entrained
+    fluid's kinetic energy at the present velocities (0 unless ``entrained``: a loop each way)."""
+    de = 0.0
     if entrained:
         for k in range(n):
-            i = first + uint(k)
-            de += still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, True)
-            if drag is not None:
-                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2], (wet0, wet1))
-                dissipated += d
-                supplied += g
+            de += still_vertex(v, c, S, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True)
     else:
         for k in range(n):
-            i = first + uint(k)
-            still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, False)
-            if drag is not None:
-                d, g = drag_vertex(v, S, vlen, vlen, i, drag[0], drag[1], an, at, False, drag[2], (wet0, wet1))
-                dissipated += d
-                supplied += g
-    return de, dissipated, supplied
+            still_vertex(v, c, S, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, False)
+    return de
 
 
 @njit(**INNER)
-def sample_medium(p, model, state, whole, hd):
+def sample_medium(p, model, state):
     """Update p.sample at every vertex of the lines in the medium given the positions and the
     clock: they hold still through a kick and the flows around it, so the medium is sampled
-    once per kick. With hd > 0 in a still medium under Morison's law, the lines' interior
-    velocities also by the exact flow of drag for hd in the same pass (as drag_vertices, whose
-    work there it does; see flow_fluid). A still medium's velocity and acceleration rows never change: they are
-    written when ``whole`` (a run's first sample, sample_fluid) or when a line's first vertex
-    does not hold them. Return the change of the
-    entrained fluid's kinetic energy at the lines' interior vertices at the present velocities,
-    in a still medium (0 otherwise: flow_fluid measures it around the sample). (Loops over
-    vertices without calls or branches, which LLVM vectorises.)"""
+    once per kick. A still medium's velocity and acceleration rows never change: they are
+    written where a line's first vertex does not hold them (a new sample; a new current).
+    Return the change of the entrained fluid's kinetic energy at the lines' interior vertices
+    at the present velocities, in a still medium (0 otherwise: flow_fluid measures it around
+    the sample). (Loops over vertices without calls or branches, which LLVM vectorises.)"""
     x = state.x
     c, S, v = columns(x), sample_rows(p), columns(state.v)
     t = state.clock[0]
@@ -367,7 +351,7 @@ def sample_medium(p, model, state, whole, hd):
     still = still_medium(p)
     c0, c1, c2, surface = p.current[0], p.current[1], p.current[2], p.surface
     vlen, dry, wet0, wet1 = model.voronoi_rest_length, model.vertex_inv_mass, p.wet_inverse[0], p.wet_inverse[1]
-    de = dissipated = supplied = 0.0
+    de = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl:
@@ -378,21 +362,14 @@ def sample_medium(p, model, state, whole, hd):
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
         if still:
             an, at = p.added_n[j], p.added_t[j]
-            if whole or not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0):
-                sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)   # (a guard: the rows were set)
+            if not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0 and S[5][lo] == 0.0
+                    and S[6][lo] == 0.0):
+                sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)
             else:
                 for i in (lo, hi - 1):
                     S[0][i] = 1.0 if c[2][i] <= surface else 0.0
-            entrained = not whole and (an != 0.0 or at != 0.0)
-            first, n = uint(lo + 1), hi - lo - 2
-            if hd > 0.0 and p.law == MORISON and (p.drag_n[j] != 0.0 or p.drag_t[j] != 0.0):
-                e, d, g = sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained,
-                                            (hd * p.drag_n[j], hd * p.drag_t[j], (c0, c1, c2)))
-                dissipated, supplied = dissipated + d, supplied + g
-            else:
-                e, _, _ = sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained,
-                                            None)
-            de += e
+            de += sample_still_line(v, c, S, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2, surface, an, at,
+                                    an != 0.0 or at != 0.0)
         else:
             sample_chords(c, S, uint(lo), hi - lo - 2)
             for i in range(lo, hi):
@@ -406,8 +383,6 @@ def sample_medium(p, model, state, whole, hd):
                             hi - lo - 2, p.buoyancy[j], surface)
         if not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
             sample_inertia(S, vlen, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
-    p.dissipated[0] += dissipated
-    p.supplied[0] += supplied
     return de
 
 
@@ -489,18 +464,13 @@ def push_line(v, S, first, n, h):
 
 
 @njit(**CACHED, inline="always")
-def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U, decay):
+def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, decay):
     """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
-    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses, the
-    medium's velocity U (a 3-tuple: a still medium's current; None: as sampled) and, for the
+    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses and, for the
     linear law, the decay factors of a wet vertex over the flow (p.decay: across, along);
     return the energy it dissipated and the work the medium supplied."""
     wl = S[0][i] * vlen[i]                             # 0 where the vertex is dry
-    if U is None:
-        Ux, Uy, Uz = S[1][i], S[2][i], S[3][i]
-    else:
-        Ux, Uy, Uz = U
-    tx, ty, tz = S[7][i], S[8][i], S[9][i]
+    Ux, Uy, Uz, tx, ty, tz = S[1][i], S[2][i], S[3][i], S[7][i], S[8][i], S[9][i]
     ux, uy, uz = v[0][i] - Ux, v[1][i] - Uy, v[2][i] - Uz
     ut = ux * tx + uy * ty + uz * tz
     nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
@@ -523,18 +493,18 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, U, decay):
 
 
 @njit(**PASS)
-def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, U, decay):
+def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, decay):
     """Update the velocity columns v at the n vertices first.. by the exact flow of drag
     (drag_vertex; a loop per law); return the energy dissipated and the work supplied."""
     dissipated = supplied = 0.0
     if linear:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, U, decay)
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, decay)
             dissipated += d
             supplied += g
     else:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, U, decay)
+            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, decay)
             dissipated += d
             supplied += g
     return dissipated, supplied
@@ -548,24 +518,6 @@ def sample_rows(p):
 
 
 @njit(**INNER)
-def decay_factors(p, model, h):
-    """Update p.decay to the linear law's decay of a wet interior vertex's relative velocity
-    over a flow of h, exp(-c h l / m) across and along the line (m with the added mass of that
-    direction), and p.decay_h to h: they depend on h alone, so a run of equal kicks takes its
-    exponentials once instead of two a vertex a kick."""
-    nl = model.line_vertex_offsets.shape[0] - 1
-    vlen = model.voronoi_rest_length
-    for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl:
-            continue
-        for i in range(model.line_vertex_offsets[l] + 1, model.line_vertex_offsets[l + 1] - 1):
-            p.decay[0, i] = math.exp(-h * p.drag_n[j] * vlen[i] * p.wet_inverse[0, i])
-            p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
-    p.decay_h[0] = h
-
-
-@njit(**INNER)
 def drag_vertices(p, model, state, h):
     """Update state.v of the interior vertices by the exact flow of drag for time h (the
     tangential and normal parts of the relative velocity u each keep their direction, their
@@ -576,9 +528,17 @@ def drag_vertices(p, model, state, h):
     v, S = columns(state.v), sample_rows(p)
     vlen, vmass = model.voronoi_rest_length, model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
-    still, c0, c1, c2 = still_medium(p), p.current[0], p.current[1], p.current[2]
     if p.law == LINEAR and p.decay_h[0] != h:
-        decay_factors(p, model, h)
+        # the linear law's decay of a wet vertex's relative velocity over the flow, exp(-c h l / m)
+        # (m with the added mass of that direction), depends on h alone: a run of equal kicks
+        # takes its exponentials once instead of two a vertex a kick
+        for j in range(p.lines.shape[0]):
+            l = p.lines[j]
+            if 0 <= l < nl:
+                for i in range(model.line_vertex_offsets[l] + 1, model.line_vertex_offsets[l + 1] - 1):
+                    p.decay[0, i] = math.exp(-h * p.drag_n[j] * vlen[i] * p.wet_inverse[0, i])
+                    p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
+        p.decay_h[0] = h
     decay = (p.decay[0], p.decay[1])
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
@@ -588,10 +548,7 @@ def drag_vertices(p, model, state, h):
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         first, n = uint(lo + 1), hi - lo - 2
         kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR
-        if still:   # (the current as three numbers: three rows fewer to read)
-            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, (c0, c1, c2), decay)
-        else:
-            d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, None, decay)
+        d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, decay)
         dissipated += d
         supplied += g
     p.dissipated[0] += dissipated
@@ -867,29 +824,8 @@ def fluid_entrained_energy(p, model, state):
 def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""
-    sample_medium(p, model, state, True, 0.0)
+    sample_medium(p, model, state)
     sample_buoys(p, state, state.clock[0])
-
-
-@njit(**INNER)
-def resample(p, model, state, hd):
-    """Update p.sample given the positions and the clock (sample_medium, sample_buoys, with
-    the drag flow of hd where sample_medium takes it); p.supplied by the change of the entrained
-    fluid's kinetic energy this makes at the present velocities (see flow_fluid). In a still
-    medium the lines' interior share is found by the sample's own pass."""
-    if not has_added_mass(p):
-        sample_medium(p, model, state, False, hd)
-        sample_buoys(p, state, state.clock[0])
-    elif still_medium(p):
-        before = nodes_entrained(p, model, state)
-        de = sample_medium(p, model, state, False, hd)
-        sample_buoys(p, state, state.clock[0])
-        p.supplied[0] += de + nodes_entrained(p, model, state) - before
-    else:
-        before = entrained_energy(p, model, state)
-        sample_medium(p, model, state, False, hd)
-        sample_buoys(p, state, state.clock[0])
-        p.supplied[0] += entrained_energy(p, model, state) - before
 
 
 @flow_kernel(FluidParams)
@@ -902,32 +838,30 @@ def flow_fluid(p, model, state, h):
     half, bit 1 the side), so that two steps form a symmetric sequence (second order) and a
     step costs one drag flow instead of two half ones; p.dissipated and p.supplied by their
     work (the medium's own kinetic energy through the added mass counted as the line's).
-    Before the kick, the medium is sampled (in a still medium under Morison's law, with the
-    lines' drag in the same pass when it runs there): a new sample changes the added mass (the
-    lines turned, entered or left the water since the last kick) at the velocities of the drift
+    Before the kick, the medium is sampled: a new sample changes the added mass (the lines
+    turned, entered or left the water since the last kick) at the velocities of the drift
     between: the entrained fluid's kinetic energy then changes by work Morison's M v' = f
     leaves out of its forces, counted in p.supplied, so the energy balance still closes."""
     after = p.turn[0] & 1
     side = (p.turn[0] >> 1) & 1
-    fused = side == 0 and still_medium(p) and p.law == MORISON
-    if after == 0:
-        resample(p, model, state, 2.0 * h if fused else 0.0)
+    if after == 0:   # in a still medium, the lines' interior share of the change is the sample's own
+        added, still = has_added_mass(p), still_medium(p)
+        before = (nodes_entrained(p, model, state) if still else entrained_energy(p, model, state)) if added else 0.0
+        de = sample_medium(p, model, state)
+        sample_buoys(p, state, state.clock[0])
+        if added:
+            after_sample = de + nodes_entrained(p, model, state) if still else entrained_energy(p, model, state)
+            p.supplied[0] += after_sample - before
     if side == after:
+        moving = not still_medium(p)   # (the inertia force at the lines' vertices)
         if after == 1:
-            push_all(p, model, state, 2.0 * h)
-        if not fused:
-            drag_vertices(p, model, state, 2.0 * h)
+            if moving:
+                push_vertices(p, model, state, 2.0 * h)
+            push_nodes(p, model, state, 2.0 * h)
+        drag_vertices(p, model, state, 2.0 * h)
         drag_nodes(p, model, state, 2.0 * h)
         if after == 0:
-            push_all(p, model, state, 2.0 * h)
+            if moving:
+                push_vertices(p, model, state, 2.0 * h)
+            push_nodes(p, model, state, 2.0 * h)
     p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
-
-
-@njit(**INNER)
-def push_all(p, model, state, h):
-    """Update the velocities by the impulse h of the forces of position and time the kick does
-    not carry: the inertia force of a medium that is not still at the lines' vertices, and the
-    upthrust and inertia force at the free nodes."""
-    if not still_medium(p):
-        push_vertices(p, model, state, h)
-    push_nodes(p, model, state, h)
