@@ -778,16 +778,22 @@ def entrained_energy(p, model, state):
     tangent of p.sample: the added mass the step holds now. (The interior loop is
     branch-free over contiguous columns, which LLVM vectorises.)"""
     v, S = columns(state.v), sample_rows(p)
-    vlen = model.voronoi_rest_length
-    nl = model.line_vertex_offsets.shape[0] - 1
     e = 0.0
     for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
-            continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-        e += entrained_line(v, S, vlen, uint(lo + 1), hi - lo - 2, p.added_n[j], p.added_t[j])
+        l, lo, hi = carrying_span(p, model, j)
+        if hi > 0:
+            e += entrained_line(v, S, model.voronoi_rest_length, uint(lo + 1), hi - lo - 2, p.added_n[j], p.added_t[j])
     return e + nodes_entrained(p, model, state)
+
+
+@njit(**CACHED, inline="always")
+def carrying_span(p, model, j):
+    """Return (l, lo, hi): row j's line and its vertices lo..hi-1 when it carries added mass,
+    else hi = 0."""
+    l = p.lines[j]
+    if l < 0 or l >= model.line_vertex_offsets.shape[0] - 1 or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+        return l, 0, 0
+    return l, model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
 
 
 @njit(**INNER)
@@ -795,17 +801,14 @@ def nodes_entrained(p, model, state):
     """Return the share of entrained_energy at the nodes the medium moves: their line ends'
     and their buoys'."""
     v, S = columns(state.v), sample_rows(p)
-    vlen = model.voronoi_rest_length
-    nl = model.line_vertex_offsets.shape[0] - 1
     e = 0.0
     for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+        l, lo, hi = carrying_span(p, model, j)
+        if hi == 0:
             continue
-        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         for i, end in ((lo, 0), (hi - 1, 1)):
             if node_free(p, model, model.attach_node[2 * l + end]):
-                e += entrained_at(v, S, vlen, uint(i), p.added_n[j], p.added_t[j])
+                e += entrained_at(v, S, model.voronoi_rest_length, uint(i), p.added_n[j], p.added_t[j])
     for b in range(p.buoy_node.shape[0]):
         nd = p.buoy_node[b]
         if node_free(p, model, nd):
