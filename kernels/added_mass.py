@@ -24,7 +24,6 @@ state, p.turning, and a checkpoint keeps them). A free node takes the forces on 
 ends (force and moment about its centre of mass); a fixed or driven one leaves them.
 """
 
-
 from numba import njit
 
 from .backend import PASS, STEP
@@ -223,22 +222,15 @@ def add_upthrust(fz, up, first, n):
 
 
 @njit(**PASS)
-def divide_line(f, S, vmass, first, n, upthrust):
+def divide_line(f, S, vmass, first, n, up):
     """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
     with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m),
-    with ``upthrust`` the sampled upthrust (row 13) added first (a loop each way)."""
-    if upthrust:
-        for k in range(n):
-            i = first + uint(k)
-            m = vmass[i]
-            f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i] + S[13][i],
-                                              S[7][i], S[8][i], S[9][i])
-    else:
-        for k in range(n):
-            i = first + uint(k)
-            m = vmass[i]
-            f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i],
-                                              S[7][i], S[8][i], S[9][i])
+    with up times the sampled upthrust (row 13) added first (up: 1, or 0 where it is in f)."""
+    for k in range(n):
+        i = first + uint(k)
+        m = vmass[i]
+        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i], f[1][i], f[2][i] + up * S[13][i],
+                                          S[7][i], S[8][i], S[9][i])
 
 
 @inertia_kernel(FluidParams)
@@ -267,7 +259,7 @@ def add_fluid_mass(p, model, state, arg):
             continue
         divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
                     model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
-                    p.buoyancy[j] != 0.0 and not turning)
+                    1.0 if p.buoyancy[j] != 0.0 and not turning else 0.0)
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue

@@ -273,7 +273,23 @@ def sample_masses(S, dry, wet0, wet1, first, n):
     the kick would otherwise each repeat, made once when the simulation is built."""
     for k in range(n):
         i = first + uint(k)
-        S[14][i], S[15][i] = dry[i] + S[0][i] * (wet0[i] - dry[i]), dry[i] + S[0][i] * (wet1[i] - dry[i])
+        S[14][i], S[15][i] = wet_inverses(dry, wet0, wet1, i, S[0][i])
+
+
+@njit(**CACHED, inline="always")
+def unit_chord(c, a, b):
+    """Return the unit chord from vertex a to vertex b (c: the position columns); 0 where
+    they coincide (no tangent)."""
+    tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
+    inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))
+    return tx * inv, ty * inv, tz * inv
+
+
+@njit(**CACHED, inline="always")
+def wet_inverses(dry, wet0, wet1, i, w):
+    """Return vertex i's inverse masses across and along its line at wetness w (1 or 0):
+    the wet ones (wet0, wet1: p.wet_inverse) or the dry one."""
+    return dry[i] + w * (wet0[i] - dry[i]), dry[i] + w * (wet1[i] - dry[i])
 
 
 @njit(**PASS)
@@ -281,10 +297,8 @@ def sample_chords(c, S, lo, n):
     """Update rows 7-9 of the sample (S) at the n interior vertices lo+1.. of a line by the
     unit chord between their neighbours (c: the position columns)."""
     for k in range(n):
-        a, i, b = lo + uint(k), lo + uint(k + 1), lo + uint(k + 2)
-        tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
-        inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))   # coincident: no tangent
-        S[7][i], S[8][i], S[9][i] = tx * inv, ty * inv, tz * inv
+        i = lo + uint(k + 1)
+        S[7][i], S[8][i], S[9][i] = unit_chord(c, i - uint(1), i + uint(1))
 
 
 @njit(**PASS)
@@ -302,21 +316,12 @@ def sample_still(z, S, lo, n, surface, c0, c1, c2):
 def still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, entrained):
     """Update the wetness, tangent and inverse masses of interior vertex i in a still medium
     (sample_still_line); return the change of 1/2 v^T M_a v they make (0 unless ``entrained``)."""
-    a, b = i - uint(1), i + uint(1)
-    tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
-    inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))   # coincident: no tangent
-    tx, ty, tz = tx * inv, ty * inv, tz * inv
+    before = entrained_at(v, S, vlen, i, an, at) if entrained else 0.0
     w = 1.0 if c[2][i] <= surface else 0.0
-    de = 0.0
-    if entrained:   # M_a = w l (a_n 1 + (a_t - a_n) t t^T), before and after
-        vx, vy, vz = v[0][i], v[1][i], v[2][i]
-        vv = vx * vx + vy * vy + vz * vz
-        ut, uo = vx * tx + vy * ty + vz * tz, vx * S[7][i] + vy * S[8][i] + vz * S[9][i]
-        de = 0.5 * vlen[i] * (w * (an * vv + (at - an) * ut * ut) - S[0][i] * (an * vv + (at - an) * uo * uo))
     S[0][i] = w
-    S[7][i], S[8][i], S[9][i] = tx, ty, tz
-    S[14][i], S[15][i] = dry[i] + w * (wet0[i] - dry[i]), dry[i] + w * (wet1[i] - dry[i])
-    return de
+    S[7][i], S[8][i], S[9][i] = unit_chord(c, i - uint(1), i + uint(1))
+    S[14][i], S[15][i] = wet_inverses(dry, wet0, wet1, i, w)
+    return entrained_at(v, S, vlen, i, an, at) - before if entrained else 0.0
 
 
 @njit(**PASS)
@@ -847,8 +852,9 @@ def flow_fluid(p, model, state, h):
     leaves out of its forces, counted in p.supplied, so the energy balance still closes."""
     after = p.turn[0] & 1
     side = (p.turn[0] >> 1) & 1
+    still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
     if after == 0:   # in a still medium, the lines' interior share of the change is the sample's own
-        added, still = has_added_mass(p), still_medium(p)
+        added = has_added_mass(p)
         before = (nodes_entrained(p, model, state) if still else entrained_energy(p, model, state)) if added else 0.0
         de = sample_medium(p, model, state)
         sample_buoys(p, state, state.clock[0])
@@ -856,15 +862,14 @@ def flow_fluid(p, model, state, h):
             after_sample = de + nodes_entrained(p, model, state) if still else entrained_energy(p, model, state)
             p.supplied[0] += after_sample - before
     if side == after:
-        moving = not still_medium(p)   # (the inertia force at the lines' vertices)
         if after == 1:
-            if moving:
+            if not still:
                 push_vertices(p, model, state, 2.0 * h)
             push_nodes(p, model, state, 2.0 * h)
         drag_vertices(p, model, state, 2.0 * h)
         drag_nodes(p, model, state, 2.0 * h)
         if after == 0:
-            if moving:
+            if not still:
                 push_vertices(p, model, state, 2.0 * h)
             push_nodes(p, model, state, 2.0 * h)
     p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
