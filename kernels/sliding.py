@@ -68,6 +68,16 @@ def inverse_mass(p, model, l, v):
 
 
 @njit(**INNER)
+def move_node(model, state, nd, dx, dv):
+    """Update node nd by dx (3-tuple, position) and dv (velocity); its line ends follow (1.1)."""
+    for k in range(3):
+        state.node_x[nd, k] += dx[k]
+        state.node_v[nd, k] += dv[k]
+    for a in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        place_line_end(model.node_attach_list[a], model, state)
+
+
+@njit(**INNER)
 def move_vertex(model, state, l, v, dx, dv):
     """Update vertex v of line l by dx (3-tuple, position) and dv (velocity); an end vertex
     moves its node, whose line ends then follow (1.1)."""
@@ -78,12 +88,7 @@ def move_vertex(model, state, l, v, dx, dv):
             state.x[v, k] += dx[k]
             state.v[v, k] += dv[k]
         return
-    nd = model.attach_node[2 * l + end]
-    for k in range(3):
-        state.node_x[nd, k] += dx[k]
-        state.node_v[nd, k] += dv[k]
-    for a in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-        place_line_end(model.node_attach_list[a], model, state)
+    move_node(model, state, model.attach_node[2 * l + end], dx, dv)
 
 
 @njit(**INNER)
@@ -93,11 +98,7 @@ def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
     (h = 0: velocities only)."""
     l, nd = p.path_lines[p.link[j]], p.node[j]
     wp = p.node_weight[nd]
-    for k, c in enumerate((jx, jy, jz)):
-        state.node_v[nd, k] += wp * c
-        state.node_x[nd, k] += h * wp * c
-    for a in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-        place_line_end(model.node_attach_list[a], model, state)
+    move_node(model, state, nd, (h * wp * jx, h * wp * jy, h * wp * jz), (wp * jx, wp * jy, wp * jz))
     for v, share in ((i, 1.0 - t), (i + 1, t)):
         w = -share * inverse_mass(p, model, l, v)
         move_vertex(model, state, l, v, (h * w * jx, h * w * jy, h * w * jz), (w * jx, w * jy, w * jz))
@@ -178,23 +179,20 @@ def slide_after_drift(p, model, state, h):
 
 
 @njit(**INNER)
-def tangential_impulse(p, j, ut, w, normal, h):
-    """Return the impulse along the line (on the node) of slider j's damper and friction given
-    its relative sliding velocity ut after the normal impulse, the effective inverse mass w
-    and the normal impulse magnitude of the step; p.sliding follows."""
-    c = p.damping[j]
+def friction_impulse(ut, w, normal, h, c, mu_s, mu_k, sliding):
+    """Return (impulse, sliding) along a contact of relative sliding velocity ut and effective
+    inverse mass w: a damper c (implicit over h) and Coulomb friction against the normal impulse
+    magnitude of the step: sticks while the impulse that would stop it is within mu_s times it
+    (mu_k once sliding), else slides against mu_k times it."""
     jd = -c * h * ut / (1.0 + c * h * w)
     u1 = ut + w * jd
     stop = -u1 / w
-    if p.mu_s[j] == 0.0 and p.mu_k[j] == 0.0:
-        p.sliding[j] = 1.0 if u1 != 0.0 else 0.0
-        return jd
-    limit = (p.mu_k[j] if p.sliding[j] != 0.0 else p.mu_s[j]) * normal
+    if mu_s == 0.0 and mu_k == 0.0:
+        return jd, 1.0 if u1 != 0.0 else 0.0
+    limit = (mu_k if sliding != 0.0 else mu_s) * normal
     if abs(stop) <= limit:
-        p.sliding[j] = 0.0
-        return jd + stop
-    p.sliding[j] = 1.0
-    return jd + math.copysign(min(p.mu_k[j] * normal, abs(stop)), stop)
+        return jd + stop, 0.0
+    return jd + math.copysign(min(mu_k * normal, abs(stop)), stop), 1.0
 
 
 @njit(**CACHED)
@@ -232,7 +230,8 @@ def slide_after_kick(p, model, state, arg):
         if at_start or at_end:   # a stop: the slider does not leave the line
             jt = -ut / w
         else:
-            jt = tangential_impulse(p, j, ut, w, normal, h)
+            jt, p.sliding[j] = friction_impulse(ut, w, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
+                                                p.sliding[j])
             after = ut + w * jt
             lost += 0.5 * (ut * ut - after * after) / w
         apply_impulse(p, j, model, state, i, t, nx + jt * tx, ny + jt * ty, nz + jt * tz, 0.0)

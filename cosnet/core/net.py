@@ -122,6 +122,7 @@ class Net:
     nodes: list[Node] = field(default_factory=list)
     lines: list[Line] = field(default_factory=list)
     sliders: list = field(default_factory=list)   # rings and eyelets (cosnet.core.sliding)
+    sheaves: list = field(default_factory=list)   # eyelets with a radius (cosnet.core.sliding)
     # name -> item, rebuilt whenever it lags behind the lists (building a net of 10^5 nodes
     # by name searches would cost O(N^2))
     _by_name: dict = field(default_factory=dict, init=False, repr=False)
@@ -327,11 +328,11 @@ class Net:
         return add_ring(self, line, s, mass, inertia, mu_s, mu_k, damping, name)
 
     def add_eyelet(self, line: Line | list[Line], *, s: float, at=None, mu: float = 0.0, damping: float = 0.0,
-                   name: str | None = None) -> Node:
+                   radius: float = 0.0, name: str | None = None) -> Node:
         """An eyelet ``line`` slides through, at s (m of unstretched length from its start): a
-        fixed node made there (at=None) or at a point, or an existing node on the line; its
-        node (cosnet.core.sliding)."""
-        return add_eyelet(self, line, s, at, mu, damping, name)
+        fixed node made there (at=None) or at a point, or an existing node on the line; with a
+        radius, a sheave about ``at`` whose rim the line wraps; its node (cosnet.core.sliding)."""
+        return add_eyelet(self, line, s, at, mu, damping, radius, name)
 
     def node(self, name: str) -> Node:
         try:

@@ -1,7 +1,7 @@
 """Mobile nodes (§8): rings that slide on a line, eyelets a line slides through.
 
     ring = net.add_ring(line, s=..., mass=..., inertia=None, mu_s=0, mu_k=0, damping=0)
-    eyelet = net.add_eyelet(line, s=..., at=None, mu=0, damping=0)
+    eyelet = net.add_eyelet(line, s=..., at=None, mu=0, damping=0, radius=0)
 
 ``line`` is a line, or a path of lines (a list, each ending at the node where the next starts,
 with no offsets there): the slider then passes from one to the next through their junctions.
@@ -16,6 +16,12 @@ stay material. mu_s, mu_k: Coulomb friction coefficients against the normal forc
 then slides), damping: a damper on the sliding velocity (N s/m). A slider stops at the line's
 ends. The constraint and its kernels: kernels/sliding.py; the effect that holds a net's
 sliders, which a Simulation adds: cosnet.effects.sliders.
+
+An eyelet with a radius is a sheave: a wheel on free bearings about ``at`` (its centre: a
+point, or a node whose rotation is locked) whose rim the line's centreline wraps, turning as
+sharply as the wrap asks. The line (one line, laid over the rim as built) passes the rim at
+s; the sheave's plane is the one its tangent there and the radius span. Its kernels:
+kernels/sheaves.py; its effect: cosnet.effects.sheaves.
 """
 
 from __future__ import annotations
@@ -40,6 +46,18 @@ class Slider:
     mu_s: float
     mu_k: float
     damping: float
+
+
+@dataclass(eq=False)
+class Sheave:
+    """A wheel a line wraps and slides over (an eyelet with a radius)."""
+
+    line: Any        # cosnet.core.net.Line
+    s: float         # material coordinate at the rim as built
+    node: Any        # the node it moves with (its centre, or offset from it)
+    centre: np.ndarray  # (3,) as built
+    axis: np.ndarray    # (3,) unit normal of its plane
+    radius: float
 
 
 def point_at(line, s: float) -> np.ndarray:
@@ -106,15 +124,23 @@ def add_ring(net, line, s, mass, inertia=None, mu_s=0.0, mu_k=0.0, damping=0.0, 
     return node
 
 
-def add_eyelet(net, line, s, at=None, mu=0.0, damping=0.0, name=None):
+def _given_node(net, at, who) -> bool:
+    given = isinstance(getattr(at, "index", None), (int, np.integer))
+    if given and (at.index >= len(net.nodes) or net.nodes[at.index] is not at):
+        raise ValueError(f"{who}: {at!r} is not a node of this net")
+    return given
+
+
+def add_eyelet(net, line, s, at=None, mu=0.0, damping=0.0, radius=0.0, name=None):
     """Net.add_eyelet (module docstring): the eyelet's node."""
+    radius = checks.nonnegative(_owner("eyelet", line), "radius", radius)
+    if radius > 0.0:
+        return add_sheave(net, line, s, at, mu, damping, radius, name)
     who = _owner("eyelet", line)
     path, s, mu, _, damping = _common(net, line, s, mu, mu, damping, who)
     here = path_point(path, s)
-    given_node = isinstance(getattr(at, "index", None), (int, np.integer))
+    given_node = _given_node(net, at, who)
     if given_node:
-        if at.index >= len(net.nodes) or net.nodes[at.index] is not at:
-            raise ValueError(f"{who}: {at!r} is not a node of this net")
         point = at.position
     else:
         point = here if at is None else checks.vec3(who, "at", at)
@@ -124,4 +150,37 @@ def add_eyelet(net, line, s, at=None, mu=0.0, damping=0.0, name=None):
                          f"{here.tolist()}, {gap:.3g} m from {point.tolist()}")
     node = at if given_node else net.add_node(point, fixed=True, name=name)
     net.sliders.append(Slider("eyelet", path, s, node, mu, mu, damping))
+    return node
+
+
+def add_sheave(net, line, s, at, mu, damping, radius, name=None):
+    """Net.add_eyelet with a radius (module docstring): the sheave's node."""
+    who = _owner("sheave", line)
+    path, s, mu, _, damping = _common(net, line, s, mu, mu, damping, who)
+    if mu or damping:
+        raise ValueError(f"{who}: a sheave turns freely (mu = 0, damping = 0); for a drum with friction use a "
+                         f"capsule obstacle with friction")
+    if len(path) != 1:
+        raise ValueError(f"{who}: a sheave takes one line, not a path of {len(path)}")
+    if at is None:
+        raise ValueError(f"{who}: give at, the sheave's centre (a node or a point)")
+    given_node = _given_node(net, at, who)
+    if given_node and not at.fixed_position and not np.all(at.locked_axes):
+        raise ValueError(f"{who}: node {at.name!r} may turn; a sheave moves with a node whose rotation is "
+                         f"locked (give it no inertia)")
+    centre = at.position.copy() if given_node else checks.vec3(who, "at", at)
+    (l,) = path
+    seg = np.linalg.norm(np.diff(l.points, axis=0), axis=1)
+    i = min(int(np.searchsorted(np.concatenate([[0.0], np.cumsum(seg)]), s, side="right")) - 1, len(seg) - 1)
+    here, tangent = point_at(l, s), (l.points[i + 1] - l.points[i]) / seg[i]
+    gap = float(np.linalg.norm(here - centre))
+    if abs(gap - radius) > 0.05 * radius:
+        raise ValueError(f"{who}: the line does not pass over the sheave: its point at s = {s:g} m is "
+                         f"{gap:.4g} m from the centre {centre.tolist()}, not the radius {radius:g} m")
+    axis = np.cross(here - centre, tangent)
+    if not np.linalg.norm(axis) > 0.5 * gap:
+        raise ValueError(f"{who}: the line at s = {s:g} m does not run along the rim (it meets it at "
+                         f"{math.degrees(math.asin(min(1.0, np.linalg.norm(axis) / gap))):.3g} degrees)")
+    node = at if given_node else net.add_node(centre, fixed=True, name=name)
+    net.sheaves.append(Sheave(l, s, node, centre, axis / np.linalg.norm(axis), radius))
     return node

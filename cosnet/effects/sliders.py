@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .drives import Drive
+from .sheaves import sheave_state
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.motion import place_line_ends
@@ -187,11 +188,15 @@ def sliders(net, grids=None) -> Sliders | None:
 
 def slider_state(sim, node) -> dict:
     """The slider whose node is ``node`` in ``sim``: "s" (its material coordinate, m of
-    unstretched length from its line's start) and "sliding" (bool)."""
+    unstretched length from its line's start) and "sliding" (bool); for a sheave, those of the
+    line's wrap and its angle "wrap" (cosnet.effects.sheaves.sheave_state)."""
     sim.check_node(node, "slider_state")
+    wheel = sheave_state(sim, node)
+    if wheel is not None:
+        return wheel
     held = next((e for e in sim.effects if isinstance(e, Sliders)), None)
     j = next((i for i, sl in enumerate(held.sliders) if sl.node is node), None) if held else None
     if held is None or j is None:
-        raise ValueError(f"slider_state: node {node.name!r} is no ring or eyelet")
+        raise ValueError(f"slider_state: node {node.name!r} is no ring, eyelet or sheave")
     p = held.params(sim)
     return {"s": float(p.s[j]), "sliding": bool(p.sliding[j] != 0.0)}

@@ -343,7 +343,8 @@ def builtin_effects() -> dict:
 # Effects a net implies by what its lines and nodes declare (a joint at a line end, a ring),
 # which a Simulation adds itself ("module:Class", each class's ``implied``). By name, as the
 # effects' modules import this one.
-IMPLIED = ("cosnet.effects.articulations:Articulations", "cosnet.effects.sliders:Sliders")
+IMPLIED = ("cosnet.effects.articulations:Articulations", "cosnet.effects.sliders:Sliders",
+           "cosnet.effects.sheaves:Sheaves")
 
 
 def implied_classes() -> list:

@@ -194,9 +194,9 @@ def _joint(t: Table, key):
 
 def _slider(t: Table, net: Net, name: str, ring: bool):
     """[rings.NAME] (line: a line's name or a path of them, s, mass, inertia, mu_s, mu_k,
-    damping) or [eyelets.NAME] (line, s, at: a node's name or a point, mu, damping):
+    damping) or [eyelets.NAME] (line, s, at: a node's name or a point, mu, damping, radius):
     Net.add_ring / add_eyelet."""
-    own = ("mass", "inertia", "mu_s", "mu_k") if ring else ("at", "mu")
+    own = ("mass", "inertia", "mu_s", "mu_k") if ring else ("at", "mu", "radius")
     t.expect("line", "s", "damping", *own)
     names = t.get("line", lambda v: string_list(v) if isinstance(v, list) else [string(v)])
     try:
@@ -216,7 +216,7 @@ def _slider(t: Table, net: Net, name: str, ring: bool):
                 raise t.err("at", f"unknown node {at!r}; nodes are {[x.name for x in net.nodes]}") from None
         elif at is not None:
             at = t.get("at", vec3)
-        kw.update(at=at, mu=t.get("mu", nonnegative, default=0.0))
+        kw.update(at=at, mu=t.get("mu", nonnegative, default=0.0), radius=t.get("radius", nonnegative, default=0.0))
     t.done()
     _wrap(t, "s", lambda: (net.add_ring if ring else net.add_eyelet)(line, name=name, **kw))
 

@@ -225,6 +225,9 @@ def modes(net_or_sim, count: int = 6, sigma: float = 0.0, method: str = "discret
         hint = REST_HINT
     else:
         raise ValueError(f"modes: expected a cosnet.Net or Simulation, got {net_or_sim!r}")
+    if net.sheaves:   # the rim holds a vertex only while it presses there: not a linear constraint
+        raise ValueError(f"modes: a net with sheaves has no linear modes (a line leaves the rim where its "
+                         f"tension stops pressing it there); sheave on node {net.sheaves[0].node.name!r}")
     if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
         raise ValueError(f"modes: count must be a positive integer, got {count!r}")
     if not math.isfinite(sigma) or sigma < 0:

@@ -1,0 +1,202 @@
+"""Sheaves (§8): a line that slides over a wheel's rim, turning sharply about it.
+
+A sheave j is a circle of radius R about a centre c (its node's centre of mass plus a fixed
+offset: the node does not turn) in the plane normal to a unit axis a. A vertex's relative
+position d = x - c splits into z = d.a along the axis and rho = d - z a in the plane; the
+rim's point is c + R rho / |rho|. The line's vertices near it (a window lo..hi of its
+vertices, followed as the line slides) may lie on the rim but not inside it: a vertex that a
+drift brings inside, within the rim's half-width of the plane, engages (one farther off passes
+beside the wheel); an engaged vertex is held on the rim to round-off, free to slide along and
+across it, and leaves it past its edge. The constraint is kept as RATTLE keeps one
+(kernels/sliding.py does it for rings), by impulses equal and opposite on the vertex and on
+the sheave's node, each moving by its inverse mass (a fixed or driven node not at all):
+- after every drift of h, each vertex inside the rim or engaged is put back on it (a few
+  passes when the node moves too) and the velocities take the impulse that displacement means
+  over h; those impulses and displacements are summed (push, moved);
+- after every kick, an engaged vertex's relative velocity into or out of the rim (radial) is
+  removed, unless the radial impulse of the step (the drifts' and this one) would pull it onto
+  the rim: then it lets go, the step's drift impulses and displacements undone, as a rope
+  leaves a wheel where its tension no longer presses it there.
+Along the rim the line slides freely: a sheave is a wheel on perfect bearings. A vertex lands
+on the rim as a plastic impact: the kinetic energy of its approach (its relative velocity into
+the rim before the drift that brought it there) is counted as dissipated; for a line that runs
+onto the wheel it goes to zero with the turn of one element over the rim. The impulses keep a
+free net's momentum.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .compiler import CACHED, INLINE
+from .compose import constraint_kernels
+from .sliding import PASSES, TOLERANCE, inverse_mass, move_node, move_vertex
+
+REACH = 1.5    # the window holds the vertices within REACH * R of the centre around the nearest
+
+
+class SheaveParams(NamedTuple):
+    """k sheaves: their nodes, geometry and the state of the vertices near them."""
+
+    node: np.ndarray        # (k,) int64 node the sheave moves with (its rotation locked)
+    line: np.ndarray        # (k,) int64 line that runs over it
+    offset: np.ndarray      # (k, 3) centre minus the node's centre of mass (lab frame)
+    axis: np.ndarray        # (k, 3) unit normal of the sheave's plane
+    radius: np.ndarray      # (k,) radius of the rim the line's centreline wraps (m)
+    groove: np.ndarray      # (k,) half-width of the rim: a vertex farther off the plane passes beside
+    node_weight: np.ndarray  # (nn,) inverse mass that moves each node here (0: fixed or driven)
+    near: np.ndarray        # (k,) int64 vertex (global) nearest the centre at the last drift
+    lo: np.ndarray          # (k,) int64 first vertex of the window
+    hi: np.ndarray          # (k,) int64 last vertex of the window
+    engaged: np.ndarray     # (nv,) 1.0 while the vertex is held on a rim
+    push: np.ndarray        # (nv, 3) impulse on the vertex from the drifts since the last kick
+    moved: np.ndarray       # (nv, 3) the displacement it meant (the impulses times their drifts' h)
+    dissipated: np.ndarray  # (1,) kinetic energy the landings took (J)
+
+
+@njit(**INLINE)
+def rim_frame(p, j, state, v):
+    """Return (rx, ry, rz, rho, z): vertex v's in-plane offset from sheave j's centre, its
+    length and the offset along the axis."""
+    nd, a = p.node[j], p.axis[j]
+    dx = state.x[v, 0] - state.node_x[nd, 0] - p.offset[j, 0]
+    dy = state.x[v, 1] - state.node_x[nd, 1] - p.offset[j, 1]
+    dz = state.x[v, 2] - state.node_x[nd, 2] - p.offset[j, 2]
+    z = dx * a[0] + dy * a[1] + dz * a[2]
+    rx, ry, rz = dx - z * a[0], dy - z * a[1], dz - z * a[2]
+    return rx, ry, rz, math.sqrt(rx * rx + ry * ry + rz * rz), z
+
+
+@njit(**INLINE)
+def centre_distance2(p, j, state, v):
+    nd = p.node[j]
+    return ((state.x[v, 0] - state.node_x[nd, 0] - p.offset[j, 0]) ** 2
+            + (state.x[v, 1] - state.node_x[nd, 1] - p.offset[j, 1]) ** 2
+            + (state.x[v, 2] - state.node_x[nd, 2] - p.offset[j, 2]) ** 2)
+
+
+@njit(**INLINE)
+def own_end(p, j, model, v):
+    """True if vertex v is an end of sheave j's line held by the sheave's own node (which the
+    rim cannot push)."""
+    l, off = p.line[j], model.line_vertex_offsets
+    return ((v == off[l] and model.attach_node[2 * l] == p.node[j])
+            or (v == off[l + 1] - 1 and model.attach_node[2 * l + 1] == p.node[j]))
+
+
+@njit(**INLINE)
+def find_window(p, j, model, state):
+    """Update p.near, p.lo, p.hi of sheave j: the vertex nearest its centre, walking from the
+    last, and the run of vertices about it within REACH * R; a vertex the window leaves is
+    free."""
+    l, off = p.line[j], model.line_vertex_offsets
+    first, last = off[l], off[l + 1] - 1
+    v = min(max(p.near[j], first), last)
+    d = centre_distance2(p, j, state, v)
+    for _ in range(last - first + 1):
+        if v > first and centre_distance2(p, j, state, v - 1) < d:
+            v -= 1
+        elif v < last and centre_distance2(p, j, state, v + 1) < d:
+            v += 1
+        else:
+            break
+        d = centre_distance2(p, j, state, v)
+    reach = (REACH * p.radius[j]) ** 2
+    lo, hi = v, v
+    while lo > first and centre_distance2(p, j, state, lo - 1) < reach:
+        lo -= 1
+    while hi < last and centre_distance2(p, j, state, hi + 1) < reach:
+        hi += 1
+    for u in range(min(max(p.lo[j], first), last), min(max(p.hi[j], first), last) + 1):
+        if u < lo or u > hi:     # left behind: free again
+            p.engaged[u] = 0.0
+            for k in range(3):
+                p.push[u, k], p.moved[u, k] = 0.0, 0.0
+    p.near[j], p.lo[j], p.hi[j] = v, lo, hi
+
+
+@njit(**INLINE)
+def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
+    """Update vertex v and sheave j's node by the impulse J on the vertex and -J on the node and
+    by the displacement D that its integral over time means: velocities by J, positions by D,
+    times their inverse masses."""
+    l, nd = p.line[j], p.node[j]
+    wv, wn = inverse_mass(p, model, l, v), p.node_weight[nd]
+    move_vertex(model, state, l, v, (wv * dx, wv * dy, wv * dz), (wv * jx, wv * jy, wv * jz))
+    if wn > 0.0:
+        move_node(model, state, nd, (-wn * dx, -wn * dy, -wn * dz), (-wn * jx, -wn * jy, -wn * jz))
+
+
+@njit(**CACHED)
+def wrap_after_drift(p, model, state, h):
+    """Update the positions and velocities of the vertices near every sheave and of its node
+    after a drift of h: each vertex inside a rim or engaged on it back on the rim (module
+    docstring); p.near, p.lo, p.hi, p.engaged and p.push follow."""
+    for j in range(p.node.shape[0]):
+        find_window(p, j, model, state)
+        R, l = p.radius[j], p.line[j]
+        for _ in range(PASSES):
+            worst = 0.0
+            for v in range(p.lo[j], p.hi[j] + 1):
+                rx, ry, rz, rho, z = rim_frame(p, j, state, v)
+                inside = rho < R and abs(z) <= p.groove[j]
+                if not (inside or p.engaged[v] != 0.0) or not rho > TOLERANCE * R or own_end(p, j, model, v):
+                    continue
+                w = inverse_mass(p, model, l, v) + p.node_weight[p.node[j]]
+                if not (w > 0.0 and h > 0.0):
+                    continue
+                if p.engaged[v] == 0.0:   # a plastic landing: the approach's kinetic energy is taken
+                    nd = p.node[j]
+                    ur = ((state.v[v, 0] - state.node_v[nd, 0]) * rx + (state.v[v, 1] - state.node_v[nd, 1]) * ry
+                          + (state.v[v, 2] - state.node_v[nd, 2]) * rz) / rho
+                    p.dissipated[0] += 0.5 * min(ur, 0.0) ** 2 / w
+                    p.engaged[v] = 1.0
+                out = R / rho - 1.0          # the rim's point less the vertex: out * rho
+                mx, my, mz = out * rx, out * ry, out * rz
+                worst = max(worst, abs(out) * rho)
+                push_pair(p, j, model, state, v, mx / (w * h), my / (w * h), mz / (w * h), mx / w, my / w, mz / w)
+                p.push[v, 0] += mx / (w * h)
+                p.push[v, 1] += my / (w * h)
+                p.push[v, 2] += mz / (w * h)
+                p.moved[v, 0] += mx / w
+                p.moved[v, 1] += my / w
+                p.moved[v, 2] += mz / w
+            if worst <= TOLERANCE * R:
+                break
+
+
+@njit(**CACHED)
+def wrap_after_kick(p, model, state, arg):
+    """Update the velocities of the engaged vertices near every sheave and of its node after a
+    kick of h (arg = (loads, h)): their relative velocity across the rim removed while the rim
+    presses them (module docstring); p.engaged follows and p.push is spent."""
+    for j in range(p.node.shape[0]):
+        nd, l = p.node[j], p.line[j]
+        for v in range(p.lo[j], p.hi[j] + 1):
+            if p.engaged[v] == 0.0:
+                continue
+            rx, ry, rz, rho, z = rim_frame(p, j, state, v)
+            w = inverse_mass(p, model, l, v) + p.node_weight[nd]
+            if not (w > 0.0 and rho > 0.0):
+                continue
+            nx, ny, nz = rx / rho, ry / rho, rz / rho
+            ux, uy, uz = (state.v[v, 0] - state.node_v[nd, 0], state.v[v, 1] - state.node_v[nd, 1],
+                          state.v[v, 2] - state.node_v[nd, 2])
+            radial = -(ux * nx + uy * ny + uz * nz) / w
+            pressed = p.push[v, 0] * nx + p.push[v, 1] * ny + p.push[v, 2] * nz + radial >= 0.0
+            if not pressed or abs(z) > p.groove[j]:
+                # the rim would have to pull: the vertex lets go, as if the rim had not held it
+                # this step (its drifts' impulses and displacements undone: kept, the pull's
+                # displacement against the line's tension would add to its energy)
+                p.engaged[v] = 0.0
+                push_pair(p, j, model, state, v, -p.push[v, 0], -p.push[v, 1], -p.push[v, 2], -p.moved[v, 0],
+                          -p.moved[v, 1], -p.moved[v, 2])
+            else:
+                push_pair(p, j, model, state, v, radial * nx, radial * ny, radial * nz, 0.0, 0.0, 0.0)
+            for k in range(3):
+                p.push[v, k], p.moved[v, k] = 0.0, 0.0
+
+
+constraint_kernels(SheaveParams, wrap_after_drift, wrap_after_kick)
