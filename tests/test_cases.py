@@ -315,6 +315,34 @@ def test_winch_reels_the_load_in_and_pulls_its_tension_times_the_capstan_factor(
     assert np.mean(pulls) == pytest.approx(t2 - 0.1 * G, rel=0.01)
 
 
+def test_crane_hoists_its_hook_block_at_half_the_hauling_speed_on_half_its_weight():
+    """Two parts of rope carry the hook block (frictionless sheaves): it rises half as far as
+    the winch hauls in, and the rope's tension is the same on both sides of each wheel but for
+    the rope's weight between heights, T(z) = C + lambda g z. So the block's sheave carries
+    2 T(z_B) = M (g + nu v_B) + lambda pi R g (its weight, its drag, the rope on its lower
+    half turn) and the winch's pin pulls T(z_W) less its own weight. Averaged over the second
+    half second, the hauling speed steady."""
+    scene = case("crane")
+    sim = scene.simulation()
+    block, winch, rope = scene.net.node("block"), scene.net.node("winch"), scene.net.line("rope")
+    lam = rope.material.density * rope.section_at(0.5).A
+    m, nu, radius = 20.0, 5.0, 0.1
+    sim.run(until=0.5)
+    zb0, zw0, pulls, speeds = sim.node_position(block)[2], sim.node_position(winch)[2], [], []
+    while sim.time < scene.run.until - 1e-9:
+        sim.run(until=min(scene.run.until, sim.time + 0.002))
+        pulls.append(-sim.reaction(winch)[0][2])
+        speeds.append(sim.node_velocity(block)[2])
+    rise, hauled = sim.node_position(block)[2] - zb0, zw0 - sim.node_position(winch)[2]
+    assert rise == pytest.approx(hauled / 2, rel=2e-3)
+    tension_at_block = 0.5 * (m * (G + nu * np.mean(speeds)) + lam * math.pi * radius * G)
+    zb, zw = sim.node_position(block)[2], sim.node_position(winch)[2]
+    pull = tension_at_block + lam * G * (zw - zb) - 0.1 * G
+    assert np.mean(pulls) == pytest.approx(pull, rel=0.01)
+    for sheave in ("block", "jib_sheave"):   # each wheel wrapped half a turn, to an element's turn
+        assert abs(cosnet.slider_state(sim, scene.net.node(sheave))["wrap"] - math.pi) < 0.15
+
+
 def test_plectoneme_coils_onto_itself_without_passing_through():
     """The twisted rod, its end pulled in, stays straight with the motor torque G J theta / L
     until it buckles, then coils onto itself: at the end its strands touch (two capsules at
