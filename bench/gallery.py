@@ -26,7 +26,8 @@ from harness import commit, write_json
 REPO = Path(__file__).resolve().parents[1]
 PICTURES = REPO / "docs" / "cases"
 # a view that shows the motion better than the default iso one, or a field the case is about
-OPTIONS = {"flagellum": {"view": "xy"}, "hinged_chain": {"view": "xz"}, "cardan": {"field": "torque"}, "crane": {"view": "xz"}}
+OPTIONS = {"flagellum": {"view": "xy"}, "hinged_chain": {"view": "xz"}, "cardan": {"field": "torque"},
+           "crane": {"view": "xz"}}
 PNG_SIZE = (1024, 768)
 GIF_SIZE = (320, 240)
 GIF_FRAMES = 30          # at most; every n-th frame of the run

@@ -116,7 +116,7 @@ def sheave_state(sim, node) -> dict | None:
     friction)."""
     held = next((e for e in sim.effects if isinstance(e, Sheaves)), None)
     j = next((i for i, sh in enumerate(held.sheaves) if sh.node is node), None) if held else None
-    if j is None:
+    if held is None or j is None:
         return None
     p, m = held.params(sim), sim.model
     sh = held.sheaves[j]
