@@ -330,6 +330,24 @@ def rings_cost() -> str:
         d["machine"], f", one thread, `{d['command']}`")
 
 
+def sheaves_cost() -> str:
+    d = _json("sheaves.json")
+    rows = [[str(r["per_radius"]), str(r["elements"]), str(r["engaged"]), f"{r['us_bare']:.3g}",
+             f"{r['us_sheave']:.3g}", f"+{r['over_percent']:.0f} %", f"{r['us_per_engaged']:.2g}"] for r in d["cost"]]
+    head = ["elements per radius", "elements", "vertices on the rim", "µs per step, bare rope",
+            "µs per step, over the sheave", "over the bare rope", "µs per vertex on the rim"]
+    return _table(head, rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
+
+
+def sheaves_accuracy() -> str:
+    d = _json("sheaves.json")
+    rows = [[str(r["per_radius"]), str(r["elements"]), _g(r["dt"], 3), f"{r['steps']:,}", _g(r["drop_error"]),
+             _g(r["landings_over_kinetic"]), f"{r['wall_s']:.2g}"] for r in d["accuracy"]]
+    return _table(["elements per radius", "elements", "stable dt (s)", "steps", "drop against the rigid rope",
+                   "landings' energy / kinetic energy", "wall (s)"], rows) + measured_on(
+        d["machine"], f", one thread, over {d['until']} s, `{d['command']}`")
+
+
 def joints_accuracy() -> str:
     d = _json("joints.json")
     rows = [[r["middle"], _g(r["dt"], 3), f"{r['steps']:,}", _g(r["error_over_length"]), f"{r['wall_s']:.2g}"]
@@ -427,7 +445,8 @@ def figure(expression: str, namespace: dict, where: str) -> str:
 
 
 TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy,
-          "rings_cost": rings_cost, "moordyn": moordyn,
+          "rings_cost": rings_cost, "sheaves_cost": sheaves_cost, "sheaves_accuracy": sheaves_accuracy,
+          "moordyn": moordyn,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy,
           "snakes_against": snakes_against, "throughput": throughput, "contact_friction": contact_friction,

@@ -88,33 +88,48 @@ def own_end(p, j, model, v):
 
 @njit(**INLINE)
 def find_window(p, j, model, state):
-    """Update p.near, p.lo, p.hi of sheave j: the vertex nearest its centre, walking from the
-    last, and the run of vertices about it within REACH * R; a vertex the window leaves is
-    free."""
+    """Update p.near, p.lo, p.hi of sheave j: the run of vertices within REACH * R of its
+    centre, moved at its ends from the last (a rope slides a fraction of an element a step);
+    when it has shrunk to one vertex, about the vertex nearest the centre, walking from the
+    last. A vertex the window leaves is free."""
     l, off = p.line[j], model.line_vertex_offsets
     first, last = off[l], off[l + 1] - 1
-    v = min(max(p.near[j], first), last)
-    d = centre_distance2(p, j, state, v)
-    for _ in range(last - first + 1):
-        if v > first and centre_distance2(p, j, state, v - 1) < d:
-            v -= 1
-        elif v < last and centre_distance2(p, j, state, v + 1) < d:
-            v += 1
-        else:
-            break
+    lo, hi = min(max(p.lo[j], first), last), min(max(p.hi[j], first), last)
+    if lo >= hi:
+        v = lo
         d = centre_distance2(p, j, state, v)
+        for _ in range(last - first + 1):
+            if v > first and centre_distance2(p, j, state, v - 1) < d:
+                v -= 1
+            elif v < last and centre_distance2(p, j, state, v + 1) < d:
+                v += 1
+            else:
+                break
+            d = centre_distance2(p, j, state, v)
+        if v != lo:
+            free_vertex(p, lo)
+        p.near[j] = v
+        lo, hi = v, v
     reach = (REACH * p.radius[j]) ** 2
-    lo, hi = v, v
     while lo > first and centre_distance2(p, j, state, lo - 1) < reach:
         lo -= 1
+    while lo < hi and not centre_distance2(p, j, state, lo) < reach:
+        free_vertex(p, lo)
+        lo += 1
     while hi < last and centre_distance2(p, j, state, hi + 1) < reach:
         hi += 1
-    for u in range(min(max(p.lo[j], first), last), min(max(p.hi[j], first), last) + 1):
-        if u < lo or u > hi:     # left behind: free again
-            p.engaged[u] = 0.0
-            for k in range(3):
-                p.push[u, k], p.moved[u, k] = 0.0, 0.0
-    p.near[j], p.lo[j], p.hi[j] = v, lo, hi
+    while hi > lo and not centre_distance2(p, j, state, hi) < reach:
+        free_vertex(p, hi)
+        hi -= 1
+    p.lo[j], p.hi[j] = lo, hi
+
+
+@njit(**INLINE)
+def free_vertex(p, v):
+    """Update vertex v's rim state: free of the rim (the window has left it)."""
+    p.engaged[v] = 0.0
+    for k in range(3):
+        p.push[v, k], p.moved[v, k] = 0.0, 0.0
 
 
 @njit(**INLINE)
@@ -163,7 +178,7 @@ def wrap_after_drift(p, model, state, h):
                 p.moved[v, 0] += mx / w
                 p.moved[v, 1] += my / w
                 p.moved[v, 2] += mz / w
-            if worst <= TOLERANCE * R:
+            if worst <= TOLERANCE * R or p.node_weight[p.node[j]] == 0.0:   # a fixed wheel: one pass is exact
                 break
 
 
