@@ -45,7 +45,8 @@ def cost(per_radius, rounds):
     return {"per_radius": per_radius, "elements": held.net.element_count, "engaged": engaged,
             "window": int(p.hi[0] - p.lo[0] + 1), "us_bare": 1e6 * t_bare / steps,
             "us_sheave": 1e6 * t_held / steps,
-            "over_percent": 100.0 * (t_held / t_bare - 1.0), "us_per_engaged": 1e6 * (t_held - t_bare) / steps / engaged}
+            "over_percent": 100.0 * (t_held / t_bare - 1.0),
+            "us_per_engaged": 1e6 * (t_held - t_bare) / steps / engaged}
 
 
 def rigid_drop(net, t):
