@@ -9,6 +9,8 @@ beta = 2 lambda g / M. The rope's engaged vertices lie on the rim to round-off; 
 what the landings took is conserved at the scheme's order; bad input gets one line."""
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -236,3 +238,34 @@ def test_a_trolley_on_a_slack_cable_keeps_to_its_static_path():
     assert max(xs) > 0.25 > x0          # it swung past the middle
     assert worst < 2e-4                 # measured 5e-5 (the rope's stretch is 7e-4)
     assert drift < 1e-6 * fall          # measured 3e-8
+
+
+SPOIL = """
+import sys
+import numpy as np
+import cosnet
+from cosnet.effects.sheaves import Sheaves, over_a_sheave
+net, _ = over_a_sheave(radius=0.05, drop=0.2, masses=(0.3, 0.2))
+sim = cosnet.Simulation(net, [cosnet.Gravity()])
+sim.run(steps=50)
+p = next(e for e in sim.effects if isinstance(e, Sheaves)).params(sim)
+on = np.flatnonzero(p.engaged)
+sim.state.x[on[len(on) // 2]] = float(sys.argv[1])       # a vertex on the rim
+sim.state.x[p.lo[0]] = float(sys.argv[1])                 # the window's end
+for _ in range(3):
+    try:
+        sim.run(steps=1)
+        print("ran")
+    except cosnet.InstabilityError as e:
+        print(str(e).splitlines()[0][:40])
+"""
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "1e300"])
+def test_a_spoilt_vertex_on_the_rim_ends_in_a_clear_error_not_a_crash(value):
+    """A NaN, infinite or huge coordinate on the rim and at the window's end: the sheave's
+    kernels keep to the line's vertices (the window clamped to them, no landing or release on
+    a coordinate that is not a number), and the watch stops the run in one line."""
+    r = subprocess.run([sys.executable, "-c", SPOIL, value], capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.splitlines()[0].startswith("unstable at t = "), r.stdout
