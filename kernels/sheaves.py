@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .compiler import CACHED, INLINE
+from .compiler import CACHED, INLINE, INNER
 from .compose import constraint_kernels
 from .sliding import PASSES, TOLERANCE, inverse_mass, move_node, move_vertex
 
@@ -132,7 +132,7 @@ def free_vertex(p, v):
         p.push[v, k], p.moved[v, k] = 0.0, 0.0
 
 
-@njit(**INLINE)
+@njit(**INNER)   # called, not inlined: three inlined copies cost about 2 s more at a first compile
 def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
     """Update vertex v and sheave j's node by the impulse J on the vertex and -J on the node and
     by the displacement D that its integral over time means: velocities by J, positions by D,
