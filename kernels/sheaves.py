@@ -34,7 +34,7 @@ from .compiler import CACHED, INLINE, INNER
 from .compose import constraint_kernels
 from .sliding import PASSES, TOLERANCE, inverse_mass, move_node, move_vertex
 
-REACH = 1.5    # the window holds the vertices within REACH * R of the centre around the nearest
+REACH = 1.5    # the window: the run of the line's vertices within REACH * R of the centre
 
 
 class SheaveParams(NamedTuple):
@@ -148,7 +148,8 @@ def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
 def wrap_after_drift(p, model, state, h):
     """Update the positions and velocities of the vertices near every sheave and of its node
     after a drift of h: each vertex inside a rim or engaged on it back on the rim (module
-    docstring); p.near, p.lo, p.hi, p.engaged and p.push follow."""
+    docstring); p.near, p.lo, p.hi, p.engaged, p.push, p.moved and p.dissipated (landings)
+    follow."""
     for j in range(p.node.shape[0]):
         find_window(p, j, model, state)
         R, l = p.radius[j], p.line[j]
@@ -186,7 +187,7 @@ def wrap_after_drift(p, model, state, h):
 def wrap_after_kick(p, model, state, arg):
     """Update the velocities of the engaged vertices near every sheave and of its node after a
     kick of h (arg = (loads, h)): their relative velocity across the rim removed while the rim
-    presses them (module docstring); p.engaged follows and p.push is spent."""
+    presses them (module docstring); p.engaged follows and p.push, p.moved are spent."""
     for j in range(p.node.shape[0]):
         nd, l = p.node[j], p.line[j]
         for v in range(p.lo[j], p.hi[j] + 1):
@@ -202,9 +203,10 @@ def wrap_after_kick(p, model, state, arg):
             radial = -(ux * nx + uy * ny + uz * nz) / w
             pressed = p.push[v, 0] * nx + p.push[v, 1] * ny + p.push[v, 2] * nz + radial >= 0.0
             if not pressed or abs(z) > p.groove[j]:
-                # the rim would have to pull: the vertex lets go, as if the rim had not held it
-                # this step (its drifts' impulses and displacements undone: kept, the pull's
-                # displacement against the line's tension would add to its energy)
+                # the rim would have to pull (or the vertex has slid past its edge): it lets go, as
+                # if the rim had not held it this step (its drifts' impulses and displacements
+                # undone: kept, the pull's displacement against the line's tension would add to
+                # its energy)
                 p.engaged[v] = 0.0
                 push_pair(p, j, model, state, v, -p.push[v, 0], -p.push[v, 1], -p.push[v, 2], -p.moved[v, 0],
                           -p.moved[v, 1], -p.moved[v, 2])
