@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.effects.sheaves import Sheaves, over_a_sheave
+from cosnet.effects.sheaves import Sheaves, laid_rope, over_a_sheave
 
 G = 9.81
 R = 0.05
@@ -215,11 +215,9 @@ def test_a_trolley_on_a_slack_cable_keeps_to_its_static_path():
     points, _ = over_wheel(a, b, centre, radius, step=radius / 10)
     net = cosnet.Net()
     pa, pb = net.add_node(a, fixed=True), net.add_node(b, fixed=True)
-    solid = math.pi * 0.001**4 / 4     # a laid rope, 1 mm in radius, a tenth of steel's stiffness
-    rope = cosnet.Section(A=math.pi * 0.001**2, I11=solid / 1000, I22=solid / 1000, J=solid / 500, radius=0.001,
-                          rotary_inertia=(1000 * solid, 1000 * solid, 2000 * solid))
-    line = net.add_line(pa, pb, material=cosnet.Material(E=2e10, G=8e9, density=7850.0), section=rope,
-                        elements=len(points) - 1, points=points, rest_curvature=(0.0, 0.0, 0.0))
+    rope = cosnet.Material(E=2e10, G=8e9, density=7850.0)      # a tenth of steel's stiffness
+    line = net.add_line(pa, pb, material=rope, section=laid_rope(0.001), elements=len(points) - 1, points=points,
+                        rest_curvature=(0.0, 0.0, 0.0))
     trolley = net.add_node(centre, mass=mass, inertia=[math.inf] * 3)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     below = int(np.argmin(np.linalg.norm(points - (centre - [0.0, 0.0, radius]), axis=1)))

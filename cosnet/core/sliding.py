@@ -62,11 +62,17 @@ class Sheave:
 
 def point_at(line, s: float) -> np.ndarray:
     """The point of the line as built at unstretched arc length s from its start."""
+    return point_and_tangent(line, s)[0]
+
+
+def point_and_tangent(line, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The point of the line as built at unstretched arc length s from its start, and the unit
+    tangent of its segment there."""
     seg = np.linalg.norm(np.diff(line.points, axis=0), axis=1)
     arc = np.concatenate([[0.0], np.cumsum(seg)])
     i = min(int(np.searchsorted(arc, s, side="right")) - 1, len(seg) - 1)
-    t = (s - arc[i]) / seg[i]
-    return line.points[i] + t * (line.points[i + 1] - line.points[i])
+    chord = line.points[i + 1] - line.points[i]
+    return line.points[i] + (s - arc[i]) / seg[i] * chord, chord / seg[i]
 
 
 def path_point(path, s: float) -> np.ndarray:
@@ -170,9 +176,7 @@ def add_sheave(net, line, s, at, mu, damping, radius, name=None):
                          f"locked (give it no inertia)")
     centre = at.position.copy() if given_node else checks.vec3(who, "at", at)
     (l,) = path
-    seg = np.linalg.norm(np.diff(l.points, axis=0), axis=1)
-    i = min(int(np.searchsorted(np.concatenate([[0.0], np.cumsum(seg)]), s, side="right")) - 1, len(seg) - 1)
-    here, tangent = point_at(l, s), (l.points[i + 1] - l.points[i]) / seg[i]
+    here, tangent = point_and_tangent(l, s)
     gap = float(np.linalg.norm(here - centre))
     if abs(gap - radius) > 0.05 * radius:
         raise ValueError(f"{who}: the line does not pass over the sheave: its point at s = {s:g} m is "

@@ -161,6 +161,16 @@ class Path:
         return f"Path({', '.join(parts)})"
 
 
+def driven_nodes(effects, nn: int) -> np.ndarray:
+    """(nn,) True at the nodes a Drive among ``effects`` moves: they go where their drive says,
+    whatever pushes them (an impulse on them moves nothing)."""
+    mask = np.zeros(nn, dtype=bool)
+    for e in effects:
+        if isinstance(e, Drive):
+            mask[e.node.index] = True
+    return mask
+
+
 class Drive(Effect):
     """Prescribed motion of ``node`` (a Node), from where it was built.
 

@@ -12,7 +12,7 @@ from ..core import samples
 from ..engine.bounds import index_error
 from ..core import checks
 from .contact import chosen_lines, chosen_parts
-from .drives import Drive
+from .drives import driven_nodes
 from .loads import Gravity, checked_table
 from ..kernels.added_mass import TURNING_ROWS
 from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_entrained_energy, sample_fluid
@@ -335,10 +335,7 @@ class Fluid(Effect):
                 rows["inertia_n"][j], rows["inertia_t"][j] = rho * vol * (1.0 + self.added_coefficients)
             if self.buoyancy:
                 rows["buoyancy"][j] = rho * g * vol
-        skip = np.zeros(nn)
-        for e in on.effects:
-            if isinstance(e, Drive):
-                skip[e.node.index] = 1.0
+        skip = driven_nodes(on.effects, nn).astype(float)
         a, T, hd, ph = self.waves
         omega = 2.0 * math.pi / T if T.size else np.zeros(0)
         kw = np.array([wave_number(w, self.depth, g) for w in omega])

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from .drives import Drive
+from .drives import driven_nodes
 from .loads import Gravity
 from ..engine.bounds import index_error
 from ..kernels.sheaves import SheaveParams
@@ -63,10 +63,7 @@ class Sheaves(Effect):
     def bind(self, on: Binding):
         m = on.model
         k, nv = len(self.sheaves), m.vertex_mass.shape[0]
-        weight = m.node_inv_mass.copy()
-        for e in on.effects:   # a driven node goes where its drive says, whatever pushes it
-            if isinstance(e, Drive):
-                weight[e.node.index] = 0.0
+        weight = np.where(driven_nodes(on.effects, m.node_inv_mass.shape[0]), 0.0, m.node_inv_mass)
         x = on.state.x
         near = np.zeros(k, dtype=np.int64)
         vo = m.line_vertex_offsets
@@ -109,28 +106,15 @@ class Sheaves(Effect):
         return f"Sheaves({len(self.sheaves)})"
 
 
-def sheave_state(sim, node) -> dict | None:
-    """The sheave whose node is ``node`` in ``sim`` (None if none): "s" (the material
-    coordinate at the middle of the line's wrap, m of unstretched length from its start),
-    "wrap" (the angle the engaged vertices span, rad) and "sliding" (True: a sheave has no
-    friction)."""
-    held = next((e for e in sim.effects if isinstance(e, Sheaves)), None)
-    j = next((i for i, sh in enumerate(held.sheaves) if sh.node is node), None) if held else None
-    if held is None or j is None:
-        return None
-    p, m = held.params(sim), sim.model
-    sh = held.sheaves[j]
-    on = np.arange(p.lo[j], p.hi[j] + 1)
-    on = on[p.engaged[on] != 0.0]
-    if not on.size:
-        return {"s": math.nan, "wrap": 0.0, "sliding": True}
-    vo, eo = m.line_vertex_offsets, m.line_element_offsets
-    l = sh.line.index
-    arc = np.concatenate([[0.0], np.cumsum(m.element_rest_length[eo[l]:eo[l + 1]])])
-    centre = sim.state.node_x[sh.node.index] + p.offset[j]
-    a, b = sim.state.x[on[0]] - centre, sim.state.x[on[-1]] - centre
-    wrap = math.atan2(float(np.cross(a, b) @ p.axis[j]), float(a @ b)) % (2 * math.pi)
-    return {"s": float(0.5 * (arc[on[0] - vo[l]] + arc[on[-1] - vo[l]])), "wrap": wrap, "sliding": True}
+def laid_rope(radius: float):
+    """A circular rope section of ``radius`` whose bending and torsion stiffness are a
+    thousandth of the solid section's (a laid rope: its tension, not its stiffness, lays it on
+    a rim) and whose rotary inertia is a thousand times the solid's (its rotations then do not
+    bind the stable step)."""
+    from ..core.materials import Section
+    solid = math.pi * radius**4 / 4
+    return Section(A=math.pi * radius * radius, I11=solid / 1000, I22=solid / 1000, J=solid / 500, radius=radius,
+                   rotary_inertia=(1000 * solid, 1000 * solid, 2000 * solid))
 
 
 def over_a_sheave(radius: float, drop: float, masses: tuple, elements_per_radius: float = 10.0,
@@ -139,14 +123,10 @@ def over_a_sheave(radius: float, drop: float, masses: tuple, elements_per_radius
     x-z plane (axis y), its two strands hanging ``drop`` below the centre with point masses
     ``masses`` at their ends; elements about radius / elements_per_radius long; the rope
     straight at rest (bent over the rim as built)."""
-    from ..core.materials import Material, Section
+    from ..core.materials import Material
     from ..core.net import Net
     material = material or Material(E=2e9, G=8e8, density=1000.0)
-    if section is None:   # a laid rope: a thousandth of the solid section's bending stiffness
-        r = 0.002
-        solid = math.pi * r**4 / 4
-        section = Section(A=math.pi * r * r, I11=solid / 1000, I22=solid / 1000, J=solid / 500, radius=r,
-                          rotary_inertia=(1000 * solid, 1000 * solid, 2000 * solid))
+    section = section or laid_rope(0.002)
     step = radius / elements_per_radius
     n_drop = max(2, int(round(drop / step)))
     n_arc = max(4, int(round(math.pi * elements_per_radius)))

@@ -3,10 +3,12 @@ eyelets (cosnet.core.sliding); its kernels keep each node on its line (kernels/s
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .drives import Drive
-from .sheaves import sheave_state
+from .drives import driven_nodes
+from .sheaves import Sheaves
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.motion import place_line_ends
@@ -65,10 +67,7 @@ class Sliders(Effect):
         m = on.model
         k = len(self.sliders)
         arc = vertex_arcs(m)
-        weight = m.node_inv_mass.copy()
-        for e in on.effects:   # a driven node goes where its drive says, whatever pushes it
-            if isinstance(e, Drive):
-                weight[e.node.index] = 0.0
+        weight = np.where(driven_nodes(on.effects, m.node_inv_mass.shape[0]), 0.0, m.node_inv_mass)
         offsets = np.concatenate([[0], np.cumsum([len(sl.lines) for sl in self.sliders])]).astype(np.int64)
         path_lines = np.array([l.index for sl in self.sliders for l in sl.lines], dtype=np.int64)
         path_arc = np.concatenate([path_starts(sl) for sl in self.sliders])
@@ -189,7 +188,7 @@ def sliders(net, grids=None) -> Sliders | None:
 def slider_state(sim, node) -> dict:
     """The slider whose node is ``node`` in ``sim``: "s" (its material coordinate, m of
     unstretched length from its line's start) and "sliding" (bool); for a sheave, those of the
-    line's wrap and its angle "wrap" (cosnet.effects.sheaves.sheave_state)."""
+    line's wrap and its angle "wrap" (sheave_state)."""
     sim.check_node(node, "slider_state")
     wheel = sheave_state(sim, node)
     if wheel is not None:
@@ -200,3 +199,24 @@ def slider_state(sim, node) -> dict:
         raise ValueError(f"slider_state: node {node.name!r} is no ring, eyelet or sheave")
     p = held.params(sim)
     return {"s": float(p.s[j]), "sliding": bool(p.sliding[j] != 0.0)}
+
+
+def sheave_state(sim, node) -> dict | None:
+    """The sheave whose node is ``node`` in ``sim`` (None if none): "s" (the material
+    coordinate at the middle of the line's wrap, m of unstretched length from its start),
+    "wrap" (the angle the engaged vertices span, rad) and "sliding" (True: a sheave has no
+    friction)."""
+    held = next((e for e in sim.effects if isinstance(e, Sheaves)), None)
+    j = next((i for i, sh in enumerate(held.sheaves) if sh.node is node), None) if held else None
+    if held is None or j is None:
+        return None
+    p = held.params(sim)
+    on = np.arange(p.lo[j], p.hi[j] + 1)
+    on = on[p.engaged[on] != 0.0]
+    if not on.size:
+        return {"s": math.nan, "wrap": 0.0, "sliding": True}
+    arc = vertex_arcs(sim.model)
+    centre = sim.state.node_x[node.index] + p.offset[j]
+    a, b = sim.state.x[on[0]] - centre, sim.state.x[on[-1]] - centre
+    wrap = math.atan2(float(np.cross(a, b) @ p.axis[j]), float(a @ b)) % (2 * math.pi)
+    return {"s": float(0.5 * (arc[on[0]] + arc[on[-1]])), "wrap": wrap, "sliding": True}
