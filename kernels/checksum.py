@@ -64,7 +64,7 @@ def scan_state(state) -> tuple[int, str | None, int]:
     return int(h), where, row
 
 
-@njit(cache=True)
+@njit(**CACHED)
 def hash_segments(words, width, offsets, tag, h):
     """Update h (s,) uint64, the running hash of each of s segments, given words (n,) uint64
     (rows of ``width`` words), the CSR row offsets (s + 1,) of the segments, and a tag that

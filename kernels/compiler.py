@@ -293,34 +293,31 @@ def _cache_options() -> dict:
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 
-# Options every kernel starts from. They leave fast-math, the error model and reference
-# counting unset, and numba then compiles a kernel with its first caller's: the contact and
-# joint kernels (CACHED) take the step's fast-math, numpy's error model and no reference counts
-# when a step compiles them first, none of them when Python calls them first (a bench calling
-# add_contact directly), and the cache keeps whichever came first; the checksum's integer
-# passes are indifferent. CACHED_LANES below sets all three.
-CACHED = _cache_options()
+# fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
+# propagate so that a blow-up stays visible to the instability watch
+FAST = {"contract", "arcp", "reassoc", "nsz"}
+# Options every kernel starts from: fast-math, numpy's error model and no reference counts,
+# all three set. Under numpy's model a division by zero gives inf/NaN (the watch sees it);
+# python's raises, and the zero test it puts before every division is an early exit, which
+# stops vectorisation. Numba compiles a kernel whose options leave one unset with its first
+# caller's, and neither its in-memory overloads nor its cache key tell the variants apart: a
+# contact kernel first called from Python took python's error model (a division by zero
+# raises) and kept it for every step of that process, and a step compiled there went into the
+# cache with it linked in. A cache filled by test workers in one order then made a rope pile's
+# step raise ZeroDivisionError that a cache filled in another order did not. Set, a kernel's
+# code is the same whoever calls it first. No kernel allocates; any that did would be refused
+# at compile time (no reference counts), as the steps refuse it.
+CACHED = dict(_cache_options(), fastmath=FAST, error_model="numpy", _nrt=False)
 # the same, inlined by numba where called (the joints' helpers)
 CACHED_INLINE = dict(CACHED, inline="always")
 # the same, for helpers called only from other kernels: without the Python entry wrapper,
 # whose compilation (unboxing a record of dozens of arrays) costs more than a small body's
 CACHED_INNER = dict(CACHED, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-# Pinned: without fast-math, with numpy's error model (below: a division by zero gives inf/NaN
-# instead of raising, every other quotient is the same bit for bit) and without numba's
-# reference counts, all three set rather than left unset. Numba compiles a kernel whose options
-# leave them unset with its first caller's: the vertex-obstacle contact compiled inside a step
-# took the step's fast-math (fused multiply-adds, other rounding) and its absence of reference
-# counts; first called from Python it ran without fast-math and counted a reference at every
-# row it read (the 100 snakes' obstacle call 380 us against 57), and the cache kept whichever
-# came first. For kernels whose divisions are all guarded and that allocate nothing, whose
-# loops run in vector lanes.
-CACHED_LANES = dict(CACHED, fastmath=False, error_model="numpy", _nrt=False)
-# fast-math without nnan/ninf: contraction and reassociation, while NaN and infinity still
-# propagate so that a blow-up stays visible to the instability watch
-FAST = {"contract", "arcp", "reassoc", "nsz"}
-# Division by zero gives inf/NaN (numpy's error model) rather than raising: the zero test
-# python's model puts before every division is an early exit, which stops vectorisation.
-KERNEL = dict(CACHED, fastmath=FAST, error_model="numpy")
+# Without fast-math: the vertex-obstacle contact (other rounding than the step's fused
+# multiply-adds). For kernels whose divisions are all guarded, whose loops run in vector lanes.
+CACHED_LANES = dict(CACHED, fastmath=False)
+# the step kernels' options (the same)
+KERNEL = CACHED
 # Kernels called only from other kernels: no Python entry wrapper. Numba otherwise builds and
 # compiles, for every function, a wrapper unboxing its arguments from Python objects; for a
 # function taking the model, state and loads records (47 arrays) that alone is most of a

@@ -18,7 +18,7 @@ from .rotations import quat_rotate_inv, relative_rotation
 
 # not the kernels' fastmath: under it LLVM may take the test for a non-finite strain for
 # always true, and a NaN must be found here
-EXACT = dict(CACHED, error_model="numpy", _nrt=False)
+EXACT = dict(CACHED, fastmath=False)
 
 
 @njit(**EXACT)

@@ -30,6 +30,8 @@ import numpy as np
 from numba import njit, typeof
 from numba.core import types
 
+from .compiler import CACHED_INLINE
+
 
 class Model(NamedTuple):
     """Static constants of a flattened net (nl lines, nv vertices, ne elements, na = 2 nl
@@ -96,7 +98,7 @@ class Loads(NamedTuple):
     bend_right: np.ndarray  # (nv, 3) scratch: torque of Voronoi point k on its right frame, body frame
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED_INLINE)
 def columns(a, start=0, stop=-1):
     """Return the three component columns of rows start .. stop (default: all) of a
     column-major (n, 3) array as contiguous 1-D views, indexed from 0. LLVM vectorises loops
@@ -107,7 +109,7 @@ def columns(a, start=0, stop=-1):
     return a[start:stop, 0], a[start:stop, 1], a[start:stop, 2]
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED_INLINE)
 def quat_columns(a, start=0, stop=-1):
     """Return the four component columns of rows start .. stop of a column-major (n, 4)
     array of quaternions, as ``columns``."""
@@ -115,7 +117,7 @@ def quat_columns(a, start=0, stop=-1):
     return a[start:stop, 0], a[start:stop, 1], a[start:stop, 2], a[start:stop, 3]
 
 
-@njit(cache=True, inline="always")
+@njit(**CACHED_INLINE)
 def uint(i):
     """Return i as an unsigned index (see ``columns``)."""
     return np.uint64(i)

@@ -256,3 +256,30 @@ def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
     model, state = record_type(sim.model), record_type(sim.state)
     for kernel in (fluid.sample_fluid, fluid.fluid_entrained_energy):
         assert kernel.overloads and all(sig[1:3] == (model, state) for sig in kernel.overloads), kernel
+
+
+def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():
+    """Numba compiles a kernel whose options leave fast-math, the error model or reference
+    counting unset with its first caller's, and keys neither its overloads nor its cache by
+    them: a contact kernel first called from Python took python's error model and a step
+    compiled after it raised ZeroDivisionError where the same step compiled first gave a
+    finite result. Every kernel of cosnet.kernels sets all three, so its code is the same
+    whoever calls it first, and the error model is numpy's (a zero divisor gives inf or NaN,
+    which the watch sees)."""
+    import importlib
+    import pkgutil
+
+    from numba.core.registry import CPUDispatcher
+
+    from cosnet import kernels
+    unset, python_model = [], []
+    for info in pkgutil.iter_modules(kernels.__path__):
+        module = importlib.import_module(f"{kernels.__name__}.{info.name}")
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
+                options = obj.targetoptions
+                unset += [f"{info.name}.{name}: {k}" for k in ("fastmath", "error_model", "_nrt")
+                          if k not in options]
+                if options.get("error_model") == "python":
+                    python_model.append(f"{info.name}.{name}")
+    assert not unset and not python_model, unset + python_model
