@@ -121,7 +121,7 @@ def test_stage_and_kernel_follow_from_the_registration():
     assert (cosnet.Gravity.stage, cosnet.Gravity.kernel) == ("load", K.add_gravity)
     assert set(registry.builtin_effects().values()) == {getattr(cosnet, n) for n in (
         "Gravity", "NodeLoad", "LineLoad", "Damping", "Drive", "MuscleTorque", "ActiveCurvature", "Contact",
-        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint", "Body", "Fluid")}
+        "Obstacle", "SphericalJoint", "HingeJoint", "FixedJoint", "Body", "Fluid", "InternalDamping")}
 
     from typing import NamedTuple
 

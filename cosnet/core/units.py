@@ -308,6 +308,7 @@ FORCE_PER_LENGTH = Unit("N/m", 0, 1, -2)
 TORQUE_PER_LENGTH = Unit("N m/m", 1, 1, -2)
 STIFFNESS = Unit("N/m", 0, 1, -2)              # a spring: force per displacement
 DAMPING = Unit("N s/m", 0, 1, -1)
+STRAIN_DAMPING = Unit("N s", 1, 1, -1)          # a dashpot in strain: force per strain rate
 CURVATURE = Unit("1/m", -1)
 ROTARY_STIFFNESS = Unit("N m/rad", 2, 1, -2)   # a torque spring: torque per angle
 ROTARY_DAMPING = Unit("N m s/rad", 2, 1, -1)

@@ -30,7 +30,7 @@ from ..core.units import Unit
 ENTRY_POINTS = "cosnet.effects"
 # in the order kinds are listed
 BUILTIN_MODULES = tuple(f"cosnet.effects.{m}" for m in ("loads", "drives", "active", "contact", "obstacles", "joints",
-                                                           "bodies", "fluid"))
+                                                           "bodies", "fluid", "internal_damping"))
 REFERENCES = ("node", "line", "lines", "nodes", "path")   # converters naming parts of the net, or a file
 
 
