@@ -14,8 +14,12 @@ element's pair of vertices in turn, it is stable at any step:
   (xi x t)_k^2 / I_k on the axes that turn);
 - the change is made by the impulses +-J t, J = (u' - u) / w: momentum and angular momentum
   are kept, and the kinetic energy taken, 1/2 (u^2 - u'^2) / w, is counted as dissipated.
-Elements are taken in the order even, odd, even with flow times tau = h/2, h, h/2 (a symmetric
-splitting: the flow of h is exact to O(h^3) a step, as the kick it wraps).
+The dashpots run once a kick, for the kick's length: before it on one kick, taking the even
+elements then the odd, and after it on the next, the odd then the even (p.turn), so that two
+kicks form the symmetric sequence F_eo K D ... D K F_oe (the splitting's order 2, at half the
+cost of half flows on both sides of every kick). The interior elements' decay factors are made
+once for the kick's length (p.decay_h), and take no square root (the chord's length enters
+only squared).
 """
 
 import math
@@ -25,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from .backend import STEP
-from .compiler import INNER
+from .compiler import INLINE, INNER
 from .compose import flow_kernel
 from .motion import place_line_end
 from .rotations import cross, quat_rotate, quat_rotate_inv
@@ -35,6 +39,11 @@ class InternalDampingParams(NamedTuple):
     rate: np.ndarray         # (ne,) axial damping coefficient c of each element (N s; 0: none)
     node_weight: np.ndarray  # (nn,) inverse mass that moves each node here (0: fixed or driven)
     node_turn: np.ndarray    # (nn, 3) inverse principal inertia that turns it (0: locked, driven)
+    weight: np.ndarray       # (ne,) w = w_a + w_b of each element with no end on a node
+    gain: np.ndarray         # (ne,) (c - 1) / w of those, c = exp(-c w tau / l0) for tau = decay_h
+    loss: np.ndarray         # (ne,) -(1 + c) / 2 of those
+    decay_h: np.ndarray      # (1,) the flow length of gain and loss (nan: none yet)
+    turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side the dashpots run on
     dissipated: np.ndarray   # (1,) kinetic energy taken so far (J)
 
 
@@ -82,9 +91,10 @@ def push_end(p, model, state, a, jx, jy, jz):
 
 
 @njit(**INNER)
-def damp_element(p, model, state, l, e, i, tau):
-    """Update the velocities of element e's vertices i, i+1 (of line l; an end: its node) by the
-    exact flow of its dashpot over tau (module docstring); return the kinetic energy taken."""
+def damp_end_element(p, model, state, l, e, i, tau):
+    """Update the velocities of element e's vertices i, i+1 (of line l; one or both an end,
+    moved by its node) by the exact flow of its dashpot over tau (module docstring); return the
+    kinetic energy taken."""
     x, v = state.x, state.v
     dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
     size = math.sqrt(dx * dx + dy * dy + dz * dz)
@@ -118,19 +128,64 @@ def damp_element(p, model, state, l, e, i, tau):
     return 0.5 * (u * u - after * after) / w
 
 
+@njit(**INLINE)   # the loop's body: a call would pass the model and state records element by element
+def damp_element(p, model, state, e, i):
+    """Update the velocities of interior vertices i, i+1 (element e) by the flow of its dashpot
+    over p.decay_h; return the kinetic energy taken. On the chord d, u = d (v_b - v_a) / |d| and
+    the impulse on b is J d / |d| = (c - 1) u d / (w |d|), c the decay: only |d|^2 enters."""
+    x, v = state.x, state.v
+    dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    ud = dx * (v[i + 1, 0] - v[i, 0]) + dy * (v[i + 1, 1] - v[i, 1]) + dz * (v[i + 1, 2] - v[i, 2])
+    s = p.gain[e] * ud / (dx * dx + dy * dy + dz * dz)   # (c - 1) u / (w |d|)
+    wa, wb = model.vertex_inv_mass[i] * s, model.vertex_inv_mass[i + 1] * s
+    v[i, 0] -= wa * dx
+    v[i, 1] -= wa * dy
+    v[i, 2] -= wa * dz
+    v[i + 1, 0] += wb * dx
+    v[i + 1, 1] += wb * dy
+    v[i + 1, 2] += wb * dz
+    return p.loss[e] * ud * s   # 1/2 (1 - c^2) u^2 / w
+
+
+@njit(**INNER)
+def make_decays(p, model, tau):
+    """Update p.gain, p.loss for flows of length tau (p.decay_h follows)."""
+    for e in range(p.gain.shape[0]):
+        w = p.weight[e]
+        c = math.exp(-p.rate[e] * w * tau / model.element_rest_length[e])
+        p.gain[e] = (c - 1.0) / w if w > 0.0 else 0.0
+        p.loss[e] = -0.5 * (1.0 + c)
+    p.decay_h[0] = tau
+
+
 @flow_kernel(InternalDampingParams)
 @njit(**STEP)
 def damp_stretching(p, model, state, h):
-    """Update state.v (and the nodes at line ends: node_v, node_w) by the flow over h of every
-    element's axial dashpot, even elements for h/2, odd for h, even for h/2 (module docstring),
-    and p.dissipated by the kinetic energy taken. Elements of rate 0 are left alone."""
+    """Update state.v (and the nodes at line ends: node_v, node_w) by the flow of every
+    element's axial dashpot over the kick's length 2 h, once a kick: before it (even elements,
+    then odd) on one kick, after it (odd, then even) on the next (p.turn: bit 0 the half, bit 1
+    the side), so that two kicks form a symmetric sequence; p.dissipated by the kinetic energy
+    taken (module docstring); p.gain, p.loss follow the kick's length. Elements of rate 0 are
+    left alone."""
+    after = p.turn[0] & 1
+    side = (p.turn[0] >> 1) & 1
+    p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
+    if after != side:
+        return
+    tau = 2.0 * h
+    if tau != p.decay_h[0]:
+        make_decays(p, model, tau)
     lost = 0.0
     vo, eo = model.line_vertex_offsets, model.line_element_offsets
-    for turn in range(3):
-        odd = turn & 1
-        tau = h if odd else 0.5 * h
+    for sweep in range(2):
+        odd = after ^ sweep
         for l in range(eo.shape[0] - 1):
-            for e in range(eo[l] + odd, eo[l + 1], 2):
-                if p.rate[e] > 0.0:
-                    lost += damp_element(p, model, state, l, e, vo[l] + e - eo[l], tau)
+            e0, e1 = eo[l], eo[l + 1]
+            if odd == 0 and p.rate[e0] > 0.0:
+                lost += damp_end_element(p, model, state, l, e0, vo[l], tau)
+            for e in range(e0 + 2 - odd, e1 - 1, 2):   # an interior element of rate 0 has gain 0
+                lost += damp_element(p, model, state, e, vo[l] + e - e0)
+            last = e1 - 1
+            if last > e0 and (last - e0) % 2 == odd and p.rate[last] > 0.0:
+                lost += damp_end_element(p, model, state, l, last, vo[l] + last - e0, tau)
     p.dissipated[0] += lost

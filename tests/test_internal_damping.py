@@ -73,7 +73,9 @@ def test_a_dashpot_far_stiffer_than_the_step_stays_stable_and_only_dissipates():
         sim.run(steps=1)
         energies.append(sim.energy())
     e = np.array(energies)
-    assert np.all(np.isfinite(e)) and np.all(np.diff(e) <= 1e-12 * e[0])
+    # falling, to the round-off of a strain energy made of a nanometre's stretch on a metre's
+    # positions (1e-16 m / 1e-9 m of itself)
+    assert np.all(np.isfinite(e)) and np.all(np.diff(e) <= 1e-6 * e[1:])
     # the relative motion stopped in the first flow: what is left is the strain of the stretch
     # the first half drift made before it, (w0 dt)^2 of the energy
     assert e[-1] < 2 * (k / mu) * sim.dt ** 2 * e[0]

@@ -28,6 +28,7 @@ class InternalDamping(Effect):
             Key("ratio", nonnegative, doc="instead of axial: the damping ratio of each element's axial vibration"),
             Key("lines", "lines", doc="the damped lines (default: all)"))
     record = InternalDampingParams
+    free_integers = ("turn",)   # which half of the kick is next, compared
 
     @classmethod
     def example(cls):
@@ -37,8 +38,10 @@ class InternalDamping(Effect):
     @staticmethod
     def table_error(p, model):
         ne, nn = model.element_rest_length.shape[0], model.node_mass.shape[0]
-        if p.rate.shape != (ne,) or p.node_weight.shape != (nn,) or p.node_turn.shape != (nn, 3):
-            return "internal_damping: rate needs one entry per element, node_weight and node_turn one row per node"
+        if (any(a.shape != (ne,) for a in (p.rate, p.weight, p.gain, p.loss)) or p.node_weight.shape != (nn,)
+                or p.node_turn.shape != (nn, 3) or p.turn.shape != (1,)):
+            return ("internal_damping: rate, weight, gain and loss need one entry per element, node_weight and "
+                    "node_turn one row per node")
         return None
 
     def __init__(self, axial: float | None = None, *, ratio: float | None = None, lines=None):
@@ -76,14 +79,22 @@ class InternalDamping(Effect):
         inertia = m.node_inertia
         free = ~driven[:, None] & (m.node_locked == 0.0) & (inertia > 0.0) & np.isfinite(inertia)
         turn = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=free)   # a point junction: no arm to turn
-        return InternalDampingParams(self.element_rates(on), weight, turn, np.zeros(1))
+        ne = m.element_rest_length.shape[0]
+        pair = np.zeros(ne)   # w of the elements with no end on a node (the others' is found as they turn)
+        for l in range(m.line_element_offsets.shape[0] - 1):
+            e = np.arange(m.line_element_offsets[l] + 1, m.line_element_offsets[l + 1] - 1)
+            v = m.line_vertex_offsets[l] + 1 + np.arange(e.size)
+            pair[e] = m.vertex_inv_mass[v] + m.vertex_inv_mass[v + 1]
+        return InternalDampingParams(self.element_rates(on), weight, turn, pair, np.zeros(ne), np.zeros(ne),
+                                     np.full(1, np.nan), np.zeros(1, dtype=np.int64), np.zeros(1))
 
     def dissipated(self, sim) -> float:
         """Kinetic energy the dashpots have taken so far (J)."""
         return float(self.params(sim).dissipated[0])
 
     def state_arrays(self, sim) -> dict:
-        return {"dissipated": self.params(sim).dissipated}
+        p = self.params(sim)
+        return {"turn": p.turn, "dissipated": p.dissipated}
 
     def describe(self):
         how = f"axial={self.axial:g} N s" if self.ratio is None else f"ratio={self.ratio:g}"
