@@ -17,11 +17,17 @@ the sheave's node, each moving by its inverse mass (a fixed or driven node not a
   removed, unless the radial impulse of the step (the drifts' and this one) would pull it onto
   the rim: then it lets go, the step's drift impulses and displacements undone, as a rope
   leaves a wheel where its tension no longer presses it there.
-Along the rim the line slides freely: a sheave is a wheel on perfect bearings. A vertex lands
-on the rim as a plastic impact: the kinetic energy of its approach (its relative velocity into
-the rim before the drift that brought it there) is counted as dissipated; for a line that runs
-onto the wheel it goes to zero with the turn of one element over the rim. The impulses keep a
-free net's momentum.
+Without friction the line slides freely along the rim: a wheel on perfect bearings. With
+friction (a drum that does not turn), after every kick an engaged vertex's velocity along the
+rim's surface is stopped while the impulse that takes stays within mu_s times the step's normal
+impulse on it, else it slides against mu_k times it (a damper beside): vertex by vertex the
+capstan law. Friction's work over the kick is taken on the mean of the vertex's velocity
+before the kick's loads and after the friction (a vertex that stays stuck does none). A vertex
+lands on the rim as a plastic impact: the kinetic energy of its approach (its relative
+velocity into the rim before the drift that brought it there) is counted as dissipated (and no
+longer if the next kick lets the vertex go, undoing the landing with the rest); for a line that
+runs onto the wheel it goes to zero with the turn of one element over the rim. The impulses
+keep a free net's momentum.
 """
 
 import math
@@ -32,7 +38,7 @@ from numba import njit
 
 from .compiler import CACHED, INLINE, INNER
 from .compose import constraint_kernels
-from .sliding import PASSES, TOLERANCE, inverse_mass, move_node, move_vertex
+from .sliding import PASSES, TOLERANCE, friction_impulse, inverse_mass, move_node, move_vertex
 
 REACH = 1.5    # the window: the run of the line's vertices within REACH * R of the centre
 
@@ -46,6 +52,9 @@ class SheaveParams(NamedTuple):
     axis: np.ndarray        # (k, 3) unit normal of the sheave's plane
     radius: np.ndarray      # (k,) radius of the rim the line's centreline wraps (m)
     groove: np.ndarray      # (k,) half-width of the rim: a vertex farther off the plane passes beside
+    mu_s: np.ndarray        # (k,) static friction coefficient of the rim
+    mu_k: np.ndarray        # (k,) kinetic friction coefficient
+    damping: np.ndarray     # (k,) damper on an engaged vertex's sliding velocity (N s/m)
     node_weight: np.ndarray  # (nn,) inverse mass that moves each node here (0: fixed or driven)
     near: np.ndarray        # (k,) int64 vertex (global) nearest the centre at the last drift
     lo: np.ndarray          # (k,) int64 first vertex of the window
@@ -53,7 +62,10 @@ class SheaveParams(NamedTuple):
     engaged: np.ndarray     # (nv,) 1.0 while the vertex is held on a rim
     push: np.ndarray        # (nv, 3) impulse on the vertex from the drifts since the last kick
     moved: np.ndarray       # (nv, 3) the displacement it meant (the impulses times their drifts' h)
-    dissipated: np.ndarray  # (1,) kinetic energy the landings took (J)
+    sliding: np.ndarray     # (nv,) 1.0 while the engaged vertex slides against friction
+    landing: np.ndarray     # (nv,) kinetic energy of a landing in this step's drifts (counted as it
+                            # lands; a vertex the kick lets go undoes it)
+    dissipated: np.ndarray  # (1,) energy the landings, friction and dampers took (J)
 
 
 @njit(**INLINE)
@@ -127,7 +139,7 @@ def find_window(p, j, model, state):
 @njit(**INLINE)
 def free_vertex(p, v):
     """Update vertex v's rim state: free of the rim (the window has left it)."""
-    p.engaged[v] = 0.0
+    p.engaged[v], p.sliding[v], p.landing[v] = 0.0, 0.0, 0.0
     for k in range(3):
         p.push[v, k], p.moved[v, k] = 0.0, 0.0
 
@@ -148,8 +160,8 @@ def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
 def wrap_after_drift(p, model, state, h):
     """Update the positions and velocities of the vertices near every sheave and of its node
     after a drift of h: each vertex inside a rim or engaged on it back on the rim (module
-    docstring); p.near, p.lo, p.hi, p.engaged, p.push, p.moved and p.dissipated (landings)
-    follow."""
+    docstring); p.near, p.lo, p.hi, p.engaged, p.push, p.moved, p.landing and p.dissipated
+    (landings) follow."""
     for j in range(p.node.shape[0]):
         find_window(p, j, model, state)
         R, l = p.radius[j], p.line[j]
@@ -167,7 +179,9 @@ def wrap_after_drift(p, model, state, h):
                     nd = p.node[j]
                     ur = ((state.v[v, 0] - state.node_v[nd, 0]) * rx + (state.v[v, 1] - state.node_v[nd, 1]) * ry
                           + (state.v[v, 2] - state.node_v[nd, 2]) * rz) / rho
-                    p.dissipated[0] += 0.5 * min(ur, 0.0) ** 2 / w
+                    landing = 0.5 * min(ur, 0.0) ** 2 / w
+                    p.landing[v] += landing
+                    p.dissipated[0] += landing
                     p.engaged[v] = 1.0
                 out = R / rho - 1.0          # the rim's point less the vertex: out * rho
                 mx, my, mz = out * rx, out * ry, out * rz
@@ -187,7 +201,10 @@ def wrap_after_drift(p, model, state, h):
 def wrap_after_kick(p, model, state, arg):
     """Update the velocities of the engaged vertices near every sheave and of its node after a
     kick of h (arg = (loads, h)): their relative velocity across the rim removed while the rim
-    presses them (module docstring); p.engaged follows and p.push, p.moved are spent."""
+    presses them, friction and the damper along it (module docstring); p.engaged, p.sliding
+    and p.dissipated (friction, landings) follow and p.push, p.moved, p.landing are spent."""
+    h = arg[1]
+    lost = 0.0
     for j in range(p.node.shape[0]):
         nd, l = p.node[j], p.line[j]
         for v in range(p.lo[j], p.hi[j] + 1):
@@ -207,13 +224,35 @@ def wrap_after_kick(p, model, state, arg):
                 # if the rim had not held it this step (its drifts' impulses and displacements
                 # undone: kept, the pull's displacement against the line's tension would add to
                 # its energy)
-                p.engaged[v] = 0.0
+                lost -= p.landing[v]   # the landing is undone with the rest
+                p.engaged[v], p.sliding[v], p.landing[v] = 0.0, 0.0, 0.0
                 push_pair(p, j, model, state, v, -p.push[v, 0], -p.push[v, 1], -p.push[v, 2], -p.moved[v, 0],
                           -p.moved[v, 1], -p.moved[v, 2])
             else:
-                push_pair(p, j, model, state, v, radial * nx, radial * ny, radial * nz, 0.0, 0.0, 0.0)
+                # friction against the relative velocity along the rim's surface, its normal
+                # impulse the step's (drifts' and this kick's); its work over the kick taken on
+                # the mean of the velocities before the kick's loads and after it (a stuck
+                # vertex does none)
+                normal = p.push[v, 0] * nx + p.push[v, 1] * ny + p.push[v, 2] * nz + radial
+                ur = -radial * w
+                sx, sy, sz = ux - ur * nx, uy - ur * ny, uz - ur * nz
+                slip = math.sqrt(sx * sx + sy * sy + sz * sz)
+                jt = 0.0
+                if slip > 0.0 and (p.mu_s[j] > 0.0 or p.damping[j] > 0.0):   # else a wheel on free bearings
+                    sx, sy, sz = sx / slip, sy / slip, sz / slip
+                    jt, p.sliding[v] = friction_impulse(slip, w, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
+                                                        p.sliding[v])
+                    wv, wn = inverse_mass(p, model, l, v), p.node_weight[nd]
+                    f, fn = arg[0].f, arg[0].node_f
+                    before = slip - h * (wv * (f[v, 0] * sx + f[v, 1] * sy + f[v, 2] * sz)
+                                         - wn * (fn[nd, 0] * sx + fn[nd, 1] * sy + fn[nd, 2] * sz))
+                    lost -= jt * 0.5 * (before + slip + w * jt)
+                push_pair(p, j, model, state, v, radial * nx + jt * sx, radial * ny + jt * sy, radial * nz + jt * sz,
+                          0.0, 0.0, 0.0)
+                p.landing[v] = 0.0
             for k in range(3):
                 p.push[v, k], p.moved[v, k] = 0.0, 0.0
+    p.dissipated[0] += lost
 
 
 constraint_kernels(SheaveParams, wrap_after_drift, wrap_after_kick)

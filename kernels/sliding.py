@@ -179,23 +179,20 @@ def slide_after_drift(p, model, state, h):
 
 
 @njit(**INNER)
-def tangential_impulse(p, j, ut, w, normal, h):
-    """Return the impulse along the line (on the node) of slider j's damper and friction given
-    its relative sliding velocity ut after the normal impulse, the effective inverse mass w
-    and the normal impulse magnitude of the step; p.sliding follows."""
-    c = p.damping[j]
+def friction_impulse(ut, w, normal, h, c, mu_s, mu_k, sliding):
+    """Return (impulse, sliding) along a contact of relative sliding velocity ut and effective
+    inverse mass w: a damper c (implicit over h) and Coulomb friction against the normal impulse
+    magnitude of the step: sticks while the impulse that would stop it is within mu_s times it
+    (mu_k once sliding), else slides against mu_k times it."""
     jd = -c * h * ut / (1.0 + c * h * w)
     u1 = ut + w * jd
     stop = -u1 / w
-    if p.mu_s[j] == 0.0 and p.mu_k[j] == 0.0:
-        p.sliding[j] = 1.0 if u1 != 0.0 else 0.0
-        return jd
-    limit = (p.mu_k[j] if p.sliding[j] != 0.0 else p.mu_s[j]) * normal
+    if mu_s == 0.0 and mu_k == 0.0:
+        return jd, 1.0 if u1 != 0.0 else 0.0
+    limit = (mu_k if sliding != 0.0 else mu_s) * normal
     if abs(stop) <= limit:
-        p.sliding[j] = 0.0
-        return jd + stop
-    p.sliding[j] = 1.0
-    return jd + math.copysign(min(p.mu_k[j] * normal, abs(stop)), stop)
+        return jd + stop, 0.0
+    return jd + math.copysign(min(mu_k * normal, abs(stop)), stop), 1.0
 
 
 @njit(**CACHED)
@@ -233,7 +230,8 @@ def slide_after_kick(p, model, state, arg):
         if at_start or at_end:   # a stop: the slider does not leave the line
             jt = -ut / w
         else:
-            jt = tangential_impulse(p, j, ut, w, normal, h)
+            jt, p.sliding[j] = friction_impulse(ut, w, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
+                                                p.sliding[j])
             after = ut + w * jt
             lost += 0.5 * (ut * ut - after * after) / w
         apply_impulse(p, j, model, state, i, t, nx + jt * tx, ny + jt * ty, nz + jt * tz, 0.0)

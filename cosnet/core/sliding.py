@@ -20,7 +20,9 @@ sliders, which a Simulation adds: cosnet.effects.sliders.
 An eyelet with a radius is a sheave: a wheel on free bearings about ``at`` (its centre: a
 point, or a node whose rotation is locked) whose rim the line's centreline wraps, turning as
 sharply as the wrap asks. The line (one line, laid over the rim as built) passes the rim at
-s; the sheave's plane is the one its tangent there and the radius span. Its kernels:
+s; the sheave's plane is the one its tangent there and the radius span. With mu (or damping)
+the wheel does not turn: a drum the line slides over against Coulomb friction (mu_s = mu_k =
+mu: the capstan law over its wrap) and a damper on the sliding velocity. Its kernels:
 kernels/sheaves.py; its effect: cosnet.effects.sheaves.
 """
 
@@ -58,6 +60,8 @@ class Sheave:
     centre: np.ndarray  # (3,) as built
     axis: np.ndarray    # (3,) unit normal of its plane
     radius: float
+    mu: float = 0.0
+    damping: float = 0.0
 
 
 def point_at(line, s: float) -> np.ndarray:
@@ -163,9 +167,6 @@ def add_sheave(net, line, s, at, mu, damping, radius, name=None):
     """Net.add_eyelet with a radius (module docstring): the sheave's node."""
     who = _owner("sheave", line)
     path, s, mu, _, damping = _common(net, line, s, mu, mu, damping, who)
-    if mu or damping:
-        raise ValueError(f"{who}: a sheave turns freely (mu = 0, damping = 0); for a drum with friction use a "
-                         f"capsule obstacle with friction")
     if len(path) != 1:
         raise ValueError(f"{who}: a sheave takes one line, not a path of {len(path)}")
     if at is None:
@@ -186,5 +187,5 @@ def add_sheave(net, line, s, at, mu, damping, radius, name=None):
         raise ValueError(f"{who}: the line at s = {s:g} m does not run along the rim (it meets it at "
                          f"{math.degrees(math.asin(min(1.0, np.linalg.norm(axis) / gap))):.3g} degrees)")
     node = at if given_node else net.add_node(centre, fixed=True, name=name)
-    net.sheaves.append(Sheave(l, s, node, centre, axis / np.linalg.norm(axis), radius))
+    net.sheaves.append(Sheave(l, s, node, centre, axis / np.linalg.norm(axis), radius, mu, damping))
     return node

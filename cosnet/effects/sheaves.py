@@ -37,11 +37,13 @@ class Sheaves(Effect):
     def table_error(p, model):
         """What is wrong with the index tables of record ``p`` for ``model``, or None."""
         k, nv, nn = p.node.shape[0], model.vertex_mass.shape[0], model.node_mass.shape[0]
-        if any(a.shape[0] != k for a in (p.line, p.offset, p.axis, p.radius, p.groove, p.near, p.lo, p.hi)):
+        if any(a.shape[0] != k for a in (p.line, p.offset, p.axis, p.radius, p.groove, p.mu_s, p.mu_k, p.damping,
+                                          p.near, p.lo, p.hi)):
             return "sheaves: every table needs one row per sheave"
-        if (p.engaged.shape != (nv,) or p.push.shape != (nv, 3) or p.moved.shape != (nv, 3)
-                or p.node_weight.shape != (nn,)):
-            return "sheaves: engaged, push and moved need one row per vertex, node_weight one per node"
+        if (any(a.shape != (nv,) for a in (p.engaged, p.sliding, p.landing))
+                or p.push.shape != (nv, 3) or p.moved.shape != (nv, 3) or p.node_weight.shape != (nn,)):
+            return ("sheaves: engaged, sliding, landing, push and moved need one row per vertex, node_weight one "
+                    "per node")
         problem = (index_error("sheaves.node", p.node, nn)
                    or index_error("sheaves.line", p.line, model.line_vertex_offsets.shape[0] - 1))
         if problem:
@@ -77,9 +79,11 @@ class Sheaves(Effect):
             axis=np.array([sh.axis for sh in self.sheaves]).reshape(k, 3),
             radius=np.array([sh.radius for sh in self.sheaves], dtype=float),
             groove=np.array([sh.line.section_at(sh.s / sh.line.length).radius for sh in self.sheaves], dtype=float),
-            node_weight=weight,
+            mu_s=np.array([sh.mu for sh in self.sheaves], dtype=float),
+            mu_k=np.array([sh.mu for sh in self.sheaves], dtype=float),
+            damping=np.array([sh.damping for sh in self.sheaves], dtype=float), node_weight=weight,
             near=near, lo=near.copy(), hi=near.copy(), engaged=np.zeros(nv), push=np.zeros((nv, 3)),
-            moved=np.zeros((nv, 3)),
+            moved=np.zeros((nv, 3)), sliding=np.zeros(nv), landing=np.zeros(nv),
             dissipated=np.zeros(1))
 
     def dissipated(self, sim) -> float:
@@ -89,7 +93,7 @@ class Sheaves(Effect):
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
         return {"near": p.near, "lo": p.lo, "hi": p.hi, "engaged": p.engaged, "push": p.push, "moved": p.moved,
-                "dissipated": p.dissipated}
+                "sliding": p.sliding, "landing": p.landing, "dissipated": p.dissipated}
 
     def drawn_shapes(self) -> list:
         """Each sheave as a thin disc (a capsule as long as a tenth of its radius) about its

@@ -204,8 +204,8 @@ def slider_state(sim, node) -> dict:
 def sheave_state(sim, node) -> dict | None:
     """The sheave whose node is ``node`` in ``sim`` (None if none): "s" (the material
     coordinate at the middle of the line's wrap, m of unstretched length from its start),
-    "wrap" (the angle the engaged vertices span, rad) and "sliding" (True: a sheave has no
-    friction)."""
+    "wrap" (the angle the engaged vertices span, rad) and "sliding" (bool: a vertex on the rim
+    slides against its friction; True without friction)."""
     held = next((e for e in sim.effects if isinstance(e, Sheaves)), None)
     j = next((i for i, sh in enumerate(held.sheaves) if sh.node is node), None) if held else None
     if held is None or j is None:
@@ -214,9 +214,10 @@ def sheave_state(sim, node) -> dict | None:
     on = np.arange(p.lo[j], p.hi[j] + 1)
     on = on[p.engaged[on] != 0.0]
     if not on.size:
-        return {"s": math.nan, "wrap": 0.0, "sliding": True}
+        return {"s": math.nan, "wrap": 0.0, "sliding": False}
     arc = vertex_arcs(sim.model)
     centre = sim.state.node_x[node.index] + p.offset[j]
     a, b = sim.state.x[on[0]] - centre, sim.state.x[on[-1]] - centre
     wrap = math.atan2(float(np.cross(a, b) @ p.axis[j]), float(a @ b)) % (2 * math.pi)
-    return {"s": float(0.5 * (arc[on[0]] + arc[on[-1]])), "wrap": wrap, "sliding": True}
+    sliding = bool(np.any(p.sliding[on] != 0.0)) or p.mu_s[j] == 0.0
+    return {"s": float(0.5 * (arc[on[0]] + arc[on[-1]])), "wrap": wrap, "sliding": sliding}
