@@ -39,6 +39,7 @@ def effect_cases(net, a, b):
     cases = {
         "gravity": [cosnet.Gravity()],
         "damping": [cosnet.Damping(1.0)],
+        "internal damping": [cosnet.InternalDamping(ratio=1.0)],
         "node load": [cosnet.NodeLoad(net.node("tip"), force=(0.0, 0.0, -1.0))],
         "line load": [cosnet.LineLoad(a, force_per_length=(0.0, 0.0, -1.0))],
         "spherical joint": [cosnet.SphericalJoint(a, "end", b, "start", k=1e5)],
