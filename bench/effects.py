@@ -10,11 +10,6 @@ join them. Run: python bench/effects.py [--quick]; writes bench/effects.json.
 import sys
 
 import cosnet
-from cosnet.engine.flatten import flatten
-from cosnet.kernels.backend import Serial
-from cosnet.kernels.compose import empty_slots
-from cosnet.kernels.layout import empty_loads
-from cosnet.kernels.stepping import advance_verlet
 from harness import best_of, table, write_json
 
 STEEL = cosnet.Material(E=2.1e11, G=8.1e10, density=7850.0)
@@ -65,11 +60,12 @@ def interleaved(runs: dict, rounds: int) -> dict:
 
 
 def bare_run(net, dt, steps):
-    """A closure running ``steps`` steps of advance_verlet directly, with no effects."""
-    model, state, _ = flatten(net)
-    loads = empty_loads(model)
-    records = ((), (), (), empty_slots(((), (), ())))
-    return lambda: advance_verlet(model, state, loads, records, dt, steps, Serial())
+    """A closure running ``steps`` steps of the compiled stepper directly, with no effects (the
+    entry point a Simulation calls, without its Python around it)."""
+    sim = cosnet.Simulation(net, dt=dt, threads=1)
+    step = sim._stepper()
+    args = (sim.model, sim.state, sim.loads, sim.step_records, dt, steps, sim.backend)
+    return lambda: step(*args)
 
 
 def stable_steps(ks):
