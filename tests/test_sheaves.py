@@ -74,12 +74,21 @@ def test_energy_and_what_the_landings_took_is_conserved_at_order_two():
     assert errors[0] < 1e-7                  # against a kinetic energy of 0.01 J
 
 
-def test_checkpoint_carries_the_sheaves(tmp_path):
-    a, _, sheave_a = atwood()
-    a.run(steps=3000)
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+def test_checkpoint_carries_the_sheaves(tmp_path, mu):
+    """A resumed run goes on as the unbroken one, bit for bit: on a drum (mu 0.3) the rim's
+    stick and slip states and the step's landings are carried too."""
+    def build():
+        sim, net, sheave = atwood()
+        if mu:
+            net.sheaves[0].mu = mu
+            sim = cosnet.Simulation(net, [cosnet.Gravity()])
+        return sim, sheave
+    a, sheave_a = build()
+    a.run(steps=3001)
     a.save_checkpoint(tmp_path / "c.npz")
     a.run(steps=2000)
-    b, _, sheave_b = atwood()
+    b, sheave_b = build()
     b.load_checkpoint(tmp_path / "c.npz")
     b.run(steps=2000)
     assert cosnet.slider_state(a, sheave_a) == cosnet.slider_state(b, sheave_b)
