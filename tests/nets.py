@@ -57,3 +57,20 @@ def written_run(directory, scene: str):
     (directory / "scene.toml").write_text(scene)
     assert main(["run", str(directory / "scene.toml"), "--out", str(directory / "out")]) == 0
     return directory / "out"
+
+
+def resumed(build, path, first: int, then: int):
+    """(unbroken, resumed): what build() returns (a Simulation, or a tuple led by one) run
+    ``first`` steps, checkpointed at ``path`` and run ``then`` more; and a second build()
+    loaded from that checkpoint and run ``then`` steps. A checkpoint that carries everything
+    the step reads leaves the two equal bit for bit."""
+    def sim_of(built):
+        return built[0] if isinstance(built, tuple) else built
+    unbroken = build()
+    sim_of(unbroken).run(steps=first)
+    sim_of(unbroken).save_checkpoint(path)
+    sim_of(unbroken).run(steps=then)
+    again = build()
+    sim_of(again).load_checkpoint(path)
+    sim_of(again).run(steps=then)
+    return unbroken, again

@@ -17,6 +17,7 @@ from scipy.special import ellipk
 
 import cosnet
 from cosnet.core.rotations import matrix_from_quat
+from nets import resumed
 
 G = 9.81
 STIFF = cosnet.Material(E=1e10, G=4e9, density=1000.0)
@@ -224,13 +225,7 @@ def test_checkpoint_carries_the_joint_state(tmp_path):
     def sliding():
         _, _, moment = horizontal_arm()
         return horizontal_arm(friction=(0.5 * moment, 0.4 * moment), damping=0.5)
-    a, arm_a, _ = sliding()
-    a.run(steps=3000)
-    a.save_checkpoint(tmp_path / "c.npz")
-    a.run(steps=2000)
-    b, arm_b, _ = sliding()
-    b.load_checkpoint(tmp_path / "c.npz")
-    b.run(steps=2000)
+    (a, arm_a, _), (b, arm_b, _) = resumed(sliding, tmp_path / "c.npz", 3000, 2000)
     assert np.array_equal(a.state.x, b.state.x)
     assert cosnet.joint_state(a, arm_a)["angle"] == cosnet.joint_state(b, arm_b)["angle"]
     assert a.dissipated() == b.dissipated()

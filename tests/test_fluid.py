@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import cosnet
+from nets import resumed
 
 RHO = 1000.0   # water
 G = 9.81
@@ -225,13 +226,7 @@ def test_checkpoint_round_trip_keeps_the_accounts(tmp_path, added):
     def sim():
         return cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(RHO, velocity=(0.3, 0.0, 0.0), drag=(1.2, 0.1),
                                                                       added_mass=added, buoyancy=True)])
-    a = sim()
-    a.run(steps=500)
-    a.save_checkpoint(tmp_path / "c.npz")
-    a.run(steps=500)
-    b = sim()
-    b.load_checkpoint(tmp_path / "c.npz")
-    b.run(steps=500)
+    a, b = resumed(sim, tmp_path / "c.npz", 500, 500)
     assert np.array_equal(a.state.x, b.state.x) and np.array_equal(a.state.node_v, b.state.node_v)
     assert (a.dissipated(), a.supplied()) == (b.dissipated(), b.supplied())
 

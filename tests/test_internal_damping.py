@@ -11,6 +11,7 @@ import pytest
 
 import cosnet
 from cosnet import load_scene
+from nets import resumed
 
 STEEL = cosnet.Material(E=2e11, G=8e10, density=7850.0)
 
@@ -123,13 +124,7 @@ def test_a_checkpoint_carries_the_dashpots_turn_and_account(tmp_path):
         sim = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.InternalDamping(ratio=0.5)])
         sim.state.v[:] = np.random.default_rng(5).normal(0.0, 0.05, sim.state.v.shape)
         return sim
-    a = build()
-    a.run(steps=301)
-    a.save_checkpoint(tmp_path / "c.npz")
-    a.run(steps=300)
-    b = build()
-    b.load_checkpoint(tmp_path / "c.npz")
-    b.run(steps=300)
+    a, b = resumed(build, tmp_path / "c.npz", 301, 300)
     assert np.array_equal(a.state.x, b.state.x) and np.array_equal(a.state.v, b.state.v)
     assert a.dissipated() == b.dissipated() > 0.0
 

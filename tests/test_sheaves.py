@@ -20,6 +20,7 @@ import pytest
 
 import cosnet
 from cosnet.effects.sheaves import Sheaves, laid_rope, over_a_sheave
+from nets import resumed
 
 G = 9.81
 R = 0.05
@@ -84,13 +85,7 @@ def test_checkpoint_carries_the_sheaves(tmp_path, mu):
             net.sheaves[0].mu = mu
             sim = cosnet.Simulation(net, [cosnet.Gravity()])
         return sim, sheave
-    a, sheave_a = build()
-    a.run(steps=3001)
-    a.save_checkpoint(tmp_path / "c.npz")
-    a.run(steps=2000)
-    b, sheave_b = build()
-    b.load_checkpoint(tmp_path / "c.npz")
-    b.run(steps=2000)
+    (a, sheave_a), (b, sheave_b) = resumed(build, tmp_path / "c.npz", 3001, 2000)
     assert cosnet.slider_state(a, sheave_a) == cosnet.slider_state(b, sheave_b)
     assert np.array_equal(a.state.x, b.state.x) and a.dissipated() == b.dissipated()
 

@@ -16,6 +16,7 @@ import pytest
 from scipy.special import ellipk
 
 import cosnet
+from nets import resumed
 
 G = 9.81
 MASS = 0.1
@@ -155,13 +156,7 @@ def test_line_pulled_through_an_eyelet_passes_through_its_point():
 
 
 def test_checkpoint_carries_the_sliders(tmp_path):
-    a, ring_a = inclined_wire(0.5, 0.4, 0.2)
-    a.run(steps=3000)
-    a.save_checkpoint(tmp_path / "c.npz")
-    a.run(steps=2000)
-    b, ring_b = inclined_wire(0.5, 0.4, 0.2)
-    b.load_checkpoint(tmp_path / "c.npz")
-    b.run(steps=2000)
+    (a, ring_a), (b, ring_b) = resumed(lambda: inclined_wire(0.5, 0.4, 0.2), tmp_path / "c.npz", 3000, 2000)
     assert cosnet.slider_state(a, ring_a) == cosnet.slider_state(b, ring_b)
     assert np.array_equal(a.state.node_x, b.state.node_x) and a.dissipated() == b.dissipated()
 
