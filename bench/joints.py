@@ -1,9 +1,9 @@
 """Junctions that turn, side by side with welds and with penalty joints, in one process.
 
-Cost: a hanging chain of LINKS steel links (5 elements each, 0.2 m) whose junctions are welded,
-free hinges, ball joints, or hinges with a spring, a damper and friction; every net stepped at
-the welded chain's stable step, interleaved rounds, one thread. Each row also gives the net's
-own stable step against the welded one's.
+Cost: a hanging chain of LINKS steel links (5 elements each, 0.2 m; or 50 elements, 2 m: a
+joint ten times sparser) whose junctions are welded, free hinges, ball joints, or hinges with a
+spring, a damper and friction; every net stepped at the welded chain's stable step, interleaved
+rounds, one thread. Each row also gives the net's own stable step against the welded one's.
 
 Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings of 1 kg
 sliding on it with friction, each pulled down by a node load; the cost per step and per ring.
@@ -41,27 +41,28 @@ JOINTS = {
 }
 
 
-def chain(links, joint):
-    """A chain of links along x from a fixed pivot, each link's start on ``joint()``."""
+def chain(links, joint, elements=5):
+    """A chain of links along x from a fixed pivot, each link's start on ``joint()``; each link
+    0.2 m long in 5 elements, or 0.04 m an element in as many as given."""
     net = cosnet.Net()
     nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
     for i in range(links):
-        nodes.append(net.add_node((0.2 * (i + 1), 0.0, 0.0)))
-        net.add_line(nodes[i], nodes[i + 1], material=STEEL, section=cosnet.Circle(0.01), elements=5,
+        nodes.append(net.add_node((0.04 * elements * (i + 1), 0.0, 0.0)))
+        net.add_line(nodes[i], nodes[i + 1], material=STEEL, section=cosnet.Circle(0.01), elements=elements,
                      start_joint=joint())
     return net
 
 
-def cost(links, rounds):
-    welded = cosnet.Simulation(chain(links, JOINTS["welded"]), [cosnet.Gravity()], threads=1)
-    sims = {name: cosnet.Simulation(chain(links, make), [cosnet.Gravity()], dt=welded.dt, force_dt=True,
+def cost(links, rounds, elements=5):
+    welded = cosnet.Simulation(chain(links, JOINTS["welded"], elements), [cosnet.Gravity()], threads=1)
+    sims = {name: cosnet.Simulation(chain(links, make, elements), [cosnet.Gravity()], dt=welded.dt, force_dt=True,
                                     threads=1) for name, make in JOINTS.items()}
-    steps = max(500, 300_000 // links)
+    steps = max(500, 1_500_000 // (links * elements))
     times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims.values()], rounds)
     base = times[0] / steps
     out = []
     for (name, sim), t in zip(sims.items(), times):
-        out.append({"links": links, "junctions": name, "us_per_step": 1e6 * t / steps,
+        out.append({"links": links, "elements_per_link": elements, "junctions": name, "us_per_step": 1e6 * t / steps,
                     "over_weld_percent": 100.0 * (t / steps / base - 1.0),
                     "us_per_joint": 1e6 * (t / steps - base) / links,
                     "stable_dt_over_weld": sim.stable_dt() / welded.stable_dt()})
@@ -164,12 +165,13 @@ def accuracy(until, samples, stiffness):
 
 def main():
     quick = "--quick" in sys.argv
-    links, rounds = ((10,), 3) if quick else ((10, 100), 9)
-    runs = [r for n in links for r in cost(n, rounds)]
+    chains, rounds = (((10, 5),), 3) if quick else (((10, 5), (100, 5), (20, 50)), 9)
+    runs = [r for n, e in chains for r in cost(n, rounds, e)]
     table("joints: cost per step of a hanging chain, at the welded chain's step (one thread)",
-          ["links", "junctions", "us/step", "over weld %", "us per joint", "own stable dt / weld's"],
-          [[r["links"], r["junctions"], r["us_per_step"], r["over_weld_percent"], r["us_per_joint"],
-            r["stable_dt_over_weld"]]
+          ["links", "elements per link", "junctions", "us/step", "over weld %", "us per joint",
+           "own stable dt / weld's"],
+          [[r["links"], r["elements_per_link"], r["junctions"], r["us_per_step"], r["over_weld_percent"],
+            r["us_per_joint"], r["stable_dt_over_weld"]]
            for r in runs])
     rings = ring_cost((1, 10) if quick else (1, 10, 50), rounds)
     table("joints: cost per step of rings sliding on a 100-element wire (one thread, the bare wire's step)",

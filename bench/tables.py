@@ -313,11 +313,11 @@ def moordyn() -> str:
 
 def joints_cost() -> str:
     d = _json("joints.json")
-    rows = [[str(r["links"]), r["junctions"], f"{r['us_per_step']:.3g}",
+    rows = [[str(r["links"]), str(r.get("elements_per_link", 5)), r["junctions"], f"{r['us_per_step']:.3g}",
              "–" if r["junctions"] == "welded" else f"+{r['over_weld_percent']:.0f} %",
              "–" if r["junctions"] == "welded" else f"{r['us_per_joint']:.2g}", f"{r['stable_dt_over_weld']:.3g}"]
             for r in d["cost"]]
-    head = ["links", "junctions", "µs per step", "over the welded chain", "µs per joint",
+    head = ["links", "elements per link", "junctions", "µs per step", "over the welded chain", "µs per joint",
             "stable step / the welded one's"]
     return _table(head, rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
