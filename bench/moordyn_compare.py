@@ -11,8 +11,9 @@ slender lines) and "resolve" (every mode of the line as it is).
 Each code starts from its own static equilibrium: cosnet from MoorPy's catenary relaxed under
 mass-proportional damping (SETTLE s at DAMPING /s, the pull then steady to 1e-4), MoorDyn by
 its dynamic relaxation. MoorDyn's segments carry the internal damping it needs (BA = -1,
-critical), cosnet's line none, so cosnet's line keeps the fast axial vibration the start and
-the surge excite: its pull is sampled every SAMPLE s (sampled every 0.1 s, that vibration
+critical); cosnet's line carries none in its main rows and InternalDamping(ratio=1) in a row
+beside each, so without it cosnet's line keeps the fast axial vibration the start and the
+surge excite: its pull is sampled every SAMPLE s (sampled every 0.1 s, that vibration
 aliases into the fitted harmonic by tens of per cent). MoorDyn moves its coupled fairlead by
 a constant velocity over each coupling step and returns the pull at its end; the swing
 converges as that step shrinks (about 10 % high at 0.01 s), so MoorDyn runs at COUPLINGS.
@@ -42,6 +43,7 @@ OMEGA = 2 * math.pi / PERIOD
 AREA = math.pi * R * R
 DRAG, ADDED = (1.2, 0.008), (1.0, 0.0)
 SETTLE, DAMPING, SAMPLE = 20.0, 1.0, 1e-3
+INTERNAL = 1.0   # a row with the lines' internal damping at MoorDyn's ratio (BA = -1: critical)
 COUPLINGS = (1e-2, 2e-4)
 
 MOORDYN_INPUT = """--------------------- MoorDyn Input File ------------------------------------
@@ -88,7 +90,7 @@ def harmonic(t, y) -> dict:
     return {"mean": float(c[0]), "amplitude": float(math.hypot(c[1], c[2])), "phase": float(math.atan2(c[2], c[1]))}
 
 
-def run_cosnet(n: int, fast_modes: str = "auto", timed: bool = True) -> dict:
+def run_cosnet(n: int, fast_modes: str = "auto", timed: bool = True, internal: float = 0.0) -> dict:
     from moorpy.Catenary import catenary
     w = (RHO_S - SEA) * 9.81 * AREA
     guess = catenary(SPAN, DEPTH, 47.0, E * AREA, w, CB=0.0, nNodes=n + 1, plots=1)[4]
@@ -113,9 +115,10 @@ def run_cosnet(n: int, fast_modes: str = "auto", timed: bool = True) -> dict:
     path = {"times": ts.tolist(), "values": [[float(surge(t)), 0.0, 0.0] for t in ts]}
 
     def surging():
+        damped = [cosnet.InternalDamping(ratio=internal)] if internal else []
         sim = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(SEA, drag=DRAG, added_mass=ADDED, buoyancy=True,
                                                                      surface=0.0),
-                                      seabed(), cosnet.Drive(fair, position=path)], fast_modes=fast_modes)
+                                      seabed(), cosnet.Drive(fair, position=path), *damped], fast_modes=fast_modes)
         for mine, still_state in zip(sim.state, still.state):
             mine[...] = still_state
         sim.state.clock[0] = 0.0
@@ -132,7 +135,8 @@ def run_cosnet(n: int, fast_modes: str = "auto", timed: bool = True) -> dict:
         t0 = time.perf_counter()
         again.run(until=T_END)
         wall = (time.perf_counter() - t0) / again.time
-    return {"code": "cosnet", "fast_modes": fast_modes, "elements": n, "dt": sim.dt, "sampled_every": SAMPLE,
+    return {"code": "cosnet" + (f", internal damping {internal:g}" if internal else ""), "fast_modes": fast_modes,
+            "elements": n, "dt": sim.dt, "sampled_every": SAMPLE,
             "settled_to": settled, "wall_per_simulated_s": wall,
             "H": harmonic(o[:, 0], o[:, 1]), "V": harmonic(o[:, 0], o[:, 3])}
 
@@ -170,6 +174,7 @@ def main():
     runs = []
     for n in (24, 48):
         runs.append(run_cosnet(n))
+        runs.append(run_cosnet(n, internal=INTERNAL))
         runs.append(run_cosnet(n, "resolve"))
         runs += [run_moordyn(n, 1e-4 * 24 / n, c) for c in COUPLINGS]
     ref = runs[-1]                     # MoorDyn, 48 segments, the finest coupling
