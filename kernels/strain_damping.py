@@ -39,6 +39,9 @@ class InternalDampingParams(NamedTuple):
     rate: np.ndarray         # (ne,) axial damping coefficient c of each element (N s; 0: none)
     node_weight: np.ndarray  # (nn,) inverse mass that moves each node here (0: fixed or driven)
     node_turn: np.ndarray    # (nn, 3) inverse principal inertia that turns it (0: locked, driven)
+    driven: np.ndarray       # (m,) int64 the nodes a drive moves
+    is_driven: np.ndarray    # (nn,) 1.0 at those
+    held: np.ndarray         # (nn, 6) a driven node's velocity and body angular velocity before the kick
     weight: np.ndarray       # (ne,) w = w_a + w_b of each element with no end on a node
     gain: np.ndarray         # (ne,) (c - 1) / w of those, c = exp(-c w tau / l0) for tau = decay_h
     loss: np.ndarray         # (ne,) -(1 + c) / 2 of those
@@ -61,14 +64,19 @@ def end_weight(p, model, state, a, tx, ty, tz):
 
 
 @njit(**INNER)
-def end_velocity(model, state, a):
+def end_velocity(p, model, state, a):
     """Return the lab velocity of line end a from its node's (1.1): a kick leaves the end
-    vertices' own rows behind until the drift places them."""
+    vertices' own rows behind until the drift places them. A driven node's is the one it had
+    before the kick, which its drive gives it back after the kick (within the kick, the node
+    has moved on with its loads)."""
     nd = model.attach_node[a]
-    q, w, o = state.node_q[nd], state.node_w[nd], model.attach_offset[a]
-    cx, cy, cz = cross(w[0], w[1], w[2], o[0], o[1], o[2])
+    q, o = state.node_q[nd], model.attach_offset[a]
+    row = p.held[nd] if p.is_driven[nd] != 0.0 else state.node_v[nd]
+    spin = p.held[nd] if p.is_driven[nd] != 0.0 else state.node_w[nd]
+    k = 3 if p.is_driven[nd] != 0.0 else 0
+    cx, cy, cz = cross(spin[k], spin[k + 1], spin[k + 2], o[0], o[1], o[2])
     ux, uy, uz = quat_rotate(q[0], q[1], q[2], q[3], cx, cy, cz)
-    return state.node_v[nd, 0] + ux, state.node_v[nd, 1] + uy, state.node_v[nd, 2] + uz
+    return row[0] + ux, row[1] + uy, row[2] + uz
 
 
 @njit(**INNER)
@@ -102,9 +110,10 @@ def damp_end_element(p, model, state, l, e, i, tau):
         return 0.0
     tx, ty, tz = dx / size, dy / size, dz / size
     first, last = i == model.line_vertex_offsets[l], i + 2 == model.line_vertex_offsets[l + 1]
-    ax, ay, az = end_velocity(model, state, 2 * l) if first else (v[i, 0], v[i, 1], v[i, 2])
-    bx, by, bz = end_velocity(model, state, 2 * l + 1) if last else (v[i + 1, 0], v[i + 1, 1], v[i + 1, 2])
-    u = tx * (bx - ax) + ty * (by - ay) + tz * (bz - az)
+    ax, ay, az = end_velocity(p, model, state, 2 * l) if first else (v[i, 0], v[i, 1], v[i, 2])
+    bx, by, bz = end_velocity(p, model, state, 2 * l + 1) if last else (v[i + 1, 0], v[i + 1, 1], v[i + 1, 2])
+    ua, ub = tx * ax + ty * ay + tz * az, tx * bx + ty * by + tz * bz
+    u = ub - ua
     wa = end_weight(p, model, state, 2 * l, tx, ty, tz) if first else model.vertex_inv_mass[i]
     wb = end_weight(p, model, state, 2 * l + 1, tx, ty, tz) if last else model.vertex_inv_mass[i + 1]
     w = wa + wb
@@ -125,7 +134,11 @@ def damp_end_element(p, model, state, l, e, i, tau):
         v[i + 1, 0] += wb * jx
         v[i + 1, 1] += wb * jy
         v[i + 1, 2] += wb * jz
-    return 0.5 * (u * u - after * after) / w
+    # the kinetic energy the impulses took from each side, P.v + w P^2 / 2; a driven node's
+    # velocity is its drive's, which pays that side (not in its reaction: a flow, not a load)
+    taken_a = 0.0 if first and p.is_driven[model.attach_node[2 * l]] != 0.0 else j * ua - 0.5 * wa * j * j
+    taken_b = 0.0 if last and p.is_driven[model.attach_node[2 * l + 1]] != 0.0 else -j * ub - 0.5 * wb * j * j
+    return taken_a + taken_b
 
 
 @njit(**INLINE)   # the loop's body: a call would pass the model and state records element by element
@@ -170,6 +183,10 @@ def damp_stretching(p, model, state, h):
     after = p.turn[0] & 1
     side = (p.turn[0] >> 1) & 1
     p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
+    if after == 0:
+        for nd in p.driven:
+            for k in range(3):
+                p.held[nd, k], p.held[nd, 3 + k] = state.node_v[nd, k], state.node_w[nd, k]
     if after != side:
         return
     tau = 2.0 * h

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..core import checks, samples
 from ..core.units import STRAIN_DAMPING, nonnegative
+from ..engine.bounds import index_error
 from ..engine.registry import Binding, Effect, Key
 from ..kernels.strain_damping import InternalDampingParams
 from .contact import chosen_lines
@@ -20,7 +21,9 @@ class InternalDamping(Effect):
     damping ratio of each element's own axial vibration (c = 2 zeta sqrt(E A l0 mu), mu the
     reduced mass of its two ends: 1 damps the finest wave critically, as MoorDyn's lines).
     Integrated as an exact flow of each element in turn, so stable at any dt; momentum is
-    kept, and the kinetic energy taken is ``dissipated(sim)``, part of ``sim.dissipated()``.
+    kept, and the kinetic energy taken is ``dissipated(sim)``, part of ``sim.dissipated()`` (at
+    a driven node, its drive pays what the dashpot takes there, which neither account holds,
+    nor the drive's reaction).
     Bending, twisting and shearing rates are not damped."""
 
     kind = "internal_damping"
@@ -39,10 +42,11 @@ class InternalDamping(Effect):
     def table_error(p, model):
         ne, nn = model.element_rest_length.shape[0], model.node_mass.shape[0]
         if (any(a.shape != (ne,) for a in (p.rate, p.weight, p.gain, p.loss)) or p.node_weight.shape != (nn,)
-                or p.node_turn.shape != (nn, 3) or p.turn.shape != (1,)):
-            return ("internal_damping: rate, weight, gain and loss need one entry per element, node_weight and "
-                    "node_turn one row per node")
-        return None
+                or p.node_turn.shape != (nn, 3) or p.is_driven.shape != (nn,) or p.held.shape != (nn, 6)
+                or p.turn.shape != (1,)):
+            return ("internal_damping: rate, weight, gain and loss need one entry per element, node_weight, "
+                    "node_turn, is_driven and held one row per node")
+        return index_error("internal_damping.driven", p.driven, nn)
 
     def __init__(self, axial: float | None = None, *, ratio: float | None = None, lines=None):
         if (axial is None) == (ratio is None):
@@ -85,7 +89,9 @@ class InternalDamping(Effect):
             e = np.arange(m.line_element_offsets[l] + 1, m.line_element_offsets[l + 1] - 1)
             v = m.line_vertex_offsets[l] + 1 + np.arange(e.size)
             pair[e] = m.vertex_inv_mass[v] + m.vertex_inv_mass[v + 1]
-        return InternalDampingParams(self.element_rates(on), weight, turn, pair, np.zeros(ne), np.zeros(ne),
+        nn = m.node_mass.shape[0]
+        return InternalDampingParams(self.element_rates(on), weight, turn, np.flatnonzero(driven).astype(np.int64),
+                                     driven.astype(float), np.zeros((nn, 6)), pair, np.zeros(ne), np.zeros(ne),
                                      np.full(1, np.nan), np.zeros(1, dtype=np.int64), np.zeros(1))
 
     def dissipated(self, sim) -> float:
