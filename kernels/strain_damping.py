@@ -42,7 +42,7 @@ class InternalDampingParams(NamedTuple):
     driven: np.ndarray       # (m,) int64 the nodes a drive moves
     is_driven: np.ndarray    # (nn,) 1.0 at those
     held: np.ndarray         # (nn, 6) a driven node's velocity and body angular velocity before the kick
-    weight: np.ndarray       # (ne,) w = w_a + w_b of each element with no end on a node
+    weight: np.ndarray       # (ne,) w = w_a + w_b of each element (read for those with no end on a node)
     gain: np.ndarray         # (ne,) (c - 1) / w of those, c = exp(-c w tau / l0) for tau = decay_h
     loss: np.ndarray         # (ne,) -(1 + c) / 2 of those
     decay_h: np.ndarray      # (1,) the flow length of gain and loss (nan: none yet)
@@ -51,14 +51,20 @@ class InternalDampingParams(NamedTuple):
 
 
 @njit(**INNER)
+def end_moment(model, state, a, x, y, z):
+    """Return xi x R^T f: the moment about its node's centre of mass, in the node's body axes, of
+    the lab vector f at line end a (offset xi)."""
+    q, o = state.node_q[model.attach_node[a]], model.attach_offset[a]
+    bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], x, y, z)
+    return cross(o[0], o[1], o[2], bx, by, bz)
+
+
+@njit(**INNER)
 def end_weight(p, model, state, a, tx, ty, tz):
     """Return the inverse mass that moves line end a (an attachment) along the lab direction t:
     its node's translation, and its rotation about the centre of mass at the end's offset."""
     nd = model.attach_node[a]
-    q = state.node_q[nd]
-    bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], tx, ty, tz)
-    o = model.attach_offset[a]
-    cx, cy, cz = cross(o[0], o[1], o[2], bx, by, bz)
+    cx, cy, cz = end_moment(model, state, a, tx, ty, tz)
     turn = p.node_turn[nd]
     return p.node_weight[nd] + turn[0] * cx * cx + turn[1] * cy * cy + turn[2] * cz * cz
 
@@ -71,22 +77,22 @@ def end_velocity(p, model, state, a):
     has moved on with its loads)."""
     nd = model.attach_node[a]
     q, o = state.node_q[nd], model.attach_offset[a]
-    row = p.held[nd] if p.is_driven[nd] != 0.0 else state.node_v[nd]
-    spin = p.held[nd] if p.is_driven[nd] != 0.0 else state.node_w[nd]
-    k = 3 if p.is_driven[nd] != 0.0 else 0
-    cx, cy, cz = cross(spin[k], spin[k + 1], spin[k + 2], o[0], o[1], o[2])
+    if p.is_driven[nd] != 0.0:
+        h = p.held[nd]
+        vx, vy, vz, wx, wy, wz = h[0], h[1], h[2], h[3], h[4], h[5]
+    else:
+        v, w = state.node_v[nd], state.node_w[nd]
+        vx, vy, vz, wx, wy, wz = v[0], v[1], v[2], w[0], w[1], w[2]
+    cx, cy, cz = cross(wx, wy, wz, o[0], o[1], o[2])
     ux, uy, uz = quat_rotate(q[0], q[1], q[2], q[3], cx, cy, cz)
-    return row[0] + ux, row[1] + uy, row[2] + uz
+    return vx + ux, vy + uy, vz + uz
 
 
 @njit(**INNER)
 def push_end(p, model, state, a, jx, jy, jz):
     """Update node attach_node[a] by the impulse J (lab) at line end a, and its line ends (1.1)."""
     nd = model.attach_node[a]
-    q = state.node_q[nd]
-    bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], jx, jy, jz)
-    o = model.attach_offset[a]
-    cx, cy, cz = cross(o[0], o[1], o[2], bx, by, bz)
+    cx, cy, cz = end_moment(model, state, a, jx, jy, jz)
     w, turn = p.node_weight[nd], p.node_turn[nd]
     state.node_v[nd, 0] += w * jx
     state.node_v[nd, 1] += w * jy

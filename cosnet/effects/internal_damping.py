@@ -13,6 +13,17 @@ from .contact import chosen_lines
 from .drives import driven_nodes
 
 
+def pair_weights(m) -> np.ndarray:
+    """(ne,) w = w_a + w_b of each element of model m: the inverse masses of its two ends (a line
+    end: its node's translation; the kernel finds an end element's own as the node turns)."""
+    vo, eo = m.line_vertex_offsets, m.line_element_offsets
+    inverse = m.vertex_inv_mass.copy()   # an end moves with its node
+    inverse[vo[:-1]] = m.node_inv_mass[m.attach_node[0::2]]
+    inverse[vo[1:] - 1] = m.node_inv_mass[m.attach_node[1::2]]
+    v = np.arange(eo[-1]) + np.repeat(np.arange(eo.shape[0] - 1), np.diff(eo))   # first vertex of each
+    return inverse[v] + inverse[v + 1]
+
+
 class InternalDamping(Effect):
     """Internal damping of the lines' stretching: a dashpot beside each element's axial spring,
     axial force c d(epsilon)/dt with epsilon the element's axial strain (Kelvin-Voigt). It takes
@@ -57,8 +68,9 @@ class InternalDamping(Effect):
         self.ratio = None if ratio is None else float(ratio)
         self.lines = None if lines is None else list(lines)
 
-    def element_rates(self, on: Binding) -> np.ndarray:
-        """(ne,) the coefficient c of each element (N s), 0 on lines not damped."""
+    def element_rates(self, on: Binding, pair: np.ndarray) -> np.ndarray:
+        """(ne,) the coefficient c of each element (N s), 0 on lines not damped, given the inverse
+        masses of their pairs of ends (pair_weights)."""
         m = on.model
         rate = np.zeros(m.element_rest_length.shape[0])
         for line in chosen_lines(on, self.lines, "InternalDamping"):
@@ -67,11 +79,7 @@ class InternalDamping(Effect):
             if self.ratio is None:
                 rate[e] = self.axial
                 continue
-            v = m.line_vertex_offsets[l] + (e - e[0])
-            inverse = m.vertex_inv_mass.copy()   # an end moves with its node
-            inverse[m.line_vertex_offsets[l]] = m.node_inv_mass[line.start.index]
-            inverse[m.line_vertex_offsets[l + 1] - 1] = m.node_inv_mass[line.end.index]
-            w = inverse[v] + inverse[v + 1]
+            w = pair[e]
             mu = np.divide(1.0, w, out=np.zeros_like(w), where=w > 0.0)   # between two fixed ends: none
             rate[e] = 2.0 * self.ratio * np.sqrt(m.element_stiffness[e, 2] * m.element_rest_length[e] * mu)
         return rate
@@ -83,15 +91,11 @@ class InternalDamping(Effect):
         inertia = m.node_inertia
         free = ~driven[:, None] & (m.node_locked == 0.0) & (inertia > 0.0) & np.isfinite(inertia)
         turn = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=free)   # a point junction: no arm to turn
-        ne = m.element_rest_length.shape[0]
-        pair = np.zeros(ne)   # w of the elements with no end on a node (the others' is found as they turn)
-        for l in range(m.line_element_offsets.shape[0] - 1):
-            e = np.arange(m.line_element_offsets[l] + 1, m.line_element_offsets[l + 1] - 1)
-            v = m.line_vertex_offsets[l] + 1 + np.arange(e.size)
-            pair[e] = m.vertex_inv_mass[v] + m.vertex_inv_mass[v + 1]
-        nn = m.node_mass.shape[0]
-        return InternalDampingParams(self.element_rates(on), weight, turn, np.flatnonzero(driven).astype(np.int64),
-                                     driven.astype(float), np.zeros((nn, 6)), pair, np.zeros(ne), np.zeros(ne),
+        ne, nn = m.element_rest_length.shape[0], m.node_mass.shape[0]
+        pair = pair_weights(m)
+        return InternalDampingParams(self.element_rates(on, pair), weight, turn,
+                                     np.flatnonzero(driven).astype(np.int64), driven.astype(float),
+                                     np.zeros((nn, 6)), pair, np.zeros(ne), np.zeros(ne),
                                      np.full(1, np.nan), np.zeros(1, dtype=np.int64), np.zeros(1))
 
     def dissipated(self, sim) -> float:
