@@ -218,8 +218,8 @@ def wrap_after_kick(p, model, state, arg):
             ux, uy, uz = (state.v[v, 0] - state.node_v[nd, 0], state.v[v, 1] - state.node_v[nd, 1],
                           state.v[v, 2] - state.node_v[nd, 2])
             radial = -(ux * nx + uy * ny + uz * nz) / w
-            pressed = p.push[v, 0] * nx + p.push[v, 1] * ny + p.push[v, 2] * nz + radial >= 0.0
-            if not pressed or abs(z) > p.groove[j]:
+            normal = p.push[v, 0] * nx + p.push[v, 1] * ny + p.push[v, 2] * nz + radial   # the step's, outward
+            if not normal >= 0.0 or abs(z) > p.groove[j]:
                 # the rim would have to pull (or the vertex has slid past its edge): it lets go, as
                 # if the rim had not held it this step (its drifts' impulses and displacements
                 # undone: kept, the pull's displacement against the line's tension would add to
@@ -233,7 +233,6 @@ def wrap_after_kick(p, model, state, arg):
                 # impulse the step's (drifts' and this kick's); its work over the kick taken on
                 # the mean of the velocities before the kick's loads and after it (a stuck
                 # vertex does none)
-                normal = p.push[v, 0] * nx + p.push[v, 1] * ny + p.push[v, 2] * nz + radial
                 ur = -radial * w
                 sx, sy, sz = ux - ur * nx, uy - ur * ny, uz - ur * nz
                 slip = math.sqrt(sx * sx + sy * sy + sz * sz)
