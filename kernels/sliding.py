@@ -115,26 +115,30 @@ def nearest_on_path(p, j, model, state):
     """Return (link, i, t): the line of slider j's path (index into p.path_lines), the element
     (first vertex i) and the fraction t in [0, 1] of the point of the path nearest to the
     node, found by walking from p.link[j], p.at[j]; t stays in [0, 1] at the path's ends (the
-    stops)."""
+    stops). The walk goes one way only: a node beyond the end of one element and before the
+    start of the next lies outside the corner between them, and their shared vertex is the
+    nearest point (walking on would swing between the two for ever)."""
     c0, c1 = p.path_offsets[j], p.path_offsets[j + 1]
     link = p.link[j]
     first, last = line_span(model, p.path_lines[link])
     i = min(max(p.at[j], first), last)
     x, xp = state.x, state.node_x[p.node[j]]
-    t = 0.0
+    t, way = 0.0, 0
     for _ in range(x.shape[0] + c1 - c0):
         dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
         t = ((xp[0] - x[i, 0]) * dx + (xp[1] - x[i, 1]) * dy + (xp[2] - x[i, 2]) * dz) / (dx * dx + dy * dy + dz * dz)
+        if (t < 0.0 and way > 0) or (t > 1.0 and way < 0):
+            break
         if t < 0.0 and i > first:
-            i -= 1
+            i, way = i - 1, -1
         elif t < 0.0 and link > c0:   # on into the line before, through their junction
-            link -= 1
+            link, way = link - 1, -1
             first, last = line_span(model, p.path_lines[link])
             i = last
         elif t > 1.0 and i < last:
-            i += 1
+            i, way = i + 1, 1
         elif t > 1.0 and link < c1 - 1:
-            link += 1
+            link, way = link + 1, 1
             first, last = line_span(model, p.path_lines[link])
             i = first
         else:

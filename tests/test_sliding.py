@@ -155,6 +155,36 @@ def test_line_pulled_through_an_eyelet_passes_through_its_point():
     assert cosnet.slider_state(sim, eyelet)["s"] < 0.99   # the rope has moved through it toward b
 
 
+@pytest.mark.parametrize("elsewhere", [0, 1])
+def test_rope_over_an_eyelet_at_its_corner_vertex_hangs_in_balance(elsewhere):
+    """A rope bent through a right angle at one of its vertices, hung over a point eyelet there
+    with equal loads on its ends: the eyelet lies outside the corner between the two elements
+    (beyond the end of one and before the start of the other), so the vertex itself is the
+    line's point nearest it; the rope hangs in balance, its elements stretched by the load's
+    tension alone, whatever else the net holds (`elsewhere`: elements of an unrelated line)."""
+    n, length, mass = 10, 0.05, 0.5
+    arm = length / math.sqrt(2)
+    points = ([(-(n - k) * arm, 0.0, -(n - k) * arm) for k in range(n)] + [(0.0, 0.0, 0.0)]
+              + [(k * arm, 0.0, -k * arm) for k in range(1, n + 1)])
+    rope_material, section = cosnet.Material(E=2e9, G=8e8, density=1000.0), cosnet.Circle(0.002)
+    net = cosnet.Net()
+    a = net.add_node(points[0], mass=mass, inertia=[math.inf] * 3)
+    b = net.add_node(points[-1], mass=mass, inertia=[math.inf] * 3)
+    rope = net.add_line(a, b, material=rope_material, section=section, elements=2 * n, points=points,
+                        rest_curvature=(0.0, 0.0, 0.0))
+    if elsewhere:
+        top = net.add_node((1.0, 1.0, 1.0), fixed=True)
+        net.add_line(top, net.add_node((1.0, 1.0, 0.0), mass=0.1), material=rope_material, section=section,
+                     elements=elsewhere)
+    eyelet = net.add_eyelet(rope, s=n * length)
+    sim = cosnet.Simulation(net, [cosnet.Gravity()])
+    sim.run(steps=2000)
+    strain = np.linalg.norm(np.diff(sim.line_positions(rope), axis=0), axis=1) / length - 1.0
+    static = mass * G / (rope_material.E * section.A)
+    assert np.abs(strain).max() < 20 * static          # ringing about the static stretch, no element lost
+    assert abs(cosnet.slider_state(sim, eyelet)["s"] - n * length) < 1e-6
+
+
 def test_checkpoint_carries_the_sliders(tmp_path):
     (a, ring_a), (b, ring_b) = resumed(lambda: inclined_wire(0.5, 0.4, 0.2), tmp_path / "c.npz", 3000, 2000)
     assert cosnet.slider_state(a, ring_a) == cosnet.slider_state(b, ring_b)
