@@ -451,6 +451,20 @@ class Fluid(Effect):
                     node[nd] += a[i]
         return (vertex, node) if np.any(vertex) or np.any(node) else None
 
+    def carried_mass(self, p, on: Binding):
+        """The vertices of the lines that carry an added mass across or along them, the free
+        nodes at their ends, and the nodes of buoys with an added mass."""
+        m = on.model
+        vertex, node = np.zeros(m.vertex_mass.shape[0], bool), np.zeros(m.node_mass.shape[0], bool)
+        for j, l in enumerate(p.lines):
+            if p.added_n[j] != 0.0 or p.added_t[j] != 0.0:
+                vertex[m.line_vertex_offsets[l]:m.line_vertex_offsets[l + 1]] = True
+                for end in (0, 1):
+                    nd = m.attach_node[2 * l + end]
+                    node[nd] |= m.node_inv_mass[nd] > 0 and p.node_skip[nd] == 0
+        node[p.buoy_node[p.buoy_added != 0.0]] = True
+        return (vertex, node) if vertex.any() or node.any() else None
+
     def dissipated(self, sim) -> float:
         """Energy drag has taken so far (J), measured in the frame of the medium."""
         return float(self.params(sim).dissipated[0])

@@ -12,7 +12,7 @@ from .drives import driven_nodes
 from .loads import Gravity
 from ..engine.bounds import index_error
 from ..kernels.sheaves import SheaveParams
-from ..engine.registry import Binding, Effect
+from ..engine.registry import Binding, Effect, refuse_carried_mass
 
 
 class Sheaves(Effect):
@@ -85,6 +85,9 @@ class Sheaves(Effect):
             near=near, lo=near.copy(), hi=near.copy(), engaged=np.zeros(nv), push=np.zeros((nv, 3)),
             moved=np.zeros((nv, 3)), sliding=np.zeros(nv), landing=np.zeros(nv),
             dissipated=np.zeros(1))
+
+    def check_state(self, sim):
+        refuse_carried_mass(sim, "sheaves", [sh.line for sh in self.sheaves], [sh.node for sh in self.sheaves])
 
     def dissipated(self, sim) -> float:
         """Kinetic energy the line's landings on the rims have taken so far (J)."""

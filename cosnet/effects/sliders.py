@@ -13,7 +13,7 @@ from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.motion import place_line_ends
 from ..kernels.sliding import PASSES, SlidingParams
-from ..engine.registry import Binding, Effect
+from ..engine.registry import Binding, Effect, refuse_carried_mass
 
 
 class Sliders(Effect):
@@ -83,6 +83,10 @@ class Sliders(Effect):
             damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
             s=np.array([sl.s for sl in self.sliders], dtype=float), push=np.zeros((k, 3)), sliding=np.zeros(k),
             dissipated=np.zeros(1))
+
+    def check_state(self, sim):
+        refuse_carried_mass(sim, "rings and eyelets", [l for sl in self.sliders for l in sl.lines],
+                            [sl.node for sl in self.sliders])
 
     def start(self, sim):
         """Catch every slider: its node and line take one velocity across the line at the

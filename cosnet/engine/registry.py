@@ -197,6 +197,13 @@ class Effect:
         lengthens the stable step; None when it adds none."""
         return None
 
+    def carried_mass(self, p, on: Binding):
+        """(vertex, node) bool arrays (nv,), (nn,): where the kick sees a mass other than the
+        model's in some direction (a fluid's added mass); None where it sees the model's
+        everywhere. Constraints whose impulses move the net by the model's masses refuse
+        these places (mass_carried_at)."""
+        return None
+
     def held_stiffness(self, p, on: Binding):
         """(points, B): Voronoi points whose bending and twisting stiffness B (k, 3) record
         ``p`` holds in place of the model (an articulated line end's), which the stable step
@@ -427,3 +434,24 @@ def _load(ep):
     if cls.kind != ep.name:
         raise ValueError(f"{where} declares kind {cls.kind!r}; the entry point's name must be its kind")
     return cls
+
+
+
+def refuse_carried_mass(sim, who: str, lines, nodes):
+    """Raise ValueError (one line naming ``who``) if an effect of ``sim`` makes the kick see
+    another mass than the model's on any of ``lines`` or ``nodes`` (Line, Node): constraints
+    whose impulses move the net by the model's masses are not the ones that mass takes, and
+    the energy balance would not close (a purse line through rings with an added mass drew
+    energy from nothing at a tenth of what the water took)."""
+    on = Binding(sim.net, sim.model, sim.state, tuple(sim.effects))
+    vo = sim.model.line_vertex_offsets
+    for e, p in zip(sim.effects, sim.records):
+        carried = e.carried_mass(p, on)
+        if carried is None:
+            continue
+        hit = [f"line {l.name!r}" for l in lines if carried[0][vo[l.index]:vo[l.index + 1]].any()]
+        hit += [f"node {n.name!r}" for n in nodes if carried[1][n.index]]
+        if hit:
+            raise ValueError(f"{who}: {e.kind} gives {hit[0]} an added mass, which their impulses do not "
+                             f"see (they move the net by its own masses); give it none there "
+                             f"(added_mass = [0, 0], or leave it out of the effect's lines)")
