@@ -343,6 +343,43 @@ def test_crane_hoists_its_hook_block_at_half_the_hauling_speed_on_half_its_weigh
         assert abs(cosnet.slider_state(sim, scene.net.node(sheave))["wrap"] - math.pi) < 0.15
 
 
+def test_purse_seine_closes_with_its_rings_on_the_purse_line():
+    """The purse line slides through the nine rings of the net's foot and the boat's two
+    blocks (eyelets): every ring stays on its centreline to round-off; the path from block to
+    block through the rings is never longer than the line between the blocks (stretched at
+    most by its largest strain), which the winch shortens, so the foot's round closes; energy +
+    what the water took - the winch's work never grows (the eyelets take a little at each
+    vertex that passes a sharp turn, docs/sliding.md), and what they take stays a small part
+    of what the water took."""
+    scene = case("purse_seine")
+    sim = scene.simulation()
+    net, purse = scene.net, scene.net.line("purse")
+    rings = [net.node(f"ring{i:02d}") for i in range(9)]
+    blocks = [net.node("block_a"), net.node("block_b")]
+    rest = np.linalg.norm(np.diff(np.asarray(purse.points), axis=0), axis=1)
+
+    def path():
+        p = [sim.node_position(n) for n in (blocks[0], *rings, blocks[1])]
+        return np.linalg.norm(np.diff(p, axis=0), axis=1)
+
+    start, last = path()[1:-1].sum(), sim.balance()
+    first = last
+    while sim.time < 2.0 - 1e-9:
+        sim.run(until=sim.time + 0.1)
+        x = sim.line_positions(purse)
+        for ring in rings:
+            p = sim.node_position(ring)
+            assert min(np.linalg.norm(np.cross(x[k + 1] - x[k], p - x[k])) / np.linalg.norm(x[k + 1] - x[k])
+                       for k in range(len(x) - 1)) < 1e-9
+        strain = (np.linalg.norm(np.diff(x, axis=0), axis=1) / rest).max() - 1.0
+        between = cosnet.slider_state(sim, blocks[1])["s"] - cosnet.slider_state(sim, blocks[0])["s"]
+        assert path().sum() <= between * (1.0 + strain)
+        assert sim.balance() - last < 1e-4      # it may move by Verlet's error alone
+        last = sim.balance()
+    assert path()[1:-1].sum() < 0.75 * start
+    assert 0.0 < first - last < 0.02 * sim.dissipated()
+
+
 def test_plectoneme_coils_onto_itself_without_passing_through():
     """The twisted rod, its end pulled in, stays straight with the motor torque G J theta / L
     until it buckles, then coils onto itself: at the end its strands touch (two capsules at
