@@ -348,9 +348,8 @@ def test_purse_seine_closes_with_its_rings_on_the_purse_line():
     blocks (eyelets): every ring stays on its centreline to round-off; the path from block to
     block through the rings is never longer than the line between the blocks (stretched at
     most by its largest strain), which the winch shortens, so the foot's round closes; energy +
-    what the water took - the winch's work never grows (the eyelets take a little at each
-    vertex that passes a sharp turn, docs/sliding.md), and what they take stays a small part
-    of what the water took."""
+    what the water and the eyelets took (at each vertex that passes a sharp turn,
+    docs/sliding.md) - the winch's work stays what it was."""
     scene = case("purse_seine")
     sim = scene.simulation()
     net, purse = scene.net, scene.net.line("purse")
@@ -374,10 +373,10 @@ def test_purse_seine_closes_with_its_rings_on_the_purse_line():
         strain = (np.linalg.norm(np.diff(x, axis=0), axis=1) / rest).max() - 1.0
         between = cosnet.slider_state(sim, blocks[1])["s"] - cosnet.slider_state(sim, blocks[0])["s"]
         assert path().sum() <= between * (1.0 + strain)
-        assert sim.balance() - last < 1e-4      # it may move by Verlet's error alone
+        assert abs(sim.balance() - last) < 1e-4
         last = sim.balance()
     assert path()[1:-1].sum() < 0.75 * start
-    assert 0.0 < first - last < 0.02 * sim.dissipated()
+    assert abs(first - last) < 1e-4 * sim.dissipated()
 
 
 def test_plectoneme_coils_onto_itself_without_passing_through():
