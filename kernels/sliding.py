@@ -19,11 +19,15 @@ vertices (weights 1 - t and t), each moving by its inverse mass (an end vertex b
   would stop it stays within mu_s times the normal impulse of the step (the kick's and the
   drifts'), else slides against mu_k times it. The kinetic energy of the relative motion they
   take is counted as dissipated.
-Where the slider passes onto another element, the line turns under it by the angle between
-the two: the velocity across the line that the new element's chord no longer allows is taken,
-by the drift's projection and the next kick, as in a plastic impact. The kinetic energy those
-impulses take (exact for the bodies they move) is counted as dissipated too; elsewhere their
-work is the scheme's own, second-order error, and left to it.
+Where a drift takes the slider onto another element, the line turns under it by the angle
+between the two: the relative velocity across the new element's chord, which it no longer
+allows, is taken (by that drift's projection and the next kick) as in a plastic impact, and
+its kinetic energy, |u_n|^2 / 2w as the drift brought it there, is counted as dissipated.
+It is counted once the slider has settled, SETTLED of an element from the vertex, on either
+side (p.corner, p.pending): a slider resting on the vertex of a kink (outside the corner of
+its two elements, nearest_on_path) crosses back and forth between them at every step, and
+counts only the first crossing of that stay. Elsewhere the constraint's work is the
+scheme's own, second-order error, and left to it.
 The impulses are equal and opposite, so they keep the momentum of a free net exactly.
 """
 
@@ -39,6 +43,7 @@ from .motion import place_line_end
 
 PASSES = 8          # projections after a drift, at most (each leaves the square of the last misfit)
 TOLERANCE = 1e-14   # misfit relative to the element's length that ends them
+SETTLED = 1e-3      # fraction of an element past a vertex where a passage over it is settled
 
 
 class SlidingParams(NamedTuple):
@@ -58,7 +63,8 @@ class SlidingParams(NamedTuple):
     s: np.ndarray           # (k,) material coordinate (m of unstretched length)
     push: np.ndarray        # (k, 3) impulse on the node from the drifts since the last kick
     sliding: np.ndarray     # (k,) 1.0 while sliding against friction
-    passed: np.ndarray      # (k,) 1.0 from a drift that took the slider onto another element to the next kick
+    corner: np.ndarray      # (k,) int64 the element (first vertex) a passage not yet settled came from; -1: none
+    pending: np.ndarray     # (k,) the energy that passage takes, counted once it is settled (J)
     dissipated: np.ndarray  # (1,) energy friction, dampers and passages took (J)
 
 
@@ -111,21 +117,35 @@ def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
 
 
 @njit(**INNER)
-def impulse_energy(p, j, model, state, i, t, jx, jy, jz):
-    """Return the change of kinetic energy the impulse J on slider j's node and -(1-t) J, -t J
-    on vertices i, i+1 makes (apply_impulse's): J . u + w |J|^2 / 2, u the relative velocity of
-    the bodies it moves (a fixed or driven one keeps its own), w their effective inverse mass."""
-    l, nd = p.path_lines[p.link[j]], p.node[j]
-    ux = uy = uz = 0.0
-    if p.node_weight[nd] > 0.0:
-        ux, uy, uz = state.node_v[nd, 0], state.node_v[nd, 1], state.node_v[nd, 2]
-    for v, share in ((i, 1.0 - t), (i + 1, t)):
-        if inverse_mass(p, model, l, v) > 0.0:
-            ux -= share * state.v[v, 0]
-            uy -= share * state.v[v, 1]
-            uz -= share * state.v[v, 2]
-    w = effective_inverse_mass(p, j, model, i, t)
-    return jx * ux + jy * uy + jz * uz + 0.5 * w * (jx * jx + jy * jy + jz * jz)
+def passage(p, j, model, state, link, i, t, came):
+    """Return the energy of slider j's passage settled by this drift, which took it onto
+    element i (first vertex) of path line ``link`` at t from element ``came`` (module
+    docstring); p.corner and p.pending follow."""
+    if p.corner[j] < 0 and i != came:   # a crossing: what it takes, as the drift brought it there
+        p.corner[j], p.pending[j] = came, passage_loss(p, j, model, state, link, i, t)
+    if p.corner[j] < 0 or not SETTLED < t < 1.0 - SETTLED:
+        return 0.0
+    taken = p.pending[j]
+    p.corner[j], p.pending[j] = -1, 0.0
+    return taken
+
+
+@njit(**INNER)
+def passage_loss(p, j, model, state, link, i, t):
+    """Return |u_n|^2 / 2w: the kinetic energy of slider j's velocity across element i (first
+    vertex) of path line ``link`` relative to the line there, w their effective inverse mass:
+    what a plastic impact taking it leaves out (module docstring)."""
+    l, nd = p.path_lines[link], p.node[j]
+    x, v, vp = state.x, state.v, state.node_v[nd]
+    ux = vp[0] - ((1.0 - t) * v[i, 0] + t * v[i + 1, 0])
+    uy = vp[1] - ((1.0 - t) * v[i, 1] + t * v[i + 1, 1])
+    uz = vp[2] - ((1.0 - t) * v[i, 2] + t * v[i + 1, 2])
+    dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    size2 = dx * dx + dy * dy + dz * dz
+    along = (ux * dx + uy * dy + uz * dz) / size2 if size2 > 0.0 else 0.0
+    nx, ny, nz = ux - along * dx, uy - along * dy, uz - along * dz
+    w = p.node_weight[nd] + (1.0 - t) ** 2 * inverse_mass(p, model, l, i) + t * t * inverse_mass(p, model, l, i + 1)
+    return 0.5 * (nx * nx + ny * ny + nz * nz) / w if w > 0.0 else 0.0
 
 
 @njit(**INLINE)
@@ -186,10 +206,12 @@ def slide_after_drift(p, model, state, h):
     for j in range(p.node.shape[0]):
         nd = p.node[j]
         i, t = p.at[j], 0.0
+        came, first = p.at[j], True
         for _ in range(PASSES):
             link, i, t = nearest_on_path(p, j, model, state)
-            if link != p.link[j] or i != p.at[j]:
-                p.passed[j] = 1.0
+            if first:   # where the drift took it, before the projection moves anything
+                lost += passage(p, j, model, state, link, i, t, came)
+                first = False
             p.link[j], p.at[j] = link, i
             xp = state.node_x[nd]
             rx = xp[0] - (x[i, 0] + t * (x[i + 1, 0] - x[i, 0]))
@@ -202,8 +224,6 @@ def slide_after_drift(p, model, state, h):
             if not w > 0.0:
                 break
             jx, jy, jz = -rx / (w * h), -ry / (w * h), -rz / (w * h)
-            if p.passed[j] != 0.0:
-                lost -= impulse_energy(p, j, model, state, i, t, jx, jy, jz)
             apply_impulse(p, j, model, state, i, t, jx, jy, jz, h)
             p.push[j, 0] += jx
             p.push[j, 1] += jy
@@ -268,9 +288,6 @@ def slide_after_kick(p, model, state, arg):
                                                 p.sliding[j])
             after = ut + w * jt
             lost += 0.5 * (ut * ut - after * after) / w
-        if p.passed[j] != 0.0:   # the velocity across the new element taken, as the drift's was
-            lost -= impulse_energy(p, j, model, state, i, t, nx, ny, nz)
-            p.passed[j] = 0.0
         apply_impulse(p, j, model, state, i, t, nx + jt * tx, ny + jt * ty, nz + jt * tz, 0.0)
     p.dissipated[0] += lost
 

@@ -20,6 +20,7 @@ class Sliders(Effect):
     """The rings and eyelets of a net (cosnet.core.sliding.Slider each)."""
 
     record = SlidingParams
+    none_if_negative = ("corner",)   # no passage pending
 
     @property
     def internal(self) -> bool:
@@ -40,8 +41,8 @@ class Sliders(Effect):
         """What is wrong with the index tables of record ``p`` for ``model``, or None."""
         k, nv, nn = p.node.shape[0], model.vertex_mass.shape[0], model.node_mass.shape[0]
         vo = model.line_vertex_offsets
-        rows = (p.link, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding, p.passed)
-        if any(a.shape[0] != k for a in rows):
+        if any(a.shape[0] != k for a in (p.link, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding, p.corner,
+                                                p.pending)):
             return "sliders: every table needs one row per ring or eyelet"
         if p.arc.shape != (nv,) or p.node_weight.shape != (nn,) or p.dissipated.shape != (1,):
             return "sliders: arc needs one entry per vertex, node_weight one per node"
@@ -59,6 +60,9 @@ class Sliders(Effect):
         bad = (p.at < vo[line]) | (p.at > vo[line + 1] - 2)
         if np.any(bad):
             return f"sliders.at holds {p.at[bad][0]}, outside the elements of its line"
+        problem = index_error("sliders.corner", p.corner[p.corner != -1], nv)
+        if problem:
+            return problem
         return None
 
     def __init__(self, sliders):
@@ -83,7 +87,7 @@ class Sliders(Effect):
             mu_k=np.array([sl.mu_k for sl in self.sliders], dtype=float),
             damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
             s=np.array([sl.s for sl in self.sliders], dtype=float), push=np.zeros((k, 3)), sliding=np.zeros(k),
-            passed=np.zeros(k),
+            corner=np.full(k, -1, dtype=np.int64), pending=np.zeros(k),
             dissipated=np.zeros(1))
 
     def check_state(self, sim):
@@ -141,7 +145,7 @@ class Sliders(Effect):
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
         return {"link": p.link, "at": p.at, "s": p.s, "push": p.push, "sliding": p.sliding,
-                "passed": p.passed, "dissipated": p.dissipated}
+                "corner": p.corner, "pending": p.pending, "dissipated": p.dissipated}
 
     def describe(self) -> str:
         return f"Sliders({len(self.sliders)} rings and eyelets)"
