@@ -117,12 +117,12 @@ def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
 
 
 @njit(**INNER)
-def passage(p, j, model, state, link, i, t, came):
+def passage(p, j, model, state, i, t, came):
     """Return the energy of slider j's passage settled by this drift, which took it onto
-    element i (first vertex) of path line ``link`` at t from element ``came`` (module
+    element i (first vertex, on its line p.link[j]) at t from element ``came`` (module
     docstring); p.corner and p.pending follow."""
     if p.corner[j] < 0 and i != came:   # a crossing: what it takes, as the drift brought it there
-        p.corner[j], p.pending[j] = came, passage_loss(p, j, model, state, link, i, t)
+        p.corner[j], p.pending[j] = came, passage_loss(p, j, model, state, i, t)
     if p.corner[j] < 0 or not SETTLED < t < 1.0 - SETTLED:
         return 0.0
     taken = p.pending[j]
@@ -130,21 +130,26 @@ def passage(p, j, model, state, link, i, t, came):
     return taken
 
 
+@njit(**INLINE)
+def relative_velocity(p, j, state, i, t):
+    """Return slider j's node velocity less the line's at t on element i (first vertex)."""
+    v, vp = state.v, state.node_v[p.node[j]]
+    return (vp[0] - ((1.0 - t) * v[i, 0] + t * v[i + 1, 0]), vp[1] - ((1.0 - t) * v[i, 1] + t * v[i + 1, 1]),
+            vp[2] - ((1.0 - t) * v[i, 2] + t * v[i + 1, 2]))
+
+
 @njit(**INNER)
-def passage_loss(p, j, model, state, link, i, t):
+def passage_loss(p, j, model, state, i, t):
     """Return |u_n|^2 / 2w: the kinetic energy of slider j's velocity across element i (first
-    vertex) of path line ``link`` relative to the line there, w their effective inverse mass:
+    vertex, on its line p.link[j]) relative to the line there, w their effective inverse mass:
     what a plastic impact taking it leaves out (module docstring)."""
-    l, nd = p.path_lines[link], p.node[j]
-    x, v, vp = state.x, state.v, state.node_v[nd]
-    ux = vp[0] - ((1.0 - t) * v[i, 0] + t * v[i + 1, 0])
-    uy = vp[1] - ((1.0 - t) * v[i, 1] + t * v[i + 1, 1])
-    uz = vp[2] - ((1.0 - t) * v[i, 2] + t * v[i + 1, 2])
+    x = state.x
+    ux, uy, uz = relative_velocity(p, j, state, i, t)
     dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
     size2 = dx * dx + dy * dy + dz * dz
     along = (ux * dx + uy * dy + uz * dz) / size2 if size2 > 0.0 else 0.0
     nx, ny, nz = ux - along * dx, uy - along * dy, uz - along * dz
-    w = p.node_weight[nd] + (1.0 - t) ** 2 * inverse_mass(p, model, l, i) + t * t * inverse_mass(p, model, l, i + 1)
+    w = effective_inverse_mass(p, j, model, i, t)
     return 0.5 * (nx * nx + ny * ny + nz * nz) / w if w > 0.0 else 0.0
 
 
@@ -200,19 +205,19 @@ def effective_inverse_mass(p, j, model, i, t):
 @njit(**CACHED)
 def slide_after_drift(p, model, state, h):
     """Update the positions and velocities of every slider's node and line after a drift of h:
-    the node back on the line's centreline (module docstring); p.at, p.s and p.push follow."""
+    the node back on the line's centreline (module docstring); p.at, p.s, p.push, the passages
+    (p.corner, p.pending) and p.dissipated follow."""
     x = state.x
     lost = 0.0
     for j in range(p.node.shape[0]):
         nd = p.node[j]
         i, t = p.at[j], 0.0
-        came, first = p.at[j], True
-        for _ in range(PASSES):
+        came = p.at[j]
+        for k in range(PASSES):
             link, i, t = nearest_on_path(p, j, model, state)
-            if first:   # where the drift took it, before the projection moves anything
-                lost += passage(p, j, model, state, link, i, t, came)
-                first = False
             p.link[j], p.at[j] = link, i
+            if k == 0:   # where the drift took it, before the projection moves anything
+                lost += passage(p, j, model, state, i, t, came)
             xp = state.node_x[nd]
             rx = xp[0] - (x[i, 0] + t * (x[i + 1, 0] - x[i, 0]))
             ry = xp[1] - (x[i, 1] + t * (x[i + 1, 1] - x[i, 1]))
@@ -255,19 +260,16 @@ def slide_after_kick(p, model, state, arg):
     h)): the relative velocity across the line removed, the damper and friction along it
     (module docstring); p.dissipated, p.sliding follow and p.push is spent."""
     h = arg[1]
-    x, v = state.x, state.v
+    x = state.x
     lost = 0.0
     for j in range(p.node.shape[0]):
-        nd, i = p.node[j], p.at[j]
+        i = p.at[j]
         span = p.arc[i + 1] - p.arc[i]
         t = min(max((p.s[j] - p.path_arc[p.link[j]] - p.arc[i]) / span, 0.0), 1.0) if span > 0.0 else 0.0
         dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
         size = math.sqrt(dx * dx + dy * dy + dz * dz)
         tx, ty, tz = dx / size, dy / size, dz / size
-        vp = state.node_v[nd]
-        ux = vp[0] - ((1.0 - t) * v[i, 0] + t * v[i + 1, 0])
-        uy = vp[1] - ((1.0 - t) * v[i, 1] + t * v[i + 1, 1])
-        uz = vp[2] - ((1.0 - t) * v[i, 2] + t * v[i + 1, 2])
+        ux, uy, uz = relative_velocity(p, j, state, i, t)
         ut = ux * tx + uy * ty + uz * tz
         w = effective_inverse_mass(p, j, model, i, t)
         if not w > 0.0:

@@ -41,8 +41,8 @@ class Sliders(Effect):
         """What is wrong with the index tables of record ``p`` for ``model``, or None."""
         k, nv, nn = p.node.shape[0], model.vertex_mass.shape[0], model.node_mass.shape[0]
         vo = model.line_vertex_offsets
-        if any(a.shape[0] != k for a in (p.link, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding, p.corner,
-                                                p.pending)):
+        rows = (p.link, p.mu_s, p.mu_k, p.damping, p.at, p.s, p.push, p.sliding, p.corner, p.pending)
+        if any(a.shape[0] != k for a in rows):
             return "sliders: every table needs one row per ring or eyelet"
         if p.arc.shape != (nv,) or p.node_weight.shape != (nn,) or p.dissipated.shape != (1,):
             return "sliders: arc needs one entry per vertex, node_weight one per node"

@@ -201,7 +201,7 @@ class Effect:
         """(vertex, node) bool arrays (nv,), (nn,): where the kick sees a mass other than the
         model's in some direction (a fluid's added mass); None where it sees the model's
         everywhere. Constraints whose impulses move the net by the model's masses refuse
-        these places (mass_carried_at)."""
+        these places (refuse_carried_mass)."""
         return None
 
     def held_stiffness(self, p, on: Binding):
@@ -434,7 +434,6 @@ def _load(ep):
     if cls.kind != ep.name:
         raise ValueError(f"{where} declares kind {cls.kind!r}; the entry point's name must be its kind")
     return cls
-
 
 
 def refuse_carried_mass(sim, who: str, lines, nodes):
