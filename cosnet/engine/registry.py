@@ -441,7 +441,7 @@ def refuse_carried_mass(sim, who: str, lines, nodes):
     another mass than the model's on any of ``lines`` or ``nodes`` (Line, Node): constraints
     whose impulses move the net by the model's masses are not the ones that mass takes, and
     the energy balance would not close (a purse line through rings with an added mass drew
-    energy from nothing at a tenth of what the water took)."""
+    energy from nothing)."""
     on = Binding(sim.net, sim.model, sim.state, tuple(sim.effects))
     vo = sim.model.line_vertex_offsets
     for e, p in zip(sim.effects, sim.records):
