@@ -418,10 +418,15 @@ class Fluid(Effect):
         (0 without added mass)."""
         if not (np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added)):
             return 0.0
-        if not held:
-            p = p._replace(sample=p.sample.copy(), buoy_sample=p.buoy_sample.copy())
+        if held:
+            return typed_call(fluid_entrained_energy, p, on.model, on.state)
+        # sampled in place and put back: the step's own record keeps typed_call's held entry
+        kept = p.sample.copy(), p.buoy_sample.copy()
+        try:
             typed_call(sample_fluid, p, on.model, on.state)
-        return typed_call(fluid_entrained_energy, p, on.model, on.state)
+            return typed_call(fluid_entrained_energy, p, on.model, on.state)
+        finally:
+            p.sample[...], p.buoy_sample[...] = kept
 
     def exchange(self, p, on: Binding) -> float:
         """Upthrust of the lines in the medium times the diagonal of the net's bounding box."""
