@@ -29,7 +29,7 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import FluidParams, node_free, node_mass_matrix, sample_rows, split
+from .fluid import FluidParams, calm_medium, node_free, node_mass_matrix, sample_rows, split
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, solve_sym3
 
@@ -68,15 +68,17 @@ def end_arm(model, state, a):
 
 
 @njit(**CACHED, inline="always")
-def own_terms(G, Q, V, S, x, vlen, i, a, b, da):
+def own_terms(G, Q, V, S, x, vlen, i, a, b, da, calm):
     """Update G at vertex i by -M'u and Q at i by q (module docstring), its chord from vertex a
-    to b, at the velocity columns V (x: the position columns; da = a_t - a_n per length)."""
+    to b, at the velocity columns V (x: the position columns; da = a_t - a_n per length;
+    ``calm``: the medium at rest, its velocity rows not read)."""
     tx, ty, tz = S[7][i], S[8][i], S[9][i]
     # the chord's length is its projection on the sampled tangent, which is the same chord
     # normalised (no second square root); coincident ends: no tangent, nothing turns
     inv = 1.0 / max((x[0][b] - x[0][a]) * tx + (x[1][b] - x[1][a]) * ty + (x[2][b] - x[2][a]) * tz, 1e-150)
     c = da * S[0][i] * vlen[i]
-    ux, uy, uz = V[0][i] - S[1][i], V[1][i] - S[2][i], V[2][i] - S[3][i]
+    Ux, Uy, Uz = (0.0, 0.0, 0.0) if calm else (S[1][i], S[2][i], S[3][i])
+    ux, uy, uz = V[0][i] - Ux, V[1][i] - Uy, V[2][i] - Uz
     ut = ux * tx + uy * ty + uz * tz
     dx, dy, dz = (V[0][b] - V[0][a]) * inv, (V[1][b] - V[1][a]) * inv, (V[2][b] - V[2][a]) * inv
     dt = dx * tx + dy * ty + dz * tz
@@ -90,22 +92,28 @@ def own_terms(G, Q, V, S, x, vlen, i, a, b, da):
 
 
 @njit(**PASS)
-def interior_terms(G, Q, V, S, x, vlen, first, n, da):
-    """Update G and Q at the n interior vertices first.. (own_terms; chords between neighbours)."""
-    for k in range(n):
-        i = first + uint(k)
-        own_terms(G, Q, V, S, x, vlen, i, i - uint(1), i + uint(1), da)
+def interior_terms(G, Q, V, S, x, vlen, first, n, da, calm):
+    """Update G and Q at the n interior vertices first.. (own_terms; chords between neighbours;
+    a loop for a calm medium of its own)."""
+    if calm:
+        for k in range(n):
+            i = first + uint(k)
+            own_terms(G, Q, V, S, x, vlen, i, i - uint(1), i + uint(1), da, True)
+    else:
+        for k in range(n):
+            i = first + uint(k)
+            own_terms(G, Q, V, S, x, vlen, i, i - uint(1), i + uint(1), da, False)
 
 
 @njit(**PASS)
-def line_turning(G, Q, V, S, x, vlen, lo, hi, da):
+def line_turning(G, Q, V, S, x, vlen, lo, hi, da, calm):
     """Update the force columns G at the vertices lo..hi-1 of one line by the turning fluid's
     forces at the velocity columns V (Q: scratch for q; own_terms, the ends on their end
     element's chord), but for q's share at the interior vertices, which add_line_forces
     spreads as it adds G to the loads."""
-    own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da)
-    own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da)
-    interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da)
+    own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da, False)
+    own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da, False)
+    interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da, calm)
     for k in range(3):
         G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
         G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
@@ -131,12 +139,13 @@ def end_sums(p, model, state, G, nd):
 
 
 @njit(**PASS)
-def predict_line(V, v, S, f, G, first, n, h):
+def predict_line(V, v, S, f, G, first, n, h, up):
     """Update the velocity columns V at the n vertices first.. to v after a kick of h with the
-    force columns f + G, through the sampled inverse masses."""
+    force columns f + G and up times the sampled upthrust (row 13), through the sampled
+    inverse masses."""
     for k in range(n):
         i = first + uint(k)
-        d = split(S[14][i], S[15][i], f[0][i] + G[0][i], f[1][i] + G[1][i], f[2][i] + G[2][i],
+        d = split(S[14][i], S[15][i], f[0][i] + G[0][i], f[1][i] + G[1][i], f[2][i] + G[2][i] + up * S[13][i],
                   S[7][i], S[8][i], S[9][i])
         V[0][i] = v[0][i] + h * d[0]
         V[1][i] = v[1][i] + h * d[1]
@@ -144,10 +153,11 @@ def predict_line(V, v, S, f, G, first, n, h):
 
 
 @njit(**PASS)
-def add_line_forces(f, G, Q, V, first, n):
+def add_line_forces(f, G, Q, V, S, vmass, first, n, up):
     """Update G at the n interior vertices first.. by q of the vertex before (whose chord ends
     here) less q of the vertex after (whose chord starts here), and the force columns f there
-    by G; return the power of G at V."""
+    to what the kick divides by the vertex mass: m M^-1 (f + G + up times the sampled
+    upthrust), as divide_line (one pass instead of two); return the power of G at V."""
     power = 0.0
     for k in range(n):
         i = first + uint(k)
@@ -155,10 +165,10 @@ def add_line_forces(f, G, Q, V, first, n):
         gy = G[1][i] + Q[1][i - uint(1)] - Q[1][i + uint(1)]
         gz = G[2][i] + Q[2][i - uint(1)] - Q[2][i + uint(1)]
         G[0][i], G[1][i], G[2][i] = gx, gy, gz
-        f[0][i] += gx
-        f[1][i] += gy
-        f[2][i] += gz
         power += gx * V[0][i] + gy * V[1][i] + gz * V[2][i]
+        m = vmass[i]
+        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i] + gx, f[1][i] + gy,
+                                          f[2][i] + gz + up * S[13][i], S[7][i], S[8][i], S[9][i])
     return power
 
 
@@ -166,12 +176,15 @@ def add_line_forces(f, G, Q, V, first, n):
 def add_turning_forces(p, model, state, loads, h):
     """Update loads.f (nv, 3) at the interior vertices, loads.node_f and loads.node_tau at the
     free nodes by the turning fluid's forces at the kick's midpoint velocities (module
-    docstring); p.supplied by their work over the kick of h, which with the resampled
-    entrained energy (flow_fluid) is what the line and its fluid exchange with the medium:
-    nothing in still water, to the step's order. (One kernel of its own: the records passed
-    to each of several cost more compiling than their arithmetic.)"""
+    docstring), and the interior vertices' loads with the upthrust to what the kick divides
+    by their masses (add_line_forces; add_fluid_mass the rest); p.supplied by their work
+    over the kick of h, which with the resampled entrained energy (flow_fluid) is what the
+    line and its fluid exchange with the medium: nothing in still water, to the step's
+    order. (One kernel of its own: the records passed to each of several cost more
+    compiling than their arithmetic.)"""
     G, V, Q = turning_rows(p)
     S, x, v, f = sample_rows(p), columns(state.x), columns(state.v), columns(loads.f)
+    calm = calm_medium(p)
     # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
     # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
     # evaluation a kick instead of two (a line end: its node's motion; its translation on)
@@ -179,7 +192,7 @@ def add_turning_forces(p, model, state, loads, h):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        predict_line(V, v, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h)
+        predict_line(V, v, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h, 1.0 if p.buoyancy[j] != 0.0 else 0.0)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
             q, w, r = state.node_q[nd], state.node_w[nd], end_arm(model, state, a)
@@ -199,8 +212,9 @@ def add_turning_forces(p, model, state, loads, h):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        line_turning(G, Q, V, S, x, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j])
-        work += add_line_forces(f, G, Q, V, uint(lo + 1), hi - lo - 2)
+        line_turning(G, Q, V, S, x, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j], calm)
+        work += add_line_forces(f, G, Q, V, S, model.vertex_mass, uint(lo + 1), hi - lo - 2,
+                                1.0 if p.buoyancy[j] != 0.0 else 0.0)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             if node_free(p, model, model.attach_node[a]):
                 work += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]
@@ -225,7 +239,7 @@ def add_upthrust(fz, up, first, n):
 def divide_line(f, S, vmass, first, n, up):
     """Update the force columns f at the n vertices first.. to m M^-1 f, M the vertex mass
     with the added mass of its sampled wetness and tangent (branch-free: a dry vertex keeps m),
-    with up times the sampled upthrust (row 13) added first (up: 1, or 0 where it is in f)."""
+    with up times the sampled upthrust (row 13) added first (up: 1, or 0 without buoyancy)."""
     for k in range(n):
         i = first + uint(k)
         m = vmass[i]
@@ -240,26 +254,27 @@ def add_fluid_mass(p, model, state, arg):
     given arg = (loads, h), the kick's loads and length: the upthrust (as sample_upthrust
     found it) and the turning fluid's forces added (add_turning_forces), then all turned so
     that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line parts (the
-    vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends)."""
+    vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends). (Each
+    line's interior in one pass: the upthrust alone where it carries no added mass, else
+    with the division, in add_line_forces where its fluid turns.)"""
     loads, h = arg
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
-    turning = p.turning.shape[1] > 0
-    for j in range(p.lines.shape[0]):   # (the turning forces' predictor needs it; else the division adds it)
+    for j in range(p.lines.shape[0]):
         l = p.lines[j]
-        if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and (turning or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0)):
+        if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and p.added_n[j] == 0.0 and p.added_t[j] == 0.0:
             add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
                          model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
-    if turning:
+    if p.turning.shape[1] > 0:
         add_turning_forces(p, model, state, loads, h)
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
-        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0):
+        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0) or turns(p, j):
             continue
         divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
                     model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
-                    1.0 if p.buoyancy[j] != 0.0 and not turning else 0.0)
+                    1.0 if p.buoyancy[j] != 0.0 else 0.0)
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
