@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 import cosnet
+from cosnet.kernels.stepping import CHUNK_STEPS
 from harness import best_interleaved, table, write_json
 
 SEA = 1025.0
@@ -46,7 +47,7 @@ def main():
     sizes, rounds = ((100,), 3) if quick else ((100, 1000), 9)
     rows, results = [], []
     for n in sizes:
-        steps = max(200, 200_000 // n)
+        steps = max(CHUNK_STEPS, 2_000_000 // n)   # whole chunks: the watch's tests at their usual rate
         dry = cosnet.Simulation(wire(n), [cosnet.Gravity()], threads=1, fast_modes="rotary")
         sims = {"dry (gravity)": dry}
         for name, kw in FLUIDS.items():
