@@ -146,7 +146,7 @@ class Watch:
         """Stop a node whose vibration against its line end keeps growing at the grid scale:
         a flutter of the discrete net that no smaller dt removes (docs/rolled_cantilever.md)."""
         sim = self.sim
-        angle, rate, a = measure.node_wobble(sim.model, sim.state)
+        angle, rate, a = measure.node_wobble(sim.model, sim.state, sim.dt)
         h = self.wobble = (self.wobble + [angle])[-3:]
         if len(h) < 3 or angle < WOBBLE_FLOOR or not h[2] > WOBBLE_GROWTH * h[1] > WOBBLE_GROWTH ** 2 * h[0] > 0:
             return
