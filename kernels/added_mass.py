@@ -29,7 +29,7 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import FluidParams, calm_medium, node_free, node_mass_matrix, sample_rows, split
+from .fluid import FluidParams, calm_medium, has_added_mass, held_mass, node_free, sample_rows, split
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, solve_sym3
 
@@ -203,7 +203,7 @@ def add_turning_forces(p, model, state, loads, h):
             if node_free(p, model, nd):
                 g, _ = end_sums(p, model, state, G, nd)
                 fn = loads.node_f[nd]
-                a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+                a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, True)
                 d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
             for k in range(3):
                 V[k][i] = vn[k] + c[k] + 0.5 * h * d[k]
@@ -275,10 +275,12 @@ def add_fluid_mass(p, model, state, arg):
         divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
                     model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
                     1.0 if p.buoyancy[j] != 0.0 else 0.0)
+    if not has_added_mass(p):
+        return
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, True)
         m = model.node_mass[nd]
         if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
             continue

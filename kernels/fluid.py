@@ -88,6 +88,9 @@ class FluidParams(NamedTuple):
     medium: np.ndarray       # (2,) rho and g
     turning: np.ndarray      # (9, nv) kernels/added_mass.py: the forces of the entrained fluid as the lines
                              # turn (the last kick's), and scratch; (9, 0) when they do not act
+    node_mass: np.ndarray    # (nn, 6) scratch: each free node's mass matrix with the added mass of its wet
+                             # line ends and buoy as the kick's sample holds it (a00 a01 a02 a11 a12 a22;
+                             # sample_node_masses), where the medium adds mass
 
 
 @njit(**CACHED, inline="always")
@@ -346,9 +349,10 @@ def sample_medium(p, model, state):
     clock: they hold still through a kick and the flows around it, so the medium is sampled
     once per kick. A still medium's velocity and acceleration rows never change: they are
     written where a line's first vertex does not hold them (a new sample; a new current).
-    Return the change of the entrained fluid's kinetic energy at the lines' interior vertices
-    at the present velocities, in a still medium (0 otherwise: flow_fluid measures it around
-    the sample). (Loops over vertices without calls or branches, which LLVM vectorises.)"""
+    Return the change of the entrained fluid's kinetic energy at the lines' vertices (line
+    ends at the nodes the medium moves included) at the present velocities, in a still medium
+    (0 otherwise: flow_fluid measures it around the sample). (Loops over vertices without
+    calls or branches, which LLVM vectorises.)"""
     x = state.x
     c, S, v = columns(x), sample_rows(p), columns(state.v)
     t = state.clock[0]
@@ -362,11 +366,14 @@ def sample_medium(p, model, state):
         if l < 0 or l >= nl:
             continue
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        an, at = p.added_n[j], p.added_t[j]
+        ends = still and (an != 0.0 or at != 0.0)
+        if ends:
+            de -= ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         for i in (lo, hi - 1):
             tan = line_tangent(x, i, lo, hi)
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
         if still:
-            an, at = p.added_n[j], p.added_t[j]
             if not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0 and S[5][lo] == 0.0
                     and S[6][lo] == 0.0):
                 sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)
@@ -375,6 +382,8 @@ def sample_medium(p, model, state):
                     S[0][i] = 1.0 if c[2][i] <= surface else 0.0
             de += sample_still_line(v, c, S, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2, surface, an, at,
                                     an != 0.0 or at != 0.0)
+            if ends:
+                de += ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         else:
             sample_chords(c, S, uint(lo), hi - lo - 2)
             for i in range(lo, hi):
@@ -583,7 +592,9 @@ def node_end(p, model, state, a):
     vt = model.attach_vertex[a]
     nd = model.attach_node[a]
     q, o = state.node_q[nd], model.attach_offset[a]
-    r = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+    r = (0.0, 0.0, 0.0)
+    if o[0] != 0.0 or o[1] != 0.0 or o[2] != 0.0:   # (a point junction's ends sit at its centre)
+        r = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
     wet, um, acc, tan = sampled(p, vt)
     return j, wet and j >= 0, r, tan, model.voronoi_rest_length[vt], um, acc
 
@@ -604,6 +615,41 @@ def node_mass_matrix(p, model, state, nd):
     return a
 
 
+@njit(**INNER)
+def sample_node_masses(p, model, state):
+    """Update p.node_mass at the free nodes given the sample: each node's mass matrix with the
+    added mass (node_mass_matrix), once a kick for the flows and the kick that divide by it
+    (a loop over its line ends each: a node's share of the step where lines are short)."""
+    for nd in range(model.node_mass.shape[0]):
+        if node_free(p, model, nd):
+            a = node_mass_matrix(p, model, state, nd)
+            for k in range(6):
+                p.node_mass[nd, k] = a[k]
+
+
+@njit(**CACHED, inline="always")
+def held_mass(p, model, nd, added):
+    """Return free node nd's mass matrix as the kick holds it: p.node_mass's where the medium
+    adds mass (``added``), else its own mass."""
+    if added:
+        a = p.node_mass[nd]
+        return a[0], a[1], a[2], a[3], a[4], a[5]
+    m = model.node_mass[nd]
+    return m, 0.0, 0.0, m, 0.0, m
+
+
+@njit(**CACHED, inline="always")
+def pushes_nodes(p):
+    """Whether the forces of position and time reach the nodes: upthrust on a line or a buoy,
+    or a medium that moves (its inertia force)."""
+    if not still_medium(p) or p.buoy_node.shape[0] > 0:
+        return True
+    for j in range(p.buoyancy.shape[0]):
+        if p.buoyancy[j] != 0.0:
+            return True
+    return False
+
+
 @njit(**CACHED, inline="always")
 def node_free(p, model, nd):
     """Whether the medium moves node nd itself (finite mass, no drive holding it)."""
@@ -614,6 +660,8 @@ def node_free(p, model, nd):
 def turn_node(model, state, nd, tx, ty, tz):
     """Update node nd's body angular velocity by the lab angular impulse (tx, ty, tz) on its
     free axes; return the rotational kinetic energy it added."""
+    if tx == 0.0 and ty == 0.0 and tz == 0.0:   # (a point junction's line ends: no arm, no moment)
+        return 0.0
     q = state.node_q[nd]
     b = quat_rotate_inv(q[0], q[1], q[2], q[3], tx, ty, tz)
     de = 0.0
@@ -637,6 +685,9 @@ def push_nodes(p, model, state, h):
     """Update the free nodes' velocities and angular velocities by the impulse h of the forces
     of position and time on their line ends (through the added mass; the torque about the
     centre of mass); p.supplied by the inertia force's work."""
+    if not pushes_nodes(p):
+        return
+    added = has_added_mass(p)
     supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
@@ -664,7 +715,7 @@ def push_nodes(p, model, state, h):
             fz += mi * p.buoy_sample[b, 6] + f * p.medium[0] * p.medium[1] * p.buoy_volume[b]
         if fx == 0.0 and fy == 0.0 and fz == 0.0 and tx == 0.0 and ty == 0.0 and tz == 0.0:
             continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, added)
         dv = solve_sym3(a00, a01, a02, a11, a12, a22, h * fx, h * fy, h * fz)
         vn = state.node_v[nd]
         supplied += h * (ix * (vn[0] + 0.5 * dv[0]) + iy * (vn[1] + 0.5 * dv[1]) + iz * (vn[2] + 0.5 * dv[2]))
@@ -698,13 +749,26 @@ def buoy_drag(p, nd, v):
     return p.buoy_drag[b] * s[0] * math.sqrt((v[0] - s[1]) ** 2 + (v[1] - s[2]) ** 2 + (v[2] - s[3]) ** 2)
 
 
+@njit(**CACHED, inline="always")
+def add_arm(c, cn, dc, r, t):
+    """Return the 3 x 3 matrix c (a row-major 9-tuple) plus [r]x D, D = cn 1 + dc t t^T: the
+    moment r x (D v) of a drag D acting at the arm r is this matrix times v."""
+    rt = cross(r[0], r[1], r[2], t[0], t[1], t[2])
+    return (c[0] + dc * rt[0] * t[0], c[1] + dc * rt[0] * t[1] - cn * r[2], c[2] + dc * rt[0] * t[2] + cn * r[1],
+            c[3] + dc * rt[1] * t[0] + cn * r[2], c[4] + dc * rt[1] * t[1], c[5] + dc * rt[1] * t[2] - cn * r[0],
+            c[6] + dc * rt[2] * t[0] - cn * r[1], c[7] + dc * rt[2] * t[1] + cn * r[0], c[8] + dc * rt[2] * t[2])
+
+
 @njit(**INNER)
 def drag_nodes(p, model, state, h):
     """Update the free nodes' velocities by one linearly implicit step of the drag on their
     wet line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
     step's start, M the mass with the added mass; a buoy's own drag 1/2 rho C_d A f |u| at
     its centre added to D), and their angular velocities by the drag's torque about the centre
-    of mass at v'; p.dissipated and p.supplied by its work."""
+    of mass at v'; p.dissipated and p.supplied by its work. (One pass over a node's line ends:
+    the torque and the medium's work at v' are linear in v', and their coefficients are summed
+    with the drag's.)"""
+    added = has_added_mass(p)
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
@@ -712,10 +776,14 @@ def drag_nodes(p, model, state, h):
         w = node_spin(state, nd)
         vn = state.node_v[nd]
         d = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        b0 = b1 = b2 = 0.0
+        b0 = b1 = b2 = 0.0   # sum D_a (U_a - w x r_a)
+        # the torque at v' is e - C v' (C = sum [r_a]x D_a, e = sum r_a x D_a (U_a - w x r_a)); the
+        # medium's work over the flow h (s - g.v') (g = sum D_a U_a, s = sum U_a . D_a (U_a - w x r_a))
+        c = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        e0 = e1 = e2 = g0 = g1 = g2 = s = 0.0
         touched = False
-        for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s])
+        for k in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[k])
             if not wet:
                 continue
             spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
@@ -725,39 +793,34 @@ def drag_nodes(p, model, state, h):
                 continue
             touched = True
             d = add_split(d, cn, dc, tan)
-            g = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
-            b0, b1, b2 = b0 + g[0], b1 + g[1], b2 + g[2]
+            f = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
+            b0, b1, b2 = b0 + f[0], b1 + f[1], b2 + f[2]
+            rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
+            e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
+            du = split(cn, cn + dc, um[0], um[1], um[2], tan[0], tan[1], tan[2])
+            g0, g1, g2 = g0 + du[0], g1 + du[1], g2 + du[2]
+            s += um[0] * f[0] + um[1] * f[1] + um[2] * f[2]
+            c = add_arm(c, cn, dc, r, tan)
         cb = buoy_drag(p, nd, vn)
         if cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
             touched = True
             d = add_split(d, cb, 0.0, (0.0, 0.0, 1.0))
             bs = p.buoy_sample[buoy_of(p, nd)]
             b0, b1, b2 = b0 + cb * bs[1], b1 + cb * bs[2], b2 + cb * bs[3]
+            g0, g1, g2 = g0 + cb * bs[1], g1 + cb * bs[2], g2 + cb * bs[3]
+            s += cb * (bs[1] * bs[1] + bs[2] * bs[2] + bs[3] * bs[3])
         if not touched:
             continue
-        a00, a01, a02, a11, a12, a22 = node_mass_matrix(p, model, state, nd)
+        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, added)
         r0 = a00 * vn[0] + a01 * vn[1] + a02 * vn[2] + h * b0
         r1 = a01 * vn[0] + a11 * vn[1] + a12 * vn[2] + h * b1
         r2 = a02 * vn[0] + a12 * vn[1] + a22 * vn[2] + h * b2
         v1 = solve_sym3(a00 + h * d[0], a01 + h * d[1], a02 + h * d[2], a11 + h * d[3], a12 + h * d[4],
                         a22 + h * d[5], r0, r1, r2)
-        # the drag's torque and the medium's work, at the new velocity
-        tx = ty = tz = given = 0.0
-        for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[s])
-            if not wet:
-                continue
-            spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
-            ux, uy, uz = v1[0] + spin[0] - um[0], v1[1] + spin[1] - um[1], v1[2] + spin[2] - um[2]
-            cn, dc = end_drag(p, j, tan, lv, vn[0] + spin[0] - um[0], vn[1] + spin[1] - um[1],
-                              vn[2] + spin[2] - um[2])
-            fx, fy, fz = split(-cn, -cn - dc, ux, uy, uz, tan[0], tan[1], tan[2])
-            given += h * (fx * um[0] + fy * um[1] + fz * um[2])
-            c = cross(r[0], r[1], r[2], fx, fy, fz)
-            tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
-        if cb > 0.0:
-            bs = p.buoy_sample[buoy_of(p, nd)]
-            given -= h * cb * ((v1[0] - bs[1]) * bs[1] + (v1[1] - bs[2]) * bs[2] + (v1[2] - bs[3]) * bs[3])
+        tx = e0 - (c[0] * v1[0] + c[1] * v1[1] + c[2] * v1[2])
+        ty = e1 - (c[3] * v1[0] + c[4] * v1[1] + c[5] * v1[2])
+        tz = e2 - (c[6] * v1[0] + c[7] * v1[1] + c[8] * v1[2])
+        given = h * (s - (g0 * v1[0] + g1 * v1[1] + g2 * v1[2]))
         dx, dy, dz = v1[0] - vn[0], v1[1] - vn[1], v1[2] - vn[2]
         mx = a00 * dx + a01 * dy + a02 * dz
         my = a01 * dx + a11 * dy + a12 * dz
@@ -774,8 +837,14 @@ def drag_nodes(p, model, state, h):
 @njit(**CACHED, inline="always")
 def entrained_at(v, S, vlen, i, an, at):
     """Return 1/2 v^T M_a v at vertex i (M_a as p.sample holds it; see entrained_energy)."""
-    vt = v[0][i] * S[7][i] + v[1][i] * S[8][i] + v[2][i] * S[9][i]
-    vv = v[0][i] * v[0][i] + v[1][i] * v[1][i] + v[2][i] * v[2][i]
+    return entrained_of(v[0][i], v[1][i], v[2][i], S, vlen, i, an, at)
+
+
+@njit(**CACHED, inline="always")
+def entrained_of(vx, vy, vz, S, vlen, i, an, at):
+    """Return 1/2 u^T M_a u for the velocity u = (vx, vy, vz) and the added mass of vertex i."""
+    vt = vx * S[7][i] + vy * S[8][i] + vz * S[9][i]
+    vv = vx * vx + vy * vy + vz * vz
     return 0.5 * S[0][i] * vlen[i] * (an * (vv - vt * vt) + at * vt * vt)
 
 
@@ -814,19 +883,38 @@ def carrying_span(p, model, j):
     return l, model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
 
 
+@njit(**CACHED, inline="always")
+def ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at):
+    """Return the share of entrained_energy at the ends (vertices lo, hi - 1) of line l whose
+    nodes the medium moves (an, at: its added masses per length): their added mass moves with
+    the node's centre of mass, as the kick and the drag move it (node_mass_matrix: it adds to
+    the node's mass, not to its rotary inertia), so at the node's velocity."""
+    e = 0.0
+    for i, end in ((lo, 0), (hi - 1, 1)):
+        nd = model.attach_node[2 * l + end]
+        if node_free(p, model, nd):
+            vn = state.node_v[nd]
+            e += entrained_of(vn[0], vn[1], vn[2], S, vlen, uint(i), an, at)
+    return e
+
+
 @njit(**INNER)
 def nodes_entrained(p, model, state):
     """Return the share of entrained_energy at the nodes the medium moves: their line ends'
     and their buoys'."""
-    v, S = columns(state.v), sample_rows(p)
+    S = sample_rows(p)
     e = 0.0
     for j in range(p.lines.shape[0]):
         l, lo, hi = carrying_span(p, model, j)
-        if hi == 0:
-            continue
-        for i, end in ((lo, 0), (hi - 1, 1)):
-            if node_free(p, model, model.attach_node[2 * l + end]):
-                e += entrained_at(v, S, model.voronoi_rest_length, uint(i), p.added_n[j], p.added_t[j])
+        if hi > 0:
+            e += ends_entrained(p, model, state, S, model.voronoi_rest_length, l, lo, hi, p.added_n[j], p.added_t[j])
+    return e + buoys_entrained(p, model, state)
+
+
+@njit(**INNER)
+def buoys_entrained(p, model, state):
+    """Return the share of entrained_energy at the buoys of the nodes the medium moves."""
+    e = 0.0
     for b in range(p.buoy_node.shape[0]):
         nd = p.buoy_node[b]
         if node_free(p, model, nd):
@@ -866,13 +954,14 @@ def flow_fluid(p, model, state, h):
     after = p.turn[0] & 1
     side = (p.turn[0] >> 1) & 1
     still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
-    if after == 0:   # in a still medium, the lines' interior share of the change is the sample's own
+    if after == 0:   # in a still medium, the lines' share of the change is the sample's own
         added = has_added_mass(p)
-        before = (nodes_entrained(p, model, state) if still else entrained_energy(p, model, state)) if added else 0.0
+        before = (buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)) if added else 0.0
         de = sample_medium(p, model, state)
         sample_buoys(p, state, state.clock[0])
         if added:
-            after_sample = de + nodes_entrained(p, model, state) if still else entrained_energy(p, model, state)
+            sample_node_masses(p, model, state)
+            after_sample = de + buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
             p.supplied[0] += after_sample - before
     if side == after:
         if after == 1:

@@ -201,6 +201,37 @@ def test_energy_and_what_drag_dissipates_are_conserved_at_order_two(added):
     assert errors[0] / errors[1] == pytest.approx(4.0, rel=0.1)
 
 
+@pytest.mark.parametrize("added, law", [((0.0, 0.0), "morison"), ((1.0, 0.2), "morison"), ((1.0, 0.2), "lagrange")])
+def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_two(added, law):
+    # three lines on arms of a buoyant body spinning in a current: the drag at their ends puts
+    # a torque on the body, and the medium does work; with added mass, the fluid at the ends
+    # moves with the body's centre of mass (it adds to the body's mass, not to its rotary
+    # inertia), and the energy counts it so: at the ends' own speeds (the spin's w x r
+    # included) the balance was off by a constant 0.76 J, the same at every step
+    mat = cosnet.Material(E=1e8, G=4e7, density=3000.0)
+
+    def balance(dt):
+        net = cosnet.Net()
+        body = net.add_node((0.0, 0.0, -3.0), mass=5.0, inertia=(0.3, 0.5, 0.4))
+        for k, (dx, dy) in enumerate(((1.0, 0.0), (0.0, 1.0), (-1.0, 0.3))):
+            far = net.add_node((1.5 * dx, 1.5 * dy, -3.5), mass=0.5, inertia=(0.01, 0.01, 0.01))
+            net.add_line(body, far, material=mat, section=cosnet.Circle(0.02), elements=4,
+                         start_offset=(0.2 * dx, 0.2 * dy, 0.05 * k))
+        fluid = cosnet.Fluid(RHO, velocity=(0.3, -0.2, 0.1), drag=(1.2, 0.1), added_mass=added, buoyancy=True,
+                             surface=0.0, buoys=[body], buoy_volumes=[0.004], buoy_drag_areas=[0.02],
+                             added_mass_law=law)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], dt=dt, force_dt=True)
+        sim.state.node_w[0] = (5.0, -3.0, 8.0)
+        e0 = sim.energy()
+        sim.run(until=0.2)
+        assert sim.dissipated() > 0.04 * abs(e0) and sim.supplied() > 0.05 * sim.dissipated()
+        return sim.energy() + sim.dissipated() - sim.supplied() - e0, sim.dissipated()
+
+    (coarse, _), (fine, taken) = balance(2e-5), balance(1e-5)
+    assert abs(fine) < 1e-6 * taken
+    assert math.log2(coarse / fine) > 1.7     # order 2 (measured 1.81-1.85); a fault in the account: order 0
+
+
 def test_a_rod_swinging_in_water_converges_at_order_two_after_an_odd_number_of_steps():
     # drag runs once a kick, before it on one step and after it on the next: only pairs of
     # steps are symmetric, yet the positions after 13335 steps, and 26670 and 53340 of half and

@@ -354,7 +354,8 @@ class Fluid(Effect):
                            decay=np.zeros((2, nv)), decay_h=np.full(1, np.nan),
                            turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
-                           turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)))
+                           turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)),
+                           node_mass=np.zeros((nn, 6)))
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             typed_call(sample_fluid, p, on.model, on.state)
