@@ -29,7 +29,8 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import FluidParams, calm_medium, has_added_mass, held_mass, node_free, sample_rows, split
+from .fluid import (FluidParams, arm_spin, calm_medium, has_added_mass, held_mass, node_free, sample_rows,
+                    split)
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, solve_sym3
 
@@ -64,7 +65,18 @@ def turning_rows(p):
 def end_arm(model, state, a):
     """Return line end a's offset from its node's centre of mass, in the lab frame."""
     q, o = state.node_q[model.attach_node[a]], model.attach_offset[a]
+    if o[0] == 0.0 and o[1] == 0.0 and o[2] == 0.0:   # (a point junction's ends: no arm)
+        return 0.0, 0.0, 0.0
     return quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+
+
+@njit(**CACHED, inline="always")
+def end_spin(model, state, a):
+    """Return the velocity of line end a relative to its node's centre of mass, w x r (lab)."""
+    r = end_arm(model, state, a)
+    if r[0] == 0.0 and r[1] == 0.0 and r[2] == 0.0:
+        return 0.0, 0.0, 0.0
+    return arm_spin(state, model.attach_node[a], r)
 
 
 @njit(**CACHED, inline="always")
@@ -187,7 +199,15 @@ def add_turning_forces(p, model, state, loads, h):
     calm = calm_medium(p)
     # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
     # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
-    # evaluation a kick instead of two (a line end: its node's motion; its translation on)
+    # evaluation a kick instead of two (a line end: its node's motion; its translation on,
+    # a node's acceleration taken once for all its ends, in p.node_rate)
+    for nd in range(model.node_mass.shape[0]):
+        if node_free(p, model, nd):
+            g, _ = end_sums(p, model, state, G, nd)
+            fn = loads.node_f[nd]
+            a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, True)
+            d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
+            p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
     for j in range(p.lines.shape[0]):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
@@ -195,18 +215,11 @@ def add_turning_forces(p, model, state, loads, h):
         predict_line(V, v, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h, 1.0 if p.buoyancy[j] != 0.0 else 0.0)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
-            q, w, r = state.node_q[nd], state.node_w[nd], end_arm(model, state, a)
-            wl = quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
-            c = cross(wl[0], wl[1], wl[2], r[0], r[1], r[2])
+            c = end_spin(model, state, a)
             vn = state.node_v[nd]
-            d = (0.0, 0.0, 0.0)
-            if node_free(p, model, nd):
-                g, _ = end_sums(p, model, state, G, nd)
-                fn = loads.node_f[nd]
-                a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, True)
-                d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
+            hf = 0.5 * h if node_free(p, model, nd) else 0.0
             for k in range(3):
-                V[k][i] = vn[k] + c[k] + 0.5 * h * d[k]
+                V[k][i] = vn[k] + c[k] + hf * p.node_rate[nd, k]
     work = 0.0
     for j in range(p.lines.shape[0]):
         l, lo, hi = turning_span(p, model, j)

@@ -91,6 +91,8 @@ class FluidParams(NamedTuple):
     node_mass: np.ndarray    # (nn, 6) scratch: each free node's mass matrix with the added mass of its wet
                              # line ends and buoy as the kick's sample holds it (a00 a01 a02 a11 a12 a22;
                              # sample_node_masses), where the medium adds mass
+    node_rate: np.ndarray    # (nn, 3) scratch: each free node's acceleration the turning fluid's predictor
+                             # takes (kernels/added_mass.add_turning_forces)
 
 
 @njit(**CACHED, inline="always")
@@ -680,6 +682,14 @@ def node_spin(state, nd):
     return quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
 
 
+@njit(**CACHED, inline="always")
+def arm_spin(state, nd, r):
+    """Return w x r: the velocity, relative to node nd's centre of mass, of the point at the lab
+    arm r (w the node's angular velocity)."""
+    w = node_spin(state, nd)
+    return cross(w[0], w[1], w[2], r[0], r[1], r[2])
+
+
 @njit(**INNER)
 def push_nodes(p, model, state, h):
     """Update the free nodes' velocities and angular velocities by the impulse h of the forces
@@ -773,7 +783,6 @@ def drag_nodes(p, model, state, h):
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
-        w = node_spin(state, nd)
         vn = state.node_v[nd]
         d = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         b0 = b1 = b2 = 0.0   # sum D_a (U_a - w x r_a)
@@ -786,7 +795,8 @@ def drag_nodes(p, model, state, h):
             j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[k])
             if not wet:
                 continue
-            spin = cross(w[0], w[1], w[2], r[0], r[1], r[2])
+            arm = r[0] != 0.0 or r[1] != 0.0 or r[2] != 0.0   # (a point junction's ends: no arm, no moment)
+            spin = arm_spin(state, nd, r) if arm else (0.0, 0.0, 0.0)
             gx, gy, gz = um[0] - spin[0], um[1] - spin[1], um[2] - spin[2]   # U - w x r
             cn, dc = end_drag(p, j, tan, lv, vn[0] - gx, vn[1] - gy, vn[2] - gz)
             if cn == 0.0 and dc == 0.0:
@@ -795,12 +805,13 @@ def drag_nodes(p, model, state, h):
             d = add_split(d, cn, dc, tan)
             f = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
             b0, b1, b2 = b0 + f[0], b1 + f[1], b2 + f[2]
-            rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
-            e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
             du = split(cn, cn + dc, um[0], um[1], um[2], tan[0], tan[1], tan[2])
             g0, g1, g2 = g0 + du[0], g1 + du[1], g2 + du[2]
             s += um[0] * f[0] + um[1] * f[1] + um[2] * f[2]
-            c = add_arm(c, cn, dc, r, tan)
+            if arm:
+                rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
+                e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
+                c = add_arm(c, cn, dc, r, tan)
         cb = buoy_drag(p, nd, vn)
         if cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
             touched = True
