@@ -3,8 +3,10 @@ in water with each set of the fluid's terms, side by side in one process (interl
 per step and per element-step.
 
 Scene: a steel wire (r = 20 mm) of N elements, 1 m each, pinned at both ends 2 m under the
-surface, under gravity; every step is taken at the dry line's stable step. Run:
-python bench/fluid.py [--quick]; writes bench/fluid.json (docs/fluid.md shows its table).
+surface, under gravity; and the same 1000 elements as a chain of 200 lines of 5, joined at
+point junctions of 10 kg (a net's twine between knots: the nodes' share of the medium's
+work); every step is taken at the dry net's stable step. Run: python bench/fluid.py
+[--quick]; writes bench/fluid.json (docs/fluid.md shows its table).
 """
 
 import sys
@@ -18,14 +20,20 @@ from harness import best_interleaved, table, write_json
 SEA = 1025.0
 WIRE = cosnet.Material(E=1e11, poisson=0.3, density=7850.0)
 
+KNOT = dict(mass=10.0, inertia=(0.1, 0.1, 0.1))   # the junctions of a chain of lines
 
-def wire(n):
-    """A straight wire of n elements between two pins, 2 m under the surface."""
+
+def wire(n, lines=1):
+    """A straight wire of n elements between two pins, 2 m under the surface; as ``lines``
+    lines of n / lines elements joined at point junctions of 10 kg."""
     net = cosnet.Net()
-    a = net.add_node((0.0, 0.0, -2.0), mass=np.inf, inertia=(1.0, 1.0, 1.0))
-    b = net.add_node((float(n), 0.0, -2.0), mass=np.inf, inertia=(1.0, 1.0, 1.0))
-    net.add_line(a, b, material=WIRE, section=cosnet.Circle(0.02), elements=n)
+    pin = dict(mass=np.inf, inertia=(1.0, 1.0, 1.0))
+    nodes = [net.add_node((float(n) * k / lines, 0.0, -2.0), **(pin if k in (0, lines) else KNOT))
+             for k in range(lines + 1)]
+    for a, b in zip(nodes, nodes[1:]):
+        net.add_line(a, b, material=WIRE, section=cosnet.Circle(0.02), elements=n // lines)
     return net
+
 
 
 FLUIDS = {
@@ -44,24 +52,24 @@ FLUIDS = {
 
 def main():
     quick = "--quick" in sys.argv
-    sizes, rounds = ((100,), 3) if quick else ((100, 1000), 9)
+    sizes, rounds = (((100, 1),), 3) if quick else (((100, 1), (1000, 1), (1000, 200)), 9)
     rows, results = [], []
-    for n in sizes:
+    for n, lines in sizes:
         steps = max(CHUNK_STEPS, 2_000_000 // n)   # whole chunks: the watch's tests at their usual rate
-        dry = cosnet.Simulation(wire(n), [cosnet.Gravity()], threads=1, fast_modes="rotary")
+        dry = cosnet.Simulation(wire(n, lines), [cosnet.Gravity()], threads=1, fast_modes="rotary")
         sims = {"dry (gravity)": dry}
         for name, kw in FLUIDS.items():
-            sims[name] = cosnet.Simulation(wire(n), [cosnet.Gravity(), cosnet.Fluid(SEA, surface=0.0, **kw)],
+            sims[name] = cosnet.Simulation(wire(n, lines), [cosnet.Gravity(), cosnet.Fluid(SEA, surface=0.0, **kw)],
                                            dt=dry.dt, force_dt=True, threads=1, fast_modes="rotary")
         times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims.values()], rounds)
         base = times[0] / steps
         for (name, _), t in zip(sims.items(), times):
             per = t / steps
-            results.append({"elements": n, "case": name, "us_per_step": 1e6 * per,
+            results.append({"elements": n, "lines": lines, "case": name, "us_per_step": 1e6 * per,
                             "ns_per_element_step": 1e9 * per / n, "over_dry_percent": 100.0 * (per / base - 1)})
-            rows.append([n, name, 1e6 * per, 1e9 * per / n, 100.0 * (per / base - 1)])
+            rows.append([n, lines, name, 1e6 * per, 1e9 * per / n, 100.0 * (per / base - 1)])
     table("fluid: cost per step of a submerged wire (one thread, the dry line's step)",
-          ["elements", "case", "us/step", "ns/element-step", "over dry %"], rows)
+          ["elements", "lines", "case", "us/step", "ns/element-step", "over dry %"], rows)
     write_json(__file__, {"command": " ".join(["python", "bench/fluid.py", *sys.argv[1:]]), "runs": results})
 
 

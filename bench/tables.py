@@ -288,9 +288,10 @@ def startup() -> str:
 
 def fluid_cost() -> str:
     d = _json("fluid.json")
-    rows = [[str(r["elements"]), r["case"], f"{r['us_per_step']:.3g}", f"{r['ns_per_element_step']:.3g}",
+    rows = [[str(r["elements"]), str(r.get("lines", 1)), r["case"], f"{r['us_per_step']:.3g}",
+             f"{r['ns_per_element_step']:.3g}",
              "–" if r["case"].startswith("dry") else f"+{r['over_dry_percent']:.0f} %"] for r in d["runs"]]
-    return _table(["elements", "the wire", "µs per step", "ns per element-step", "over the dry step"],
+    return _table(["elements", "lines", "the wire", "µs per step", "ns per element-step", "over the dry step"],
                   rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
 
