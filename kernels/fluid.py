@@ -694,9 +694,7 @@ def arm_spin(state, nd, r):
 def push_nodes(p, model, state, h):
     """Update the free nodes' velocities and angular velocities by the impulse h of the forces
     of position and time on their line ends (through the added mass; the torque about the
-    centre of mass); p.supplied by the inertia force's work."""
-    if not pushes_nodes(p):
-        return
+    centre of mass); p.supplied by the inertia force's work. (Called where pushes_nodes.)"""
     added = has_added_mass(p)
     supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
@@ -969,20 +967,24 @@ def flow_fluid(p, model, state, h):
         added = has_added_mass(p)
         before = (buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)) if added else 0.0
         de = sample_medium(p, model, state)
-        sample_buoys(p, state, state.clock[0])
+        if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
+            sample_buoys(p, state, state.clock[0])
         if added:
             sample_node_masses(p, model, state)
             after_sample = de + buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
             p.supplied[0] += after_sample - before
     if side == after:
+        pushes = pushes_nodes(p)
         if after == 1:
             if not still:
                 push_vertices(p, model, state, 2.0 * h)
-            push_nodes(p, model, state, 2.0 * h)
+            if pushes:
+                push_nodes(p, model, state, 2.0 * h)
         drag_vertices(p, model, state, 2.0 * h)
         drag_nodes(p, model, state, 2.0 * h)
         if after == 0:
             if not still:
                 push_vertices(p, model, state, 2.0 * h)
-            push_nodes(p, model, state, 2.0 * h)
+            if pushes:
+                push_nodes(p, model, state, 2.0 * h)
     p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
