@@ -80,14 +80,13 @@ def end_spin(model, state, a):
 
 
 @njit(**CACHED, inline="always")
-def own_terms(G, Q, V, S, x, vlen, i, a, b, da, calm):
+def own_terms(G, Q, V, S, ci, vlen, i, a, b, da, calm):
     """Update G at vertex i by -M'u and Q at i by q (module docstring), its chord from vertex a
-    to b, at the velocity columns V (x: the position columns; da = a_t - a_n per length;
-    ``calm``: the medium at rest, its velocity rows not read)."""
+    to b, at the velocity columns V (ci: 1 / the chord's length as the sample found it, the
+    positions it was taken at being the kick's; da = a_t - a_n per length; ``calm``: the
+    medium at rest, its velocity rows not read)."""
     tx, ty, tz = S[7][i], S[8][i], S[9][i]
-    # the chord's length is its projection on the sampled tangent, which is the same chord
-    # normalised (no second square root); coincident ends: no tangent, nothing turns
-    inv = 1.0 / max((x[0][b] - x[0][a]) * tx + (x[1][b] - x[1][a]) * ty + (x[2][b] - x[2][a]) * tz, 1e-150)
+    inv = ci[i]
     c = da * S[0][i] * vlen[i]
     Ux, Uy, Uz = (0.0, 0.0, 0.0) if calm else (S[1][i], S[2][i], S[3][i])
     ux, uy, uz = V[0][i] - Ux, V[1][i] - Uy, V[2][i] - Uz
@@ -104,28 +103,28 @@ def own_terms(G, Q, V, S, x, vlen, i, a, b, da, calm):
 
 
 @njit(**PASS)
-def interior_terms(G, Q, V, S, x, vlen, first, n, da, calm):
+def interior_terms(G, Q, V, S, ci, vlen, first, n, da, calm):
     """Update G and Q at the n interior vertices first.. (own_terms; chords between neighbours;
     a loop for a calm medium of its own)."""
     if calm:
         for k in range(n):
             i = first + uint(k)
-            own_terms(G, Q, V, S, x, vlen, i, i - uint(1), i + uint(1), da, True)
+            own_terms(G, Q, V, S, ci, vlen, i, i - uint(1), i + uint(1), da, True)
     else:
         for k in range(n):
             i = first + uint(k)
-            own_terms(G, Q, V, S, x, vlen, i, i - uint(1), i + uint(1), da, False)
+            own_terms(G, Q, V, S, ci, vlen, i, i - uint(1), i + uint(1), da, False)
 
 
 @njit(**PASS)
-def line_turning(G, Q, V, S, x, vlen, lo, hi, da, calm):
+def line_turning(G, Q, V, S, ci, vlen, lo, hi, da, calm):
     """Update the force columns G at the vertices lo..hi-1 of one line by the turning fluid's
     forces at the velocity columns V (Q: scratch for q; own_terms, the ends on their end
     element's chord), but for q's share at the interior vertices, which add_line_forces
     spreads as it adds G to the loads."""
-    own_terms(G, Q, V, S, x, vlen, lo, lo, lo + 1, da, False)
-    own_terms(G, Q, V, S, x, vlen, hi - 1, hi - 2, hi - 1, da, False)
-    interior_terms(G, Q, V, S, x, vlen, uint(lo + 1), hi - lo - 2, da, calm)
+    own_terms(G, Q, V, S, ci, vlen, lo, lo, lo + 1, da, False)
+    own_terms(G, Q, V, S, ci, vlen, hi - 1, hi - 2, hi - 1, da, False)
+    interior_terms(G, Q, V, S, ci, vlen, uint(lo + 1), hi - lo - 2, da, calm)
     for k in range(3):
         G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
         G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
@@ -195,7 +194,7 @@ def add_turning_forces(p, model, state, loads, h):
     order. (One kernel of its own: the records passed to each of several cost more
     compiling than their arithmetic.)"""
     G, V, Q = turning_rows(p)
-    S, x, v, f = sample_rows(p), columns(state.x), columns(state.v), columns(loads.f)
+    S, v, f = sample_rows(p), columns(state.v), columns(loads.f)
     calm = calm_medium(p)
     # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
     # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
@@ -225,7 +224,8 @@ def add_turning_forces(p, model, state, loads, h):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        line_turning(G, Q, V, S, x, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j], calm)
+        line_turning(G, Q, V, S, p.chord_inverse, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j],
+                     calm)
         work += add_line_forces(f, G, Q, V, S, model.vertex_mass, uint(lo + 1), hi - lo - 2,
                                 1.0 if p.buoyancy[j] != 0.0 else 0.0)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):

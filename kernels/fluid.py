@@ -91,6 +91,9 @@ class FluidParams(NamedTuple):
     node_mass: np.ndarray    # (nn, 6) scratch: each free node's mass matrix with the added mass of its wet
                              # line ends and buoy as the kick's sample holds it (a00 a01 a02 a11 a12 a22;
                              # sample_node_masses), where the medium adds mass
+    chord_inverse: np.ndarray  # (nv,) scratch: 1 / |c| of the chord each vertex's sampled tangent is taken
+                             # along (the end element at a line end; 1e150 where it vanishes), as the
+                             # sample found it: the turning fluid's terms (kernels/added_mass.own_terms)
     node_rate: np.ndarray    # (nn, 3) scratch: each free node's acceleration the turning fluid's predictor
                              # takes (kernels/added_mass.add_turning_forces)
 
@@ -167,14 +170,14 @@ def medium_at(p, x, y, z, t):
 
 @njit(**CACHED, inline="always")
 def line_tangent(x, i, lo, hi):
-    """Return the unit tangent at vertex i of the line whose vertices are lo..hi-1: the chord
-    between its neighbours (the end element's at the ends)."""
+    """Return (the unit tangent, 1 / the chord's length) at vertex i of the line whose vertices
+    are lo..hi-1: the chord between its neighbours (the end element's at the ends)."""
     a, b = max(i - 1, lo), min(i + 1, hi - 1)
     tx, ty, tz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
     n = math.sqrt(tx * tx + ty * ty + tz * tz)
     if n == 0.0:
-        return 0.0, 0.0, 1.0
-    return tx / n, ty / n, tz / n
+        return (0.0, 0.0, 1.0), 1e150
+    return (tx / n, ty / n, tz / n), 1.0 / n
 
 
 @njit(**CACHED, inline="always")
@@ -283,11 +286,11 @@ def sample_masses(S, dry, wet0, wet1, first, n):
 
 @njit(**CACHED, inline="always")
 def unit_chord(c, a, b):
-    """Return the unit chord from vertex a to vertex b (c: the position columns); 0 where
-    they coincide (no tangent)."""
+    """Return the unit chord from vertex a to vertex b (c: the position columns) and 1 / its
+    length; 0 and 1e150 where they coincide (no tangent)."""
     tx, ty, tz = c[0][b] - c[0][a], c[1][b] - c[1][a], c[2][b] - c[2][a]
     inv = 1.0 / math.sqrt(max(tx * tx + ty * ty + tz * tz, 1e-300))
-    return tx * inv, ty * inv, tz * inv
+    return tx * inv, ty * inv, tz * inv, inv
 
 
 @njit(**CACHED, inline="always")
@@ -298,12 +301,12 @@ def wet_inverses(dry, wet0, wet1, i, w):
 
 
 @njit(**PASS)
-def sample_chords(c, S, lo, n):
+def sample_chords(c, S, ci, lo, n):
     """Update rows 7-9 of the sample (S) at the n interior vertices lo+1.. of a line by the
-    unit chord between their neighbours (c: the position columns)."""
+    unit chord between their neighbours (c: the position columns), ci by 1 / its length."""
     for k in range(n):
         i = lo + uint(k + 1)
-        S[7][i], S[8][i], S[9][i] = unit_chord(c, i - uint(1), i + uint(1))
+        S[7][i], S[8][i], S[9][i], ci[i] = unit_chord(c, i - uint(1), i + uint(1))
 
 
 @njit(**PASS)
@@ -318,19 +321,20 @@ def sample_still(z, S, lo, n, surface, c0, c1, c2):
 
 
 @njit(**CACHED, inline="always")
-def still_vertex(v, c, S, vlen, dry, wet0, wet1, i, surface, an, at, entrained):
-    """Update the wetness, tangent and inverse masses of interior vertex i in a still medium
-    (sample_still_line); return the change of 1/2 v^T M_a v they make (0 unless ``entrained``)."""
+def still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, i, surface, an, at, entrained):
+    """Update the wetness, tangent (and ci, 1 / its chord's length) and inverse masses of
+    interior vertex i in a still medium (sample_still_line); return the change of 1/2 v^T M_a v
+    they make (0 unless ``entrained``)."""
     before = entrained_at(v, S, vlen, i, an, at) if entrained else 0.0
     w = 1.0 if c[2][i] <= surface else 0.0
     S[0][i] = w
-    S[7][i], S[8][i], S[9][i] = unit_chord(c, i - uint(1), i + uint(1))
+    S[7][i], S[8][i], S[9][i], ci[i] = unit_chord(c, i - uint(1), i + uint(1))
     S[14][i], S[15][i] = wet_inverses(dry, wet0, wet1, i, w)
     return entrained_at(v, S, vlen, i, an, at) - before if entrained else 0.0
 
 
 @njit(**PASS)
-def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained):
+def sample_still_line(v, c, S, ci, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained):
     """Update rows 0 (wetness), 7-9 (tangent) and 14-15 (inverse masses, as sample_masses) of
     the sample (S) at the n interior vertices first.. of a line in a still medium, in one pass
     (c: the position columns, v: the velocity columns); return the change of the entrained
@@ -338,10 +342,10 @@ def sample_still_line(v, c, S, vlen, dry, wet0, wet1, first, n, surface, an, at,
     de = 0.0
     if entrained:
         for k in range(n):
-            de += still_vertex(v, c, S, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True)
+            de += still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True)
     else:
         for k in range(n):
-            still_vertex(v, c, S, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, False)
+            still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, False)
     return de
 
 
@@ -373,7 +377,7 @@ def sample_medium(p, model, state):
         if ends:
             de -= ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         for i in (lo, hi - 1):
-            tan = line_tangent(x, i, lo, hi)
+            tan, p.chord_inverse[i] = line_tangent(x, i, lo, hi)
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
         if still:
             if not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0 and S[5][lo] == 0.0
@@ -382,12 +386,12 @@ def sample_medium(p, model, state):
             else:
                 for i in (lo, hi - 1):
                     S[0][i] = 1.0 if c[2][i] <= surface else 0.0
-            de += sample_still_line(v, c, S, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2, surface, an, at,
-                                    an != 0.0 or at != 0.0)
+            de += sample_still_line(v, c, S, p.chord_inverse, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2,
+                                    surface, an, at, an != 0.0 or at != 0.0)
             if ends:
                 de += ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         else:
-            sample_chords(c, S, uint(lo), hi - lo - 2)
+            sample_chords(c, S, p.chord_inverse, uint(lo), hi - lo - 2)
             for i in range(lo, hi):
                 wet, um, acc = medium_at(p, c[0][i], c[1][i], c[2][i], t)
                 S[0][i] = 1.0 if wet else 0.0

@@ -355,7 +355,8 @@ class Fluid(Effect):
                            turn=np.zeros(1, dtype=np.int64),
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)),
-                           node_mass=np.zeros((nn, 6)), node_rate=np.zeros((nn, 3)))
+                           node_mass=np.zeros((nn, 6)),
+                           chord_inverse=np.zeros(nv), node_rate=np.zeros((nn, 3)))
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             typed_call(sample_fluid, p, on.model, on.state)
