@@ -24,6 +24,7 @@ arrays (elem_force, bend_left, bend_right) hold intermediate results of the inte
 passes.
 """
 
+import weakref
 from typing import NamedTuple
 
 import numpy as np
@@ -163,13 +164,14 @@ TYPING_ONLY = [False]
 
 
 # typed_call's entry points by (kernel, the identities of its record and array arguments),
-# each with the arguments it was found for (held, so that no identity is reused while the
-# entry stands). Typing a record costs a typeof per array (a fluid's energy took 1.4 ms in
-# typing, called at every test of the watch: a microsecond a step); a record's arrays
-# cannot be replaced, and an array's type does not change, so the same objects type the
-# same. Bounded: a held record keeps its simulation's arrays alive.
+# each with weak references to the arrays that typed it. Typing a record costs a typeof per
+# array (a fluid's energy took 1.4 ms in typing, called at every test of the watch: a
+# microsecond a step); a record's arrays cannot be replaced and an array's type does not
+# change, so the same arrays type the same. Weak: a held entry keeps no simulation alive (a
+# sweep's discarded nets are freed), and one whose arrays died no longer matches.
 _ENTRIES: dict = {}
 _ENTRIES_HELD = 32
+_SCALARS = (bool, int, float, np.bool_, np.integer, np.floating)
 
 
 def typed_call(kernel, *args):
@@ -183,34 +185,61 @@ def typed_call(kernel, *args):
         return None
     key = _identity_key(kernel, args)
     held = _ENTRIES.get(key) if key is not None else None
-    if held is not None and all(a is b for a, b in zip(held[0], _held(args))):
+    if held is not None and _still(held[0], args):
         return held[1](*args)
     sig = tuple(record_type(a) if isinstance(a, (Model, State, Loads)) else typeof(a) for a in args)
     kernel.compile(sig)
     entry = kernel.overloads[sig].entry_point
     if key is not None:
+        for k in [k for k, (refs, _) in _ENTRIES.items() if not _alive(refs)]:
+            del _ENTRIES[k]
         if len(_ENTRIES) >= _ENTRIES_HELD:
             del _ENTRIES[next(iter(_ENTRIES))]
-        _ENTRIES[key] = (_held(args), entry)
+        _ENTRIES[key] = (_references(args), entry)
     return entry(*args)
 
 
-def _held(args):
-    return tuple(a for a in args if isinstance(a, (tuple, np.ndarray)))
-
-
 def _identity_key(kernel, args):
-    """The key of typed_call's held entries: records, tuples and arrays by identity, Python
-    scalars by type (which alone decides theirs); None for anything else (typed each call)."""
+    """The key of typed_call's held entries: arrays and records (tuples of arrays and scalars)
+    by identity, scalars by type (which alone decides theirs); None for anything else (typed
+    at every call)."""
     key = [id(kernel)]
     for a in args:
-        if isinstance(a, (tuple, np.ndarray)):
+        if isinstance(a, np.ndarray) or (isinstance(a, tuple) and
+                                         all(isinstance(f, (np.ndarray, *_SCALARS)) for f in a)):
             key.append(id(a))
-        elif type(a) in (float, int, bool):
+        elif isinstance(a, _SCALARS):
             key.append(type(a))
         else:
             return None
     return tuple(key)
+
+
+def _references(args):
+    """Per array argument a weak reference to it, per record one to each array field and the
+    type of each other field."""
+    return tuple(weakref.ref(a) if isinstance(a, np.ndarray) else
+                 tuple(weakref.ref(f) if isinstance(f, np.ndarray) else type(f) for f in a)
+                 for a in args if isinstance(a, (np.ndarray, tuple)))
+
+
+def _still(refs, args):
+    """Whether the arrays of ``args`` are the very ones ``refs`` was taken of (an identity in
+    the key may have passed to a new record whose arrays are others)."""
+    held = [a for a in args if isinstance(a, (np.ndarray, tuple))]
+    for r, a in zip(refs, held):
+        if isinstance(a, np.ndarray):
+            if r() is not a:
+                return False
+        elif len(r) != len(a) or any((f is not x()) if isinstance(x, weakref.ref) else (type(f) is not x)
+                                     for x, f in zip(r, a)):
+            return False
+    return True
+
+
+def _alive(refs):
+    return all(x() is not None for r in refs for x in (r if isinstance(r, tuple) else (r,))
+               if isinstance(x, weakref.ref))
 
 
 def empty_loads(model: Model) -> Loads:

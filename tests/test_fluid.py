@@ -2,7 +2,9 @@
 held to its analytic value. Every simulation here declares (Gravity, Fluid), so the suite
 compiles one step for all of them."""
 
+import gc
 import math
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -269,6 +271,22 @@ def test_measuring_the_energy_mid_run_leaves_the_run_unchanged():
     (a, fa), (b, fb) = run(False), run(True)
     assert np.array_equal(a.state.x, b.state.x) and np.array_equal(a.state.v, b.state.v)
     assert (fa.dissipated(a), fa.supplied(a), a.energy()) == (fb.dissipated(b), fb.supplied(b), b.energy())
+
+
+def test_a_discarded_simulation_is_freed_though_its_energy_was_measured():
+    # the energy's kernels keep their typed entry points by their arguments' identities
+    # (kernels.layout.typed_call), weakly: a sweep's discarded nets must not stay in memory
+    def measured():
+        net, _, _ = rod(((0.0, 0.0, -1.0), (1.0, 0.0, -1.3)), 2000.0, elements=6)
+        fluid = cosnet.Fluid(RHO, drag=(1.2, 0.1), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+        sim.run(steps=100)
+        sim.energy(), fluid.supplied(sim)
+        return [weakref.ref(a) for a in (sim.state.x, sim.model.vertex_mass, sim.effect_params(fluid).sample)]
+
+    arrays = measured()
+    gc.collect()
+    assert all(a() is None for a in arrays)
 
 
 @pytest.mark.parametrize("added", [(0.0, 0.0), (1.0, 0.0)])
