@@ -70,7 +70,7 @@ def end_arm(model, state, a):
     return quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def end_spin(model, state, a):
     """Return the velocity of line end a relative to its node's centre of mass, w x r (lab)."""
     r = end_arm(model, state, a)

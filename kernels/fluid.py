@@ -536,7 +536,7 @@ def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay):
     return dissipated, supplied
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def calm_medium(p):
     """Whether the medium is at rest everywhere and always (a still medium without a current)."""
     return still_medium(p) and p.current[0] == 0.0 and p.current[1] == 0.0 and p.current[2] == 0.0
@@ -633,7 +633,7 @@ def sample_node_masses(p, model, state):
                 p.node_mass[nd, k] = a[k]
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def held_mass(p, model, nd, added):
     """Return free node nd's mass matrix as the kick holds it: p.node_mass's where the medium
     adds mass (``added``), else its own mass."""
@@ -644,7 +644,7 @@ def held_mass(p, model, nd, added):
     return m, 0.0, 0.0, m, 0.0, m
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def pushes_nodes(p):
     """Whether the forces of position and time reach the nodes: upthrust on a line or a buoy,
     or a medium that moves (its inertia force)."""
@@ -686,7 +686,7 @@ def node_spin(state, nd):
     return quat_rotate(q[0], q[1], q[2], q[3], w[0], w[1], w[2])
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def arm_spin(state, nd, r):
     """Return w x r: the velocity, relative to node nd's centre of mass, of the point at the lab
     arm r (w the node's angular velocity)."""
@@ -761,7 +761,7 @@ def buoy_drag(p, nd, v):
     return p.buoy_drag[b] * s[0] * math.sqrt((v[0] - s[1]) ** 2 + (v[1] - s[2]) ** 2 + (v[2] - s[3]) ** 2)
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def add_arm(c, cn, dc, r, t):
     """Return the 3 x 3 matrix c (a row-major 9-tuple) plus [r]x D, D = cn 1 + dc t t^T: the
     moment r x (D v) of a drag D acting at the arm r is this matrix times v."""
@@ -896,7 +896,7 @@ def carrying_span(p, model, j):
     return l, model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
 
 
-@njit(**CACHED, inline="always")
+@njit(**INNER)
 def ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at):
     """Return the share of entrained_energy at the ends (vertices lo, hi - 1) of line l whose
     nodes the medium moves (an, at: its added masses per length): their added mass moves with
