@@ -29,10 +29,10 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (FluidParams, arm_spin, calm_medium, has_added_mass, held_mass, node_free, sample_rows,
-                    split)
+from .fluid import (FluidParams, arm_spin, calm_medium, end_arm, has_added_mass, held_mass, node_free,
+                    sample_rows, split)
 from .layout import columns, uint
-from .rotations import cross, quat_rotate, solve_sym3
+from .rotations import cross, solve_sym3
 
 TURNING_ROWS = 9   # rows of p.turning: the forces G (3, the last kick's until the next), the velocities V they
                    # are taken at (3), q (3)
@@ -59,15 +59,6 @@ def turning_rows(p):
     """The rows of p.turning as three column tuples: G, V, Q."""
     T = p.turning
     return (T[0], T[1], T[2]), (T[3], T[4], T[5]), (T[6], T[7], T[8])
-
-
-@njit(**CACHED, inline="always")
-def end_arm(model, state, a):
-    """Return line end a's offset from its node's centre of mass, in the lab frame."""
-    q, o = state.node_q[model.attach_node[a]], model.attach_offset[a]
-    if o[0] == 0.0 and o[1] == 0.0 and o[2] == 0.0:   # (a point junction's ends: no arm)
-        return 0.0, 0.0, 0.0
-    return quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
 
 
 @njit(**INNER)

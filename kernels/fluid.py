@@ -588,6 +588,15 @@ def drag_vertices(p, model, state, h):
     p.supplied[0] += supplied
 
 
+@njit(**CACHED, inline="always")
+def end_arm(model, state, a):
+    """Return line end a's offset from its node's centre of mass, in the lab frame."""
+    q, o = state.node_q[model.attach_node[a]], model.attach_offset[a]
+    if o[0] == 0.0 and o[1] == 0.0 and o[2] == 0.0:   # (a point junction's ends: no arm)
+        return 0.0, 0.0, 0.0
+    return quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+
+
 @njit(**INNER)
 def node_end(p, model, state, a):
     """Return (row, wet, r, tan, lv, U, A) of line end a of a node: the row of its line (-1:
@@ -596,11 +605,7 @@ def node_end(p, model, state, a):
     l = a // 2
     j = p.line_row[l] if l < p.line_row.shape[0] else -1
     vt = model.attach_vertex[a]
-    nd = model.attach_node[a]
-    q, o = state.node_q[nd], model.attach_offset[a]
-    r = (0.0, 0.0, 0.0)
-    if o[0] != 0.0 or o[1] != 0.0 or o[2] != 0.0:   # (a point junction's ends sit at its centre)
-        r = quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2])
+    r = end_arm(model, state, a)
     wet, um, acc, tan = sampled(p, vt)
     return j, wet and j >= 0, r, tan, model.voronoi_rest_length[vt], um, acc
 
