@@ -53,9 +53,9 @@ mark("import")
 with CompileLog() as log:
     scene = cosnet.load_scene(sys.argv[1])
     mark("load", log)
-    sim = scene.simulation()
-    mark("build", log)
-    with compiling_alongside(sys.argv[1], sim):   # as `cosnet run` does
+    with compiling_alongside(sys.argv[1]):   # as `cosnet run` does: from the build on
+        sim = scene.simulation()
+        mark("build", log)
         rec = Recorder(sys.argv[2], sim, scene.run.interval, scene.run.interval, scene.run.probes)
         mark("frame_0", log)
         rec.run()

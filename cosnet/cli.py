@@ -48,16 +48,27 @@ def _threads_option(text) -> dict:
 
 
 def cmd_run(args) -> int:
-    from .output import outdir
-    from .core.limits import check_run
+    from .compiling import CompileLog, compiling_alongside
     from .scene.loader import load_scene
-    from .studies.runner import schedule
     scene = load_scene(scene_path(args.scene), limits=not args.no_limits)
     out = Path(args.out)
     until = scene.run.until if args.until is None else float(args.until)
     if not (math.isfinite(until) and until > 0):
         raise ValueError(f"--until must be a positive number of seconds, got {args.until}")
-    sim = scene.simulation(**_threads_option(args.threads))
+    threads = _threads_option(args.threads)
+    status = CompileStatus(sys.stderr)
+    # the log and the second process from the build on: building compiles too (the fluid's
+    # sample, the drives' poses), and the kick compiles alongside meanwhile
+    with CompileLog(status, llvm=False) as log, compiling_alongside(scene.path, threads=threads.get("threads")):
+        sim = scene.simulation(**threads)
+        status.clear()
+        return _checked_run(args, scene, sim, out, until, log, status)
+
+
+def _checked_run(args, scene, sim, out: Path, until: float, log, status) -> int:
+    from .core.limits import check_run
+    from .output import outdir
+    from .studies.runner import schedule
     interval = schedule(scene, until).interval
     if interval < sim.dt:
         what = "until" if interval == until else "output_interval"
@@ -69,17 +80,9 @@ def cmd_run(args) -> int:
                   f"{scene.path}: [run] until = {until:g} s")
     with outdir.locked(out):
         outdir.prepare(out, resume=args.resume, overwrite=args.overwrite)
-        return _write_run(args, scene, sim, out, until)
-
-
-def _write_run(args, scene, sim, out: Path, until: float) -> int:
-    from .compiling import CompileLog, compiling_alongside
-    from .output.record import kernels_compiled
-    cached = kernels_compiled(sim)
-    if not cached:
-        print("compiling kernels (first run only)...", file=sys.stderr)
-    status = CompileStatus(sys.stderr)
-    with CompileLog(status, llvm=False) as log, compiling_alongside(scene.path, sim, cached):
+        from .output.record import kernels_compiled
+        if not kernels_compiled(sim):
+            print("compiling kernels (first run only)...", file=sys.stderr)
         return _record(args, scene, sim, out, until, log, status)
 
 

@@ -220,28 +220,33 @@ def compile_scene(path, alongside: bool = True) -> dict:
     return {"scene": str(path), "kernels": len(log.kernels), "seconds": log.seconds}
 
 
-# What the second process runs: argv = scene file, threads.
-_HELPER = "import sys; from cosnet.compiling import compile_kick; compile_kick(sys.argv[1], int(sys.argv[2]))"
+# What the second process runs: argv = scene file, threads ("" for the scene's own).
+_HELPER = ("import sys; from cosnet.compiling import compile_kick; "
+           "compile_kick(sys.argv[1], int(sys.argv[2]) if sys.argv[2] else None)")
 
 
-def compile_kick(path, threads: int):
+def compile_kick(path, threads: int | None):
     """Compile (into numba's cache) the kernels a scene's step calls through its slots
     (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
     effects', the drift's, for the types the step will call them with; a scene with drives
     also gets the loads on their own, as the drives' reactions in its frame 0 ask for them.
     PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built for its
     types alone: the kernels building it runs from Python (the
-    fluid's sample, a drive's pose) are left to the parent, which needs them first."""
+    fluid's sample, a drive's pose) are left to the parent, which needs them first. Returns
+    at once where the step is cached already (the parent may start this before it knows)."""
     from numba import types
 
     from .kernels import layout
     from .kernels.compose import bind_slots
     from .kernels.slots import pointers_type
     from .kernels.stepping import compile_orders, evaluate_loads, kick_loads
+    from .output.record import kernels_compiled
     from .scene.loader import load_scene
     layout.TYPING_ONLY[0] = True   # the parent compiles what building the simulation runs
-    sim = load_scene(path).simulation(threads=threads)
+    sim = load_scene(path).simulation(**({} if threads is None else {"threads": threads}))
     layout.TYPING_ONLY[0] = False
+    if kernels_compiled(sim):
+        return
     model, state, loads, records, _, _, backend = sim.step_signature()
     slots = sim.step_records[3]
     bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel,
@@ -253,25 +258,62 @@ def compile_kick(path, threads: int):
 
 
 @contextlib.contextmanager
-def compiling_alongside(path, sim, cached: bool | None = None):
+def compiling_alongside(path, sim=None, cached: bool | None = None, threads: int | None = None):
     """Run the block (which compiles ``sim``'s step) with a second process compiling the kick
     of the same step meanwhile, where the step is not cached and there is a second core: the
     block's compilation, reaching the kick, waits for that process and loads its work
     (kernels/compiler.py), while the frame-0 kernels and the drift were compiled here. The
     process dies with this one and is stopped when the block ends. ``cached``: whether the
-    step is cached, when the caller knows (record.kernels_compiled)."""
+    step is cached, when the caller knows (record.kernels_compiled). Without ``sim`` the block
+    builds the simulation itself (with ``threads``, None for the scene's), so that building
+    it (the fluid's sample, the drives' poses: seconds of compiling) overlaps the kick's
+    compilation; the second process then starts as this one first compiles anything (a warm
+    start compiles nothing and starts none) and ends at once where the step is cached."""
     from .output.record import kernels_compiled
-    if (os.cpu_count() or 1) < 2 or (kernels_compiled(sim) if cached is None else cached):
+    if sim is not None:
+        threads = sim.threads
+        if cached is None:
+            cached = kernels_compiled(sim)
+    if (os.cpu_count() or 1) < 2 or cached:
         yield
         return
-    helper = subprocess.Popen([sys.executable, "-c", _HELPER, str(path), str(sim.threads)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=die_with_parent)
+    helper = []
+
+    argv = [sys.executable, "-c", _HELPER, str(path), "" if threads is None else str(threads)]
+
+    def start():
+        helper.append(subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                       preexec_fn=die_with_parent))
+    trigger = None
+    if sim is None:
+        trigger = _FirstCompile(start)
+        event.register("numba:compile", trigger)
+    else:
+        start()
     try:
         yield
     finally:
-        if helper.poll() is None:
-            helper.kill()
-        helper.wait()
+        if trigger is not None:
+            event.unregister("numba:compile", trigger)
+        for process in helper:
+            if process.poll() is None:
+                process.kill()
+            process.wait()
+
+
+class _FirstCompile(event.Listener):
+    """Calls ``start`` as the first compilation begins while installed."""
+
+    def __init__(self, start):
+        self.start = start
+
+    def on_start(self, ev):
+        start, self.start = self.start, None
+        if start is not None:
+            start()
+
+    def on_end(self, ev):
+        pass
 
 
 def die_with_parent():

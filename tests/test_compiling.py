@@ -193,6 +193,28 @@ def test_the_process_compiling_alongside_ends_with_the_block(tmp_path, monkeypat
     assert not os.path.exists(f"/proc/{pid}")   # killed and reaped as the block ended
 
 
+def test_the_process_alongside_a_build_starts_at_the_first_compilation(tmp_path, monkeypatch):
+    """Given no simulation (the block builds it), the second process starts as the block
+    first compiles a kernel, not before: a warm start, which compiles nothing, starts none."""
+    from numba import njit
+
+    from cosnet import compiling
+    marker = tmp_path / "helper.pid"
+    monkeypatch.setattr(compiling, "_HELPER", f"import os, time; open({str(marker)!r}, 'w').write(str(os.getpid())); "
+                                              "time.sleep(600)")
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    with compiling.compiling_alongside("scene.toml", threads=1):
+        time.sleep(0.5)
+    assert not marker.exists()             # nothing compiled: nothing started
+    with compiling.compiling_alongside("scene.toml", threads=1):
+        time.sleep(0.5)
+        assert not marker.exists()
+        njit(lambda x: x + 1)(1)           # a compilation: the helper starts
+        assert wait_until(lambda: marker.exists() and marker.read_text(), 60)
+        pid = int(marker.read_text())
+    assert not os.path.exists(f"/proc/{pid}")
+
+
 def test_nets_of_one_element_lines_or_none_share_the_step_of_longer_lines():
     """A net of bodies alone, one of a one-element line and one of a four-element line step
     with one compiled step (their column-major arrays of one row or none are typed as longer
