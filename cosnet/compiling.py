@@ -211,9 +211,9 @@ def compile_scene(path, alongside: bool = True) -> dict:
     Returns {"scene", "kernels" (compiled in this process), "seconds" (compiling)}."""
     from .scene.loader import load_scene
     scene = load_scene(path)
-    sim = scene.simulation()
-    helper = compiling_alongside(path, sim) if alongside else contextlib.nullcontext()
+    helper = compiling_alongside(path) if alongside else contextlib.nullcontext()
     with CompileLog(llvm=False) as log, helper:
+        sim = scene.simulation()
         sim.check()
         sim.run(steps=1)
         sim.energy()
