@@ -228,9 +228,9 @@ _HELPER = ("import sys; from cosnet.compiling import compile_kick; "
 def compile_kick(path, threads: int | None):
     """Compile (into numba's cache) the kernels a scene's step calls through its slots
     (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
-    effects', the drift's, for the types the step will call them with; a scene with drives
-    also gets the loads on their own, as the drives' reactions in its frame 0 ask for them.
-    PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built for its
+    effects', the drift's, for the types the step will call them with, then the step; a scene
+    with drives also gets the loads on their own, as the drives' reactions in its frame 0 ask
+    for them. PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built for its
     types alone: the kernels building it runs from Python (the
     fluid's sample, a drive's pose) are left to the parent, which needs them first. Returns
     at once where the step is cached already (the parent may start this before it knows)."""
@@ -251,10 +251,13 @@ def compile_kick(path, threads: int | None):
     slots = sim.step_records[3]
     bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel,
                compile_orders(len(slots))[1])
-    if any(e.reads_loads for e in sim.effects):   # as Simulation.evaluate_loads types it
-        evaluate_loads.compile((model, state, loads, records, backend))
     if sim.stepper == "pefrl":   # its kick is a kernel of its own (the Verlet step inlines it)
         kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
+    # the step itself: the parent reaches it last, and with drives compiles the loads on their
+    # own first (their reactions at frame 0), so here the step comes before those
+    sim.advance_kernel.compile(sim.step_signature())
+    if any(e.reads_loads for e in sim.effects):   # as Simulation.evaluate_loads types it
+        evaluate_loads.compile((model, state, loads, records, backend))
 
 
 @contextlib.contextmanager
