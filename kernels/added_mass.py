@@ -24,6 +24,7 @@ state, p.turning, and a checkpoint keeps them). A free node takes the forces on 
 ends (force and moment about its centre of mass); a fixed or driven one leaves them.
 """
 
+import numpy as np
 from numba import njit
 
 from .backend import PASS, STEP
@@ -195,7 +196,7 @@ def add_turning_forces(p, model, state, loads, h):
         if node_free(p, model, nd):
             g, _ = end_sums(p, model, state, G, nd)
             fn = loads.node_f[nd]
-            a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, True)
+            a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
             d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
             p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
     for j in range(p.lines.shape[0]):
@@ -284,7 +285,7 @@ def add_fluid_mass(p, model, state, arg):
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
-        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, True)
+        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
         m = model.node_mass[nd]
         if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
             continue

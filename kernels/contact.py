@@ -328,7 +328,7 @@ def _pair_hash(lo, hi, mask):
     return ((lo * HASH_X) ^ (hi * HASH_Y)) & mask
 
 
-@njit(**CACHED)
+@njit(**CACHED, inline="always")   # called with literal axes: one compile each otherwise
 def _offset(x, a, b, s, t, k):
     """Component k of x_a(s) - x_b(t), the points at s, t on the segments from a and b."""
     return (1 - s) * x[a, k] + s * x[a + 1, k] - (1 - t) * x[b, k] - t * x[b + 1, k]

@@ -65,7 +65,7 @@ class DriveParams(NamedTuple):
 
 
 @njit(**CACHED)
-def eval_path(t, rate, amp, wave, times, coef, start, out, o):
+def eval_path(t, rate, amp, wave, times, coef, start, out, o):   # o: np.int64, not a literal (one compile)
     """Update out[o:o+k], out[o+k:o+2k], out[o+2k:o+3k] with the path's value (minus start),
     first and second derivatives at time t (k = rate.shape[0])."""
     k = rate.shape[0]
@@ -103,7 +103,7 @@ def prescribe_turn(p, t):
     (zero for a free rotation); return the prescribed turn from the node as built (a quaternion)."""
     kin = p.kin
     if p.rotation == PRESCRIBED:
-        eval_path(t, p.ang_rate, p.ang_amp, p.ang_wave, p.ang_times, p.ang_coef, p.ang_start, kin, 15)
+        eval_path(t, p.ang_rate, p.ang_amp, p.ang_wave, p.ang_times, p.ang_coef, p.ang_start, kin, np.int64(15))
         th, dth, ddth = kin[15], kin[16], kin[17]
         for k in range(3):
             kin[9 + k] = dth * p.axis[k]
@@ -111,7 +111,7 @@ def prescribe_turn(p, t):
         c, s = math.cos(0.5 * th), math.sin(0.5 * th)
         return c, s * p.axis[0], s * p.axis[1], s * p.axis[2]
     if p.rotation == ORIENTED:
-        eval_path(t, p.rv_rate, p.rv_amp, p.rv_wave, p.rv_times, p.rv_coef, p.rv_zero, kin, 15)
+        eval_path(t, p.rv_rate, p.rv_amp, p.rv_wave, p.rv_times, p.rv_coef, p.rv_zero, kin, np.int64(15))
         w, a = exp_rates(kin[15], kin[16], kin[17], kin[18], kin[19], kin[20], kin[21], kin[22], kin[23])
         for k in range(3):
             kin[9 + k] = w[k]
@@ -129,7 +129,7 @@ def drive_kinematics(p, t):
     """Update p.kin given time t: the prescribed centre of mass x, v, a and the angular
     velocity and acceleration (lab); return the prescribed node quaternion."""
     kin = p.kin
-    eval_path(t, p.pos_rate, p.pos_amp, p.pos_wave, p.pos_times, p.pos_coef, p.pos_start, kin, 0)
+    eval_path(t, p.pos_rate, p.pos_amp, p.pos_wave, p.pos_times, p.pos_coef, p.pos_start, kin, np.int64(0))
     tw, tx, ty, tz = prescribe_turn(p, t)
     q0 = p.q0
     if p.rotation != FREE:

@@ -224,7 +224,7 @@ def add_obstacle(p, model, state, loads):
     x, v, f, w, anchor, held = state.x, state.v, loads.f, p.rows, p.anchor, p.held
     # gathered: the vertices touching now or before (a contact that opens loses its spring);
     # the others (most of a line lying partly on the ground) only have their dashpot cleared
-    k = 0
+    k = np.int64(0)   # not the literal 0: contact_law, called with k, would compile for it too
     for j in range(p.verts.shape[0]):
         i, a, b = p.verts[j], p.vprev[j], p.vnext[j]
         cx, cy, cz = x[i, 0], x[i, 1], x[i, 2]

@@ -39,6 +39,7 @@ the elements' in p.edamp.
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .backend import ENTRY
@@ -159,7 +160,8 @@ def mesh_segment(p, ax, ay, az, bx, by, bz):
     wy = _walk_axis(ay, by - ay, o[1], h, dims[1], t0)
     wz = _walk_axis(az, bz - az, o[2], h, dims[2], t0)
     cell, step, face, per = (wx[0], wy[0], wz[0]), (wx[1], wy[1], wz[1]), (wx[2], wy[2], wz[2]), (wx[3], wy[3], wz[3])
-    best, bt, bq, btri = FAR, 0.0, (0.0, 0.0, 0.0), -1
+    # np.int64: with the literal -1, _cell_triangles would compile once more, for its type
+    best, bt, bq, btri = FAR, 0.0, (0.0, 0.0, 0.0), np.int64(-1)
     for _ in range(dims[0] + dims[1] + dims[2] + 3):
         c = cell[0] + dims[0] * (cell[1] + dims[1] * cell[2])
         best, bt, bq, btri = _cell_triangles(p, c, ax, ay, az, bx, by, bz, best, bt, bq, btri)
