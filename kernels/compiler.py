@@ -165,6 +165,22 @@ def compiling(path, kernel: str = ""):
             entry[0].close()   # frees the lock
 
 
+def compiling_elsewhere(dispatcher, sig) -> bool:
+    """Whether another process is compiling ``dispatcher`` for ``sig`` into the cache right
+    now (holds its lock, compiling): a caller with other work may do that first, then load
+    this one rather than wait for it."""
+    path = compile_lock_path(dispatcher, sig)
+    if path is None or path in _held:
+        return False
+    import fcntl
+    try:
+        with open(path, "ab") as f:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)   # free: released as it closes
+    except OSError:
+        return True
+    return False
+
+
 def _wait_for(f, kernel):
     import fcntl
 

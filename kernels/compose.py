@@ -38,7 +38,7 @@ from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
 from .backend import STEP
-from .compiler import stable_cache_key
+from .compiler import compiling_elsewhere, stable_cache_key
 from .slots import call_slot, core_type, deref, load_table, slot_argtypes, slot_key
 
 LOAD_KERNELS: dict = {}
@@ -225,8 +225,17 @@ def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None
               for k, g, i, kernel in slot_layout(_classes(g.types for g in groups))]
     if slots.shape != (len(calls), 3):
         raise ValueError(f"slots of shape {slots.shape} for a step of {len(calls)} kernels")
-    for row in range(len(calls)) if rows is None else rows:
+    pending = list(range(len(calls)) if rows is None else rows)[::-1]
+    put_off = set()
+    while pending:
+        row = pending.pop()
         kernel, argtypes = calls[row]
+        # one another process is compiling (the second process alongside a run) comes last:
+        # by then it is in the cache, where waiting for it now would leave this core idle
+        if row not in put_off and pending and compiling_elsewhere(kernel, argtypes):
+            put_off.add(row)
+            pending.insert(0, row)
+            continue
         with ConfigStack().enter(flags):
             kernel.compile(argtypes)
         cres = kernel.overloads[argtypes]

@@ -114,14 +114,15 @@ drift_positions = core_kernel(drift_positions_at)
 
 def compile_orders(slots: int) -> tuple[list, list]:
     """(a run's order, a second process's order) of compiling the kernels of a step of
-    ``slots`` slots. The run, which first compiles the watch's kernels for frame 0, takes the
-    drift's, then the kick's own last to first, then the effects' first to last; the second
-    process the kick's own first to last (the larger part), the effects' last to first, the
-    drift's: the two meet rather than one waiting for the other."""
+    ``slots`` slots: the kick's own, then the effects', in one order for both, the drift's
+    first for the run (its frame 0 needs it) and last for the second process. Each passes
+    over a kernel the other is compiling and comes back to it at the end (bind_slots), so
+    the two share the list as one queue: walked from both ends, they met once and the one
+    finishing its half first sat idle (or waited) while the other compiled the rest."""
     drift = CORE.index(drift_positions_at)
     kick = [r for r in range(len(CORE)) if r != drift]
     effects = list(range(len(CORE), slots))
-    return [drift] + kick[::-1] + effects, kick + effects[::-1] + [drift]
+    return [drift] + kick + effects, kick + effects + [drift]
 
 
 @njit(**STEP, inline="always")

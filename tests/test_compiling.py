@@ -76,6 +76,41 @@ def test_a_kernel_being_compiled_elsewhere_is_waited_for_and_loaded(tmp_path):
     assert compiled == "0"   # loaded what this process saved, compiled nothing itself
 
 
+# holds the lock of putoff.spring_force(float64, float64) until told (a line on stdin)
+HOLDER = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+from numba import float64
+from cosnet.kernels.compiler import compile_lock_path, compiling
+import putoff
+with compiling(compile_lock_path(putoff.spring_force, (float64, float64))):
+    print("holding", flush=True)
+    sys.stdin.readline()
+"""
+
+
+def test_a_kernel_another_process_compiles_is_seen_as_such(tmp_path):
+    """compiling_elsewhere (by which bind_slots puts off a kernel the other process is
+    compiling, to load it later) is true while another process holds the kernel's lock and
+    false once it let go, or where this process holds it itself."""
+    from numba import float64
+
+    from cosnet.kernels.compiler import compile_lock_path, compiling, compiling_elsewhere
+    putoff = _fresh_module(tmp_path / "m", "putoff", KERNEL)
+    sig = (float64, float64)
+    assert not compiling_elsewhere(putoff.spring_force, sig)
+    with started([sys.executable, "-c", HOLDER, tmp_path / "m"], stdin=-1, stdout=-1, stderr=-1,
+                 text=True) as child:
+        assert child.stdout.readline().strip() == "holding", child.stderr.read()
+        assert compiling_elsewhere(putoff.spring_force, sig)
+        child.stdin.write("\n")
+        child.stdin.flush()
+        child.wait(timeout=60)
+    assert not compiling_elsewhere(putoff.spring_force, sig)
+    with compiling(compile_lock_path(putoff.spring_force, sig)):
+        assert not compiling_elsewhere(putoff.spring_force, sig)
+
+
 PAIR = """
 from numba import njit
 from cosnet.kernels.compiler import CACHED
