@@ -174,10 +174,14 @@ def compiling_elsewhere(dispatcher, sig) -> bool:
         return False
     import fcntl
     try:
-        with open(path, "ab") as f:
+        f = open(path, "ab")
+    except OSError:   # a cache folder we cannot write: nobody compiles into it
+        return False
+    with f:
+        try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)   # free: released as it closes
-    except OSError:
-        return True
+        except OSError:
+            return True
     return False
 
 
