@@ -281,7 +281,7 @@ def startup() -> str:
                      f"{w['first_frame']:.2f}", f"{w['phases']['import'][0]:.2f}",
                      f"{r['added']['first_frame']:.1f} ({r['added_kind']})"])
     return _table(["case", "cold: first frame s", "import s", "build s", "kernels compiled here",
-                   "compiling s: numba + LLVM", "waiting for the kick s", "rest s", "warm: first frame s",
+                   "compiling s: numba + LLVM", "waiting for the other process s", "rest s", "warm: first frame s",
                    "import s", "warm + a new effect kind: first frame s"], rows) + measured_on(
         d["machine"], f" (load {d['load_before']:.1f} before), `{d['command'].strip()}`, {d['wall_s'] / 60:.0f} min")
 
