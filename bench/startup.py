@@ -5,16 +5,17 @@
 Each case runs three times in processes of its own, one at a time, with a numba cache
 directory of its own: cold (the cache empty), warm (the cache the cold run left), then warm
 with one effect kind the case does not declare added (a small line load, else a node load,
-else gravity): what an edit that adds an effect costs. Each process does
-what `cosnet run CASE` does up to its first frame after t = 0, and times the phases: starting
-Python and importing cosnet, loading the scene, building the simulation (flattening), frame 0
-(the watch's energy and checksum kernels), the step to frame 1, with a second process
-compiling the step's kernels meanwhile, from the first compilation on (the build's included;
-cosnet.compiling.compiling_alongside, as `cosnet run` does). Compilation in the first process is split by the compile log
-(cosnet/compiling.py) into numba's part (type inference, lowering) and LLVM's (optimisation,
-linking, machine code); the waits for the second process are counted apart; what a phase
-spends beyond those is loading kernels from the cache and running them. The figures go to startup.json and the table of
-docs/performance.md (bench/tables.py).
+else gravity): what an edit that adds an effect costs. Each process does what `cosnet run
+CASE` does up to its first frame after t = 0, and times the phases: starting Python and
+importing cosnet, loading the scene, building the simulation (flattening), frame 0 (the
+watch's energy and checksum kernels), the step to frame 1, with a second process compiling
+the step's kernels meanwhile, from the first compilation on (the build's included;
+cosnet.compiling.compiling_alongside, as `cosnet run` does). Compilation in the first
+process is split by the compile log (cosnet/compiling.py) into numba's part (type inference,
+lowering) and LLVM's (optimisation, linking, machine code); the waits for the second process
+are counted apart; what a phase spends beyond those is loading kernels from the cache and
+running them. The figures go to startup.json and the table of docs/performance.md
+(bench/tables.py).
 """
 
 from __future__ import annotations

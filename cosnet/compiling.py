@@ -230,10 +230,10 @@ def compile_kick(path, threads: int | None):
     (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
     effects', the drift's, for the types the step will call them with, then the step; a scene
     with drives also gets the loads on their own, as the drives' reactions in its frame 0 ask
-    for them. PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built for its
-    types alone: the kernels building it runs from Python (the
-    fluid's sample, a drive's pose) are left to the parent, which needs them first. Returns
-    at once where the step is cached already (the parent may start this before it knows)."""
+    for them. PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built
+    for its types alone: the kernels building it runs from Python (the fluid's sample, a
+    drive's pose) are left to the parent, which needs them first. Returns at once where the
+    step is cached already (the parent may start this before it knows)."""
     from numba import types
 
     from .kernels import layout
@@ -262,10 +262,10 @@ def compile_kick(path, threads: int | None):
 
 @contextlib.contextmanager
 def compiling_alongside(path, sim=None, cached: bool | None = None, threads: int | None = None):
-    """Run the block (which compiles ``sim``'s step) with a second process compiling the kick
-    of the same step meanwhile, where the step is not cached and there is a second core: the
-    block's compilation, reaching the kick, waits for that process and loads its work
-    (kernels/compiler.py), while the frame-0 kernels and the drift were compiled here. The
+    """Run the block (which compiles ``sim``'s step) with a second process compiling the
+    step's kernels meanwhile (compile_kick), where the step is not cached and there is a
+    second core: the two share the list of slot kernels as one queue (bind_slots), each
+    loading what the other compiled, while the frame-0 kernels were compiled here. The
     process dies with this one and is stopped when the block ends. ``cached``: whether the
     step is cached, when the caller knows (record.kernels_compiled). Without ``sim`` the block
     builds the simulation itself (with ``threads``, None for the scene's), so that building
@@ -281,7 +281,6 @@ def compiling_alongside(path, sim=None, cached: bool | None = None, threads: int
         yield
         return
     helper = []
-
     argv = [sys.executable, "-c", _HELPER, str(path), "" if threads is None else str(threads)]
 
     def start():

@@ -230,8 +230,8 @@ def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None
     while pending:
         row = pending.pop()
         kernel, argtypes = calls[row]
-        # one another process is compiling (the second process alongside a run) comes last:
-        # by then it is in the cache, where waiting for it now would leave this core idle
+        # a kernel the other process (compiling alongside a run) is compiling right now goes
+        # to the end of the queue: by then it is cached, where waiting for it would idle a core
         if row not in put_off and pending and compiling_elsewhere(kernel, argtypes):
             put_off.add(row)
             pending.insert(0, row)

@@ -65,9 +65,10 @@ class DriveParams(NamedTuple):
 
 
 @njit(**CACHED)
-def eval_path(t, rate, amp, wave, times, coef, start, out, o):   # o: np.int64, not a literal (one compile)
+def eval_path(t, rate, amp, wave, times, coef, start, out, o):
     """Update out[o:o+k], out[o+k:o+2k], out[o+2k:o+3k] with the path's value (minus start),
-    first and second derivatives at time t (k = rate.shape[0])."""
+    first and second derivatives at time t (k = rate.shape[0]). o: an np.int64 (a literal
+    offset would compile this once more for each value)."""
     k = rate.shape[0]
     omega, phase = wave[0], wave[1]
     s, c = math.sin(omega * t + phase), math.cos(omega * t + phase)
