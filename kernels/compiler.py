@@ -142,7 +142,6 @@ def compiling(path, kernel: str = ""):
     WAIT_EVENT): another process asking for the same kernel waits (at most COMPILE_WAIT s) and
     then loads what this one saved. A compilation nested in one of the same path in this
     process does not wait for itself."""
-    import fcntl
     entry = _held.get(path)
     if entry is None:
         try:
@@ -150,9 +149,7 @@ def compiling(path, kernel: str = ""):
         except OSError:   # a cache folder we cannot write: compile unlocked, as numba would
             yield
             return
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        if not _take(f):
             _wait_for(f, kernel)
         entry = _held[path] = [f, 0]
     entry[1] += 1
@@ -172,32 +169,36 @@ def compiling_elsewhere(dispatcher, sig) -> bool:
     path = compile_lock_path(dispatcher, sig)
     if path is None or path in _held:
         return False
-    import fcntl
     try:
         f = open(path, "ab")
     except OSError:   # a cache folder we cannot write: nobody compiles into it
         return False
-    with f:
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)   # free: released as it closes
-        except OSError:
-            return True
-    return False
+    with f:   # a free lock taken here is released as the file closes
+        return not _take(f)
+
+
+def _take(f) -> bool:
+    """Whether this process got the exclusive lock on the open file ``f`` (without waiting);
+    where fcntl is missing (Windows) there are no locks, and nothing to wait for."""
+    try:
+        import fcntl
+    except ImportError:
+        return True
+    try:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    return True
 
 
 def _wait_for(f, kernel):
-    import fcntl
-
     from numba.core import event
     deadline = time.monotonic() + COMPILE_WAIT
     with event.trigger_event(WAIT_EVENT, data=kernel):
         while time.monotonic() < deadline:
             time.sleep(0.02)
-            try:
-                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if _take(f):
                 return
-            except OSError:
-                pass
 
 
 def _lock_compilations():
