@@ -30,6 +30,7 @@ import io
 import os
 import pickle
 import types as _pytypes
+from collections import deque
 
 import numba
 import numpy as np
@@ -225,16 +226,16 @@ def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None
               for k, g, i, kernel in slot_layout(_classes(g.types for g in groups))]
     if slots.shape != (len(calls), 3):
         raise ValueError(f"slots of shape {slots.shape} for a step of {len(calls)} kernels")
-    pending = list(range(len(calls)) if rows is None else rows)[::-1]
+    pending = deque(range(len(calls)) if rows is None else rows)
     put_off = set()
     while pending:
-        row = pending.pop()
+        row = pending.popleft()
         kernel, argtypes = calls[row]
         # a kernel the other process (compiling alongside a run) is compiling right now goes
         # to the end of the queue: by then it is cached, where waiting for it would idle a core
         if row not in put_off and pending and compiling_elsewhere(kernel, argtypes):
             put_off.add(row)
-            pending.insert(0, row)
+            pending.append(row)
             continue
         with ConfigStack().enter(flags):
             kernel.compile(argtypes)
