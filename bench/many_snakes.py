@@ -191,6 +191,7 @@ def accuracy(rotary=ROTARY, until=10.0, settle=4.0):
 def profile(count):
     from numba import njit
     from cosnet.kernels.compose import KERNELS
+    from cosnet.kernels.layout import typed_call
     from profile_step import best, loop_drift_state, loop_evaluate, loop_internal, loop_kick_state
 
     @njit
@@ -202,10 +203,12 @@ def profile(count):
     sim.run(steps=10)
     m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_records, sim.backend
     k = max(20, int(2e6 / (count * ELEMENTS)))
-    stages = {"evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
-              "  internal loads": lambda: loop_internal(m, s, l, k),
-              "kick_state": lambda: loop_kick_state(m, s, l, 0.0, be, k),
-              "drift_state": lambda: loop_drift_state(m, s, 0.0, be, k)}
+    # typed as the step types the records (typed_call): through numba's own dispatch the loads
+    # would call the step's slot kernels with other types, which their keys refuse
+    stages = {"evaluate_loads (all loads)": lambda: typed_call(loop_evaluate, m, s, l, eff, be, k),
+              "  internal loads": lambda: typed_call(loop_internal, m, s, l, k),
+              "kick_state": lambda: typed_call(loop_kick_state, m, s, l, 0.0, be, k),
+              "drift_state": lambda: typed_call(loop_drift_state, m, s, 0.0, be, k)}
     for e, p in zip(sim.effects, sim.records):
         if type(e).stage == "load":
             stages[f"  {type(e).__name__}"] = lambda p=p: loop_one(KERNELS[type(p)], m, s, l, p, k)
