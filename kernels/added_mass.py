@@ -30,8 +30,8 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (FluidParams, arm_spin, calm_medium, end_arm, has_added_mass, held_mass, node_free,
-                    sample_rows, split)
+from .fluid import (CARRIES, FluidParams, arm_spin, calm_medium, end_arm, has_added_mass,
+                    held_mass, node_free, sample_rows, split)
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
 
@@ -271,6 +271,8 @@ def add_fluid_mass(p, model, state, arg):
         if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and p.added_n[j] == 0.0 and p.added_t[j] == 0.0:
             add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
                          model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
+    if not CARRIES:
+        return
     if p.turning.shape[1] > 0:
         add_turning_forces(p, model, state, loads, h)
     for j in range(p.lines.shape[0]):

@@ -255,7 +255,8 @@ def _describe(value):
     if code is None:
         return value
     cells = tuple(_describe(c.cell_contents) for c in (py.__closure__ or ()))
-    return (py.__module__, py.__qualname__, hashlib.sha256(code.co_code).hexdigest(), cells)
+    return (py.__module__, py.__qualname__, hashlib.sha256(code.co_code).hexdigest(), cells,
+            getattr(py, "cosnet_options", None))   # (kernels/specialise.py: its compile-time options)
 
 
 def in_cache(dispatcher, sig) -> bool:

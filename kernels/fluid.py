@@ -23,20 +23,32 @@ Lines are listed by row (p.lines); quantities per unit rest length are per row. 
 """
 
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from .backend import ENTRY, PASS, STEP
-from .compose import flow_kernel
+from .compose import flow_kernel, inertia_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
+from .specialise import specialise
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
+
+# Compile-time options (kernels/specialise.py): a fluid's record is of the variant its data needs
+# (fluid_record), whose kernels leave out the parts that cannot act. This module's own
+# functions, and its record FluidParams, are the variant with every part.
+# Three options, the parts that cost most to compile: finer ones (the drag law, upthrust, the
+# turning fluid apart from the added mass) would each save less than the variants they multiply.
+MOVING = True        # the medium may move: waves, a profile over height, a factor over time
+CARRIES = True       # some line or buoy carries an added mass (and its fluid may turn: added_mass.py)
+BUOYS = True         # some node has a buoy
+OPTIONS = ("MOVING", "CARRIES", "BUOYS")
 
 
 class FluidParams(NamedTuple):
@@ -340,7 +352,7 @@ def sample_still_line(v, c, S, ci, vlen, dry, wet0, wet1, first, n, surface, an,
     (c: the position columns, v: the velocity columns); return the change of the entrained
     fluid's kinetic energy at the present velocities (0 unless ``entrained``: a loop each way)."""
     de = 0.0
-    if entrained:
+    if CARRIES and entrained:
         for k in range(n):
             de += still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True)
     else:
@@ -374,12 +386,12 @@ def sample_medium(p, model, state):
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         an, at = p.added_n[j], p.added_t[j]
         ends = still and (an != 0.0 or at != 0.0)
-        if ends:
+        if CARRIES and ends:
             de -= ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         for i in (lo, hi - 1):
             tan, p.chord_inverse[i] = line_tangent(x, i, lo, hi)
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
-        if still:
+        if not MOVING or still:
             if not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0 and S[5][lo] == 0.0
                     and S[6][lo] == 0.0):
                 sample_still(c[2], S, uint(lo), hi - lo, surface, c0, c1, c2)
@@ -388,7 +400,7 @@ def sample_medium(p, model, state):
                     S[0][i] = 1.0 if c[2][i] <= surface else 0.0
             de += sample_still_line(v, c, S, p.chord_inverse, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2,
                                     surface, an, at, an != 0.0 or at != 0.0)
-            if ends:
+            if CARRIES and ends:
                 de += ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         else:
             sample_chords(c, S, p.chord_inverse, uint(lo), hi - lo - 2)
@@ -401,7 +413,7 @@ def sample_medium(p, model, state):
         if p.buoyancy[j] != 0.0:
             sample_upthrust(c[2], S, model.element_rest_length, uint(lo), uint(model.line_element_offsets[l]),
                             hi - lo - 2, p.buoyancy[j], surface)
-        if not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
+        if MOVING and not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
             sample_inertia(S, vlen, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
     return de
 
@@ -620,8 +632,8 @@ def node_mass_matrix(p, model, state, nd):
         j, wet, _, tan, lv, _, _ = node_end(p, model, state, model.node_attach_list[s])
         if wet:
             a = add_split(a, lv * p.added_n[j], lv * (p.added_t[j] - p.added_n[j]), tan)
-    b = buoy_of(p, nd)
-    if b >= 0:   # the buoy's own added mass, the same in every direction
+    b = buoy_of(p, nd) if BUOYS else -1
+    if BUOYS and b >= 0:   # the buoy's own added mass, the same in every direction
         a = add_split(a, p.buoy_added[b] * p.buoy_sample[b, 0], 0.0, (0.0, 0.0, 1.0))
     return a
 
@@ -723,8 +735,8 @@ def push_nodes(p, model, state, h):
             ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
             c = cross(r[0], r[1], r[2], gx, gy, gz)
             tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
-        b = buoy_of(p, nd)
-        if b >= 0:   # at the centre of mass: its upthrust, and the medium's inertia force rho V f (1 + C_a) A
+        b = buoy_of(p, nd) if BUOYS else -1
+        if BUOYS and b >= 0:   # at the centre of mass: its upthrust, and the medium's inertia force rho V f (1 + C_a) A
             f = p.buoy_sample[b, 0]
             mi = f * (p.medium[0] * p.buoy_volume[b] + p.buoy_added[b])
             ix, iy, iz = ix + mi * p.buoy_sample[b, 4], iy + mi * p.buoy_sample[b, 5], iz + mi * p.buoy_sample[b, 6]
@@ -819,8 +831,8 @@ def drag_nodes(p, model, state, h):
                 rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
                 e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
                 c = add_arm(c, cn, dc, r, tan)
-        cb = buoy_drag(p, nd, vn)
-        if cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
+        cb = buoy_drag(p, nd, vn) if BUOYS else 0.0
+        if BUOYS and cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
             touched = True
             d = add_split(d, cb, 0.0, (0.0, 0.0, 1.0))
             bs = p.buoy_sample[buoy_of(p, nd)]
@@ -926,7 +938,9 @@ def nodes_entrained(p, model, state):
         l, lo, hi = carrying_span(p, model, j)
         if hi > 0:
             e += ends_entrained(p, model, state, S, model.voronoi_rest_length, l, lo, hi, p.added_n[j], p.added_t[j])
-    return e + buoys_entrained(p, model, state)
+    if BUOYS:
+        e += buoys_entrained(p, model, state)
+    return e
 
 
 @njit(**INNER)
@@ -952,7 +966,18 @@ def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""
     sample_medium(p, model, state)
-    sample_buoys(p, state, state.clock[0])
+    if BUOYS:
+        sample_buoys(p, state, state.clock[0])
+
+
+@njit(**CACHED, inline="always")
+def push_medium(p, model, state, h, still):
+    """Update the velocities by the impulse h of the forces of position and time the kick does
+    not carry: the medium's inertia force at the lines' vertices, what reaches the nodes."""
+    if MOVING and not still:
+        push_vertices(p, model, state, h)
+    if pushes_nodes(p):
+        push_nodes(p, model, state, h)
 
 
 @flow_kernel(FluidParams)
@@ -973,27 +998,85 @@ def flow_fluid(p, model, state, h):
     side = (p.turn[0] >> 1) & 1
     still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
     if after == 0:   # in a still medium, the lines' share of the change is the sample's own
-        added = has_added_mass(p)
-        before = (buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)) if added else 0.0
-        de = sample_medium(p, model, state)
-        if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
-            sample_buoys(p, state, state.clock[0])
-        if added:
+        if CARRIES and has_added_mass(p):
+            before = buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
+            de = sample_medium(p, model, state)
+            if BUOYS and p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short sample)
+                sample_buoys(p, state, state.clock[0])
             sample_node_masses(p, model, state)
             after_sample = de + buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
             p.supplied[0] += after_sample - before
+        else:
+            sample_medium(p, model, state)
+            if BUOYS and p.buoy_node.shape[0] > 0:
+                sample_buoys(p, state, state.clock[0])
     if side == after:
-        pushes = pushes_nodes(p)
         if after == 1:
-            if not still:
-                push_vertices(p, model, state, 2.0 * h)
-            if pushes:
-                push_nodes(p, model, state, 2.0 * h)
+            push_medium(p, model, state, 2.0 * h, still)
         drag_vertices(p, model, state, 2.0 * h)
         drag_nodes(p, model, state, 2.0 * h)
         if after == 0:
-            if not still:
-                push_vertices(p, model, state, 2.0 * h)
-            if pushes:
-                push_nodes(p, model, state, 2.0 * h)
+            push_medium(p, model, state, 2.0 * h, still)
     p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
+
+
+def options_of(p) -> str:
+    """The variant record ``p``'s data needs: a bit per entry of OPTIONS, "1" where that part
+    of the medium may act."""
+    moving = p.wave_a.shape[0] > 0 or p.profile_z.shape[0] > 0 or p.power[0] != 0.0 or p.times.shape[0] > 0
+    carries = bool(np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added))
+    bits = (moving, carries, p.buoy_node.shape[0] > 0)
+    return "".join("1" if b else "0" for b in bits)
+
+
+class FluidVariant(NamedTuple):
+    record: type                    # the record class (a subclass of FluidParams) the step is typed by
+    sample_fluid: object            # its kernels callable from Python
+    fluid_entrained_energy: object
+    family: dict                    # its kernels by name, where they differ from this module's
+
+
+_VARIANTS: dict = {}
+
+
+def fluid_variant(bits: str) -> FluidVariant:
+    """The variant of the fluid's kernels with the parts of ``bits`` (options_of), built once
+    per process: its record class, named by its bits, with its flow and inertia kernels
+    registered."""
+    held = _VARIANTS.get(bits)
+    if held is not None:
+        return held
+    if len(bits) != len(OPTIONS) or set(bits) - {"0", "1"}:
+        raise ValueError(f"fluid variant {bits!r}: expected {len(OPTIONS)} bits, one per option {OPTIONS}")
+    from . import added_mass   # (it imports this module)
+    options = {name: b == "1" for name, b in zip(OPTIONS, bits)}
+    kernels = specialise((sys.modules[__name__], added_mass), options, bits)
+    cls = type(f"FluidParams_{bits}", (FluidParams,), {"__slots__": (), "__module__": __name__})
+    flow_kernel(cls)(kernels["flow_fluid"])
+    inertia_kernel(cls)(kernels["add_fluid_mass"])
+    held = _VARIANTS[bits] = FluidVariant(cls, kernels["sample_fluid"], kernels["fluid_entrained_energy"], kernels)
+    return held
+
+
+def fluid_record(p):
+    """``p`` (a FluidParams) as the record of the variant its data needs, sharing its arrays."""
+    return fluid_variant(options_of(p)).record(*p)
+
+
+def fluid_kernels(p) -> FluidVariant:
+    """The variant whose record ``p`` is (FluidParams itself: every part)."""
+    name = type(p).__name__
+    if type(p) is FluidParams:
+        return FluidVariant(FluidParams, sample_fluid, fluid_entrained_energy, {})
+    return fluid_variant(name[len("FluidParams_"):])
+
+
+def __getattr__(name):
+    # a variant's record class by its name, as pickle looks for it (a sweep's worker; a step's
+    # cache index naming the records it was compiled for)
+    if name.startswith("FluidParams_"):
+        try:
+            return fluid_variant(name[len("FluidParams_"):]).record
+        except ValueError:
+            pass
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

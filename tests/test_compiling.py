@@ -307,15 +307,56 @@ def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
     a, b = net.add_node((0.0, 0.0, -1.0)), net.add_node((1.0, 0.0, -1.0))
     net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
                  elements=4)
-    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0)), cosnet.Fluid(1000.0, added_mass=(1.0, 0.0))])
+    water = cosnet.Fluid(1000.0, added_mass=(1.0, 0.0))
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, 0.0)), water])
     assert sim.model.element_rest_strain.shape[0] == 0 and sim.model.element_rest_strain.flags.c_contiguous
     sim.state.v[:] = (0.0, 0.0, 0.5)
     sim.state.node_v[:] = (0.0, 0.0, 0.5)
     entrained = sim.energy() - 0.5 * net.total_mass() * 0.25
     assert entrained == pytest.approx(0.5 * 1000.0 * math.pi * 1e-4 * 1.0 * 0.25, rel=1e-12)
     model, state = record_type(sim.model), record_type(sim.state)
-    for kernel in (fluid.sample_fluid, fluid.fluid_entrained_energy):
+    variant = fluid.fluid_kernels(water.params(sim))
+    for kernel in (variant.sample_fluid, variant.fluid_entrained_energy):
         assert kernel.overloads and all(sig[1:3] == (model, state) for sig in kernel.overloads), kernel
+
+
+def test_a_fluid_compiles_only_the_parts_its_data_can_use():
+    """A fluid's record is of the variant its data needs (kernels/specialise.py): the kernels of
+    a Stokes-flow fluid in a still medium, without added mass or buoys, leave out the parts
+    that cannot act, so they are never typed. Typed afresh here (not from the cache), its flow
+    and inertia kernels reach the drag and none of the added mass, its turning fluid, the buoys
+    or the moving medium. A variant record pickles by name, as a sweep's worker or a step's
+    cache index reads it."""
+    import pickle
+
+    from numba import njit, typeof
+
+    import cosnet
+    from cosnet.kernels import added_mass, fluid
+    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
+    from cosnet.kernels.layout import empty_loads, record_type
+    net = cosnet.Net()
+    a, b = net.add_node((0.0, 0.0, -1.0)), net.add_node((1.0, 0.0, -1.0))
+    net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
+                 elements=4)
+    stokes = cosnet.Fluid(1000.0, resistance=(2.0, 1.0))
+    sim = cosnet.Simulation(net, [stokes])
+    p = stokes.params(sim)
+    cls = type(p)
+    assert cls is not fluid.FluidParams and isinstance(p, fluid.FluidParams)
+    assert pickle.loads(pickle.dumps(p)).__class__ is cls
+    model, state, h = record_type(sim.model), record_type(sim.state), typeof(0.5)
+    for kernel, last in ((FLOW_KERNELS[cls], h), (INERTIAS[cls], typeof((empty_loads(sim.model), 0.5)))):
+        njit(**{k: v for k, v in kernel.targetoptions.items() if k != "nopython"})(kernel.py_func).compile(
+            (typeof(p), model, state, last))
+    variant = fluid.fluid_kernels(p)
+    kernels = {**{n: f for m in (fluid, added_mass) for n, f in vars(m).items() if hasattr(f, "overloads")},
+               **variant.family}
+    rec = typeof(p)
+    typed = {n for n, f in kernels.items() if any(rec in sig for sig in f.overloads)}
+    assert {"sample_medium", "drag_vertices", "drag_nodes"} <= typed
+    assert not typed & {"sample_buoys", "push_vertices", "sample_node_masses", "node_mass_matrix", "entrained_energy",
+                        "nodes_entrained", "buoys_entrained", "add_turning_forces"}, typed
 
 
 def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():

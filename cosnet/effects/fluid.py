@@ -15,7 +15,7 @@ from .contact import chosen_lines, chosen_parts
 from .drives import driven_nodes
 from .loads import Gravity, checked_table
 from ..kernels.added_mass import TURNING_ROWS
-from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_entrained_energy, sample_fluid
+from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_kernels, fluid_record
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
 from ..core.turbulence import IEC_LENGTH, turbulent_series
@@ -357,9 +357,10 @@ class Fluid(Effect):
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)),
                            node_mass=np.zeros((nn, 6)),
                            chord_inverse=np.zeros(nv), node_rate=np.zeros((nn, 3)))
+        p = fluid_record(p)   # of the variant that compiles only the parts its data can use
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
-            typed_call(sample_fluid, p, on.model, on.state)
+            typed_call(fluid_kernels(p).sample_fluid, p, on.model, on.state)
         return p
 
     @staticmethod
@@ -420,13 +421,14 @@ class Fluid(Effect):
         (0 without added mass)."""
         if not (np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added)):
             return 0.0
+        kernels = fluid_kernels(p)
         if held:
-            return typed_call(fluid_entrained_energy, p, on.model, on.state)
+            return typed_call(kernels.fluid_entrained_energy, p, on.model, on.state)
         # sampled in place and put back: the step's own record keeps typed_call's held entry
         kept = p.sample.copy(), p.buoy_sample.copy()
         try:
-            typed_call(sample_fluid, p, on.model, on.state)
-            return typed_call(fluid_entrained_energy, p, on.model, on.state)
+            typed_call(kernels.sample_fluid, p, on.model, on.state)
+            return typed_call(kernels.fluid_entrained_energy, p, on.model, on.state)
         finally:
             p.sample[...], p.buoy_sample[...] = kept
 
@@ -490,7 +492,8 @@ class Fluid(Effect):
     def start(self, sim):
         """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):
         the added mass the first kick's account starts from."""
-        typed_call(sample_fluid, self.params(sim), sim.model, sim.state)
+        p = self.params(sim)
+        typed_call(fluid_kernels(p).sample_fluid, p, sim.model, sim.state)
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
