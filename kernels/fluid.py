@@ -23,32 +23,30 @@ Lines are listed by row (p.lines); quantities per unit rest length are per row. 
 """
 
 import math
-import sys
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from .backend import ENTRY, PASS, STEP
-from .compose import flow_kernel, inertia_kernel
+from .compose import flow_kernel
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
-from .specialise import specialise
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
 
 # Compile-time options (kernels/specialise.py): a fluid's record is of the variant its data needs
-# (fluid_record), whose kernels leave out the parts that cannot act. This module's own
-# functions, and its record FluidParams, are the variant with every part.
-# Three options, the parts that cost most to compile: finer ones (the drag law, upthrust, the
-# turning fluid apart from the added mass) would each save less than the variants they multiply.
+# (kernels/fluid_variants.py), whose kernels leave out the parts that cannot act. This module's
+# own functions, and its record FluidParams, are the variant with every part. Two options, the
+# parts that cost most to compile: finer ones (the drag law, upthrust, the turning fluid apart
+# from the added mass, buoys apart) each save less than the variants they multiply cost.
 MOVING = True        # the medium may move: waves, a profile over height, a factor over time
-CARRIES = True       # some line or buoy carries an added mass (and its fluid may turn: added_mass.py)
-BUOYS = True         # some node has a buoy
-OPTIONS = ("MOVING", "CARRIES", "BUOYS")
+CARRIES = True       # some line carries an added mass (and its fluid may turn: added_mass.py), or some
+                     # node has a buoy (a volume of its own, with or without an added mass)
+OPTIONS = ("MOVING", "CARRIES")
 
 
 class FluidParams(NamedTuple):
@@ -632,8 +630,8 @@ def node_mass_matrix(p, model, state, nd):
         j, wet, _, tan, lv, _, _ = node_end(p, model, state, model.node_attach_list[s])
         if wet:
             a = add_split(a, lv * p.added_n[j], lv * (p.added_t[j] - p.added_n[j]), tan)
-    b = buoy_of(p, nd) if BUOYS else -1
-    if BUOYS and b >= 0:   # the buoy's own added mass, the same in every direction
+    b = buoy_of(p, nd) if CARRIES else -1
+    if CARRIES and b >= 0:   # the buoy's own added mass, the same in every direction
         a = add_split(a, p.buoy_added[b] * p.buoy_sample[b, 0], 0.0, (0.0, 0.0, 1.0))
     return a
 
@@ -735,8 +733,8 @@ def push_nodes(p, model, state, h):
             ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
             c = cross(r[0], r[1], r[2], gx, gy, gz)
             tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
-        b = buoy_of(p, nd) if BUOYS else -1
-        if BUOYS and b >= 0:   # at the centre of mass: its upthrust, and the medium's inertia force rho V f (1 + C_a) A
+        b = buoy_of(p, nd) if CARRIES else -1
+        if CARRIES and b >= 0:   # at the centre of mass: its upthrust, the medium's inertia force rho V f (1 + C_a) A
             f = p.buoy_sample[b, 0]
             mi = f * (p.medium[0] * p.buoy_volume[b] + p.buoy_added[b])
             ix, iy, iz = ix + mi * p.buoy_sample[b, 4], iy + mi * p.buoy_sample[b, 5], iz + mi * p.buoy_sample[b, 6]
@@ -831,8 +829,8 @@ def drag_nodes(p, model, state, h):
                 rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
                 e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
                 c = add_arm(c, cn, dc, r, tan)
-        cb = buoy_drag(p, nd, vn) if BUOYS else 0.0
-        if BUOYS and cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
+        cb = buoy_drag(p, nd, vn) if CARRIES else 0.0
+        if CARRIES and cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
             touched = True
             d = add_split(d, cb, 0.0, (0.0, 0.0, 1.0))
             bs = p.buoy_sample[buoy_of(p, nd)]
@@ -938,7 +936,7 @@ def nodes_entrained(p, model, state):
         l, lo, hi = carrying_span(p, model, j)
         if hi > 0:
             e += ends_entrained(p, model, state, S, model.voronoi_rest_length, l, lo, hi, p.added_n[j], p.added_t[j])
-    if BUOYS:
+    if CARRIES:
         e += buoys_entrained(p, model, state)
     return e
 
@@ -966,7 +964,7 @@ def sample_fluid(p, model, state):
     """Update p.sample given the positions and the clock, as a kick's first half flow does
     (the added mass a simulation holds before its first step)."""
     sample_medium(p, model, state)
-    if BUOYS:
+    if CARRIES:
         sample_buoys(p, state, state.clock[0])
 
 
@@ -1001,14 +999,14 @@ def flow_fluid(p, model, state, h):
         if CARRIES and has_added_mass(p):
             before = buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
             de = sample_medium(p, model, state)
-            if BUOYS and p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short sample)
+            if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
                 sample_buoys(p, state, state.clock[0])
             sample_node_masses(p, model, state)
             after_sample = de + buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
             p.supplied[0] += after_sample - before
         else:
             sample_medium(p, model, state)
-            if BUOYS and p.buoy_node.shape[0] > 0:
+            if CARRIES and p.buoy_node.shape[0] > 0:
                 sample_buoys(p, state, state.clock[0])
     if side == after:
         if after == 1:
@@ -1019,64 +1017,3 @@ def flow_fluid(p, model, state, h):
             push_medium(p, model, state, 2.0 * h, still)
     p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
 
-
-def options_of(p) -> str:
-    """The variant record ``p``'s data needs: a bit per entry of OPTIONS, "1" where that part
-    of the medium may act."""
-    moving = p.wave_a.shape[0] > 0 or p.profile_z.shape[0] > 0 or p.power[0] != 0.0 or p.times.shape[0] > 0
-    carries = bool(np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added))
-    bits = (moving, carries, p.buoy_node.shape[0] > 0)
-    return "".join("1" if b else "0" for b in bits)
-
-
-class FluidVariant(NamedTuple):
-    record: type                    # the record class (a subclass of FluidParams) the step is typed by
-    sample_fluid: object            # its kernels callable from Python
-    fluid_entrained_energy: object
-    family: dict                    # its kernels by name, where they differ from this module's
-
-
-_VARIANTS: dict = {}
-
-
-def fluid_variant(bits: str) -> FluidVariant:
-    """The variant of the fluid's kernels with the parts of ``bits`` (options_of), built once
-    per process: its record class, named by its bits, with its flow and inertia kernels
-    registered."""
-    held = _VARIANTS.get(bits)
-    if held is not None:
-        return held
-    if len(bits) != len(OPTIONS) or set(bits) - {"0", "1"}:
-        raise ValueError(f"fluid variant {bits!r}: expected {len(OPTIONS)} bits, one per option {OPTIONS}")
-    from . import added_mass   # (it imports this module)
-    options = {name: b == "1" for name, b in zip(OPTIONS, bits)}
-    kernels = specialise((sys.modules[__name__], added_mass), options, bits)
-    cls = type(f"FluidParams_{bits}", (FluidParams,), {"__slots__": (), "__module__": __name__})
-    flow_kernel(cls)(kernels["flow_fluid"])
-    inertia_kernel(cls)(kernels["add_fluid_mass"])
-    held = _VARIANTS[bits] = FluidVariant(cls, kernels["sample_fluid"], kernels["fluid_entrained_energy"], kernels)
-    return held
-
-
-def fluid_record(p):
-    """``p`` (a FluidParams) as the record of the variant its data needs, sharing its arrays."""
-    return fluid_variant(options_of(p)).record(*p)
-
-
-def fluid_kernels(p) -> FluidVariant:
-    """The variant whose record ``p`` is (FluidParams itself: every part)."""
-    name = type(p).__name__
-    if type(p) is FluidParams:
-        return FluidVariant(FluidParams, sample_fluid, fluid_entrained_energy, {})
-    return fluid_variant(name[len("FluidParams_"):])
-
-
-def __getattr__(name):
-    # a variant's record class by its name, as pickle looks for it (a sweep's worker; a step's
-    # cache index naming the records it was compiled for)
-    if name.startswith("FluidParams_"):
-        try:
-            return fluid_variant(name[len("FluidParams_"):]).record
-        except ValueError:
-            pass
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

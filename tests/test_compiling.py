@@ -301,7 +301,7 @@ def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
     import math
 
     import cosnet
-    from cosnet.kernels import fluid
+    from cosnet.kernels import fluid_variants
     from cosnet.kernels.layout import record_type
     net = cosnet.Net()
     a, b = net.add_node((0.0, 0.0, -1.0)), net.add_node((1.0, 0.0, -1.0))
@@ -315,7 +315,7 @@ def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
     entrained = sim.energy() - 0.5 * net.total_mass() * 0.25
     assert entrained == pytest.approx(0.5 * 1000.0 * math.pi * 1e-4 * 1.0 * 0.25, rel=1e-12)
     model, state = record_type(sim.model), record_type(sim.state)
-    variant = fluid.fluid_kernels(water.params(sim))
+    variant = fluid_variants.fluid_kernels(water.params(sim))
     for kernel in (variant.sample_fluid, variant.fluid_entrained_energy):
         assert kernel.overloads and all(sig[1:3] == (model, state) for sig in kernel.overloads), kernel
 
@@ -332,7 +332,7 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
     from numba import njit, typeof
 
     import cosnet
-    from cosnet.kernels import added_mass, fluid
+    from cosnet.kernels import added_mass, fluid, fluid_variants
     from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
     from cosnet.kernels.layout import empty_loads, record_type
     net = cosnet.Net()
@@ -349,7 +349,7 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
     for kernel, last in ((FLOW_KERNELS[cls], h), (INERTIAS[cls], typeof((empty_loads(sim.model), 0.5)))):
         njit(**{k: v for k, v in kernel.targetoptions.items() if k != "nopython"})(kernel.py_func).compile(
             (typeof(p), model, state, last))
-    variant = fluid.fluid_kernels(p)
+    variant = fluid_variants.fluid_kernels(p)
     kernels = {**{n: f for m in (fluid, added_mass) for n, f in vars(m).items() if hasattr(f, "overloads")},
                **variant.family}
     rec = typeof(p)

@@ -15,7 +15,8 @@ from .contact import chosen_lines, chosen_parts
 from .drives import driven_nodes
 from .loads import Gravity, checked_table
 from ..kernels.added_mass import TURNING_ROWS
-from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams, fluid_kernels, fluid_record
+from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams
+from ..kernels.fluid_variants import fluid_kernels, fluid_record
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
 from ..core.turbulence import IEC_LENGTH, turbulent_series
