@@ -41,7 +41,7 @@ def scan_words(words, h):
     for i in range(n - n % 4, n):
         h0 = mix(h0, words[i])
         odd += 1 if (words[i] & EXPONENT) == EXPONENT else 0
-    h = mix(mix(mix(mix(h0, h1), h2), h3), n)
+    h = mix(mix(mix(mix(h0, h1), h2), h3), np.uint64(n))   # (a word: mix compiles once, for words)
     bad = -1
     if odd:
         for i in range(n):
@@ -73,10 +73,10 @@ def hash_segments(words, width, offsets, tag, h):
     for s in range(h.shape[0]):
         a = min(max(offsets[s] * width, 0), n)
         b = min(max(offsets[s + 1] * width, a), n)
-        x = mix(h[s], tag)
+        x = mix(h[s], np.uint64(tag))
         for i in range(a, b):
             x = mix(x, words[i])
-        h[s] = mix(x, b - a)
+        h[s] = mix(x, np.uint64(b - a))
 
 
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)   # odd

@@ -286,7 +286,8 @@ class Drive(Effect):
         """(force, torque) the driver supplies now (lab; the torque about the node's centre of
         mass), given sim.loads evaluated at the current state."""
         p = self.params(sim)
-        reaction_now(p, sim.model, sim.state, loads_evaluated)
+        # typed as the step types the records: drive_reaction is then the kick's own, not a second compile
+        typed_call(reaction_now, p, sim.model, sim.state, loads_evaluated)
         return p.reaction[:3].copy(), p.reaction[3:].copy()
 
     def drives(self, node) -> bool:
