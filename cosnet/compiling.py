@@ -228,9 +228,9 @@ _HELPER = ("import sys; from cosnet.compiling import compile_kick; "
 def compile_kick(path, threads: int | None):
     """Compile (into numba's cache) the kernels a scene's step calls through its slots
     (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
-    effects', the drift's, for the types the step will call them with, then the step; a scene
-    with drives also gets the loads on their own, as the drives' reactions in its frame 0 ask
-    for them. PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built
+    effects', the drift's, for the types the step will call them with, then the step (which a
+    scene with drives needs at frame 0 already: its drives' reactions evaluate the loads
+    through it). PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built
     for its types alone: the kernels building it runs from Python (the fluid's sample, a
     drive's pose) are left to the parent, which needs them first. Returns at once where the
     step is cached already (the parent may start this before it knows)."""
@@ -239,7 +239,7 @@ def compile_kick(path, threads: int | None):
     from .kernels import layout
     from .kernels.compose import bind_slots
     from .kernels.slots import pointers_type
-    from .kernels.stepping import compile_orders, evaluate_loads, kick_loads
+    from .kernels.stepping import compile_orders, kick_loads
     from .output.record import kernels_compiled
     from .scene.loader import load_scene
     layout.TYPING_ONLY[0] = True   # the parent compiles what building the simulation runs
@@ -253,11 +253,9 @@ def compile_kick(path, threads: int | None):
                compile_orders(len(slots))[1])
     if sim.stepper == "pefrl":   # its kick is a kernel of its own (the Verlet step inlines it)
         kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
-    # the step itself: the parent reaches it last, and with drives compiles the loads on their
-    # own first (their reactions at frame 0), so here the step comes before those
+    # the step itself, which the parent reaches last (with drives, at frame 0: their reactions
+    # evaluate the loads through it)
     sim.advance_kernel.compile(sim.step_signature())
-    if any(e.reads_loads for e in sim.effects):   # as Simulation.evaluate_loads types it
-        evaluate_loads.compile((model, state, loads, records, backend))
 
 
 @contextlib.contextmanager

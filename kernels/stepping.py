@@ -134,15 +134,6 @@ def evaluate_loads_at(ptrs):
     gather_loads(ptrs, 0.0, 0)
 
 
-@njit(**ENTRY)
-def evaluate_loads(model, state, loads, effects, backend):
-    """Update loads given the state (evaluate_loads_at); effects: the step records, bound
-    (compose.bind_slots)."""
-    if not slots_bound_here(effects):
-        raise RuntimeError("evaluate_loads: kernels not bound in this process (compose.bind_slots)")
-    evaluate_loads_at(step_pointers(model, state, loads, effects, backend))
-
-
 @njit(**STEP)
 def kick_loads(ptrs, h):
     """Update velocities by a kick of length h, wrapped in half flows of the velocity effects,
@@ -176,10 +167,15 @@ def drift(ptrs, h, order):
 def advance_verlet(model, state, loads, effects, h, steps, backend):
     """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h;
     effects = (load, flow, constraint) tuples of effect parameter records and their kernels'
-    slots (compose.bind_slots)."""
+    slots (compose.bind_slots). For no steps, update loads given the state instead
+    (evaluate_loads_at; Simulation.evaluate_loads): the step's own entry, where one of its own
+    would compile the unboxing of every record again."""
     if not slots_bound_here(effects):
         raise RuntimeError("advance_verlet: kernels not bound in this process (compose.bind_slots)")
     ptrs = step_pointers(model, state, loads, effects, backend)
+    if steps == 0:
+        evaluate_loads_at(ptrs)
+        return
     drift(ptrs, 0.5 * h, 2)
     for s in range(steps):
         kick_loads_inline(ptrs, h)
@@ -189,11 +185,15 @@ def advance_verlet(model, state, loads, effects, h, steps, backend):
 @njit(**ENTRY)
 def advance_pefrl(model, state, loads, effects, h, steps, backend):
     """Update state by ``steps`` PEFRL steps (fourth order):
-    D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi)."""
+    D(xi) K((1-2 lam)/2) D(chi) K(lam) D(1-2(chi+xi)) K(lam) D(chi) K((1-2 lam)/2) D(xi).
+    For no steps, update loads given the state instead (as advance_verlet)."""
     if not slots_bound_here(effects):
         raise RuntimeError("advance_pefrl: kernels not bound in this process (compose.bind_slots)")
     xi, lam, chi = PEFRL_XI * h, PEFRL_LAMBDA * h, PEFRL_CHI * h
     ptrs = step_pointers(model, state, loads, effects, backend)
+    if steps == 0:
+        evaluate_loads_at(ptrs)
+        return
     drift(ptrs, xi, 4)
     for s in range(steps):
         kick_loads(ptrs, 0.5 * h - lam)

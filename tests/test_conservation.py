@@ -11,8 +11,6 @@ from cosnet.core.rotations import matrix_from_quat, quat_from_matrix
 from cosnet.kernels.backend import Parallel, Serial
 from cosnet.kernels.elastic import LONG_LINE
 from cosnet.kernels.motion import place_line_ends
-from cosnet.kernels.layout import typed_call
-from cosnet.kernels.stepping import evaluate_loads
 from nets import free_net, perturb, smooth_motion
 
 FULL = os.environ.get("COSNET_FULL") == "1"
@@ -29,7 +27,7 @@ def test_loads_are_the_exact_gradient_of_the_strain_energy():
             turn = Rotation.from_rotvec(0.2 * rng.standard_normal(3)).as_matrix()
             arr[i] = quat_from_matrix(matrix_from_quat(arr[i]) @ turn)
     place_line_ends(m, s)
-    typed_call(evaluate_loads, m, s, loads, sim.bind_kernels(), sim.backend)
+    sim.evaluate_loads()
 
     def strain():
         place_line_ends(m, s)
@@ -237,7 +235,8 @@ def test_a_long_line_split_across_threads_has_the_serial_loads():
         s.node_q[:] = quat_from_matrix(Rotation.from_rotvec(0.1 * rng.standard_normal((3, 3))).as_matrix()) \
             if threads == 1 else loads[1][3]
         place_line_ends(m, s)
-        typed_call(evaluate_loads, m, s, sim.loads, sim.bind_kernels(), backend)
+        assert type(sim.backend) is type(backend)
+        sim.evaluate_loads()
         loads[threads] = (sim.loads.f.copy(), sim.loads.tau.copy(), sim.loads.end_tau.copy(), s.node_q.copy())
     assert np.abs(loads[1][1]).max() > 1.0                      # the state is far from rest
     for serial, split in zip(loads[1][:3], loads[2][:3]):

@@ -9,8 +9,6 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.kernels.layout import typed_call
-from cosnet.kernels.stepping import evaluate_loads
 from nets import free_net
 
 T = 0.3
@@ -25,7 +23,7 @@ def _loads(net):
 
 def _node_loads(sim):
     sim.state.clock[0] = T
-    typed_call(evaluate_loads, sim.model, sim.state, sim.loads, sim.bind_kernels(), sim.backend)
+    sim.evaluate_loads()
     return sim.loads.node_f.copy(), sim.loads.node_tau.copy()
 
 

@@ -16,8 +16,6 @@ import pytest
 import cosnet
 from cosnet.engine import measure
 from cosnet.kernels.motion import place_line_ends
-from cosnet.kernels.layout import typed_call
-from cosnet.kernels.stepping import evaluate_loads
 from cosnet.core.rotations import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
 
 E, G, RHO, R, L = 2.1e11, 8.1e10, 7850.0, 0.01, 1.0
@@ -116,7 +114,7 @@ def flutter(n, alpha, tip_inertia=None, below=math.inf):
             qs = s.q if c == "q" else s.node_q
             qs[i] = quat_from_matrix(matrix_from_quat(qs[i]) @ matrix_from_rotvec(d))
         place_line_ends(m, s)
-        typed_call(evaluate_loads, m, s, sim.loads, sim.bind_kernels(), sim.backend)
+        sim.evaluate_loads()
         ld = sim.loads
         tau_node = matrix_from_quat(s.node_q[1]).T @ ld.node_tau[1]
         table = {"x": ld.f, "q": ld.tau, "nx": ld.node_f}

@@ -186,7 +186,6 @@ class Drive(Effect):
     ``sim.driver_work()`` the work it has done."""
 
     work_kind = "driver"
-    reads_loads = True
 
     kind = "drive"
     record = DriveParams

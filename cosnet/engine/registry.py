@@ -116,9 +116,6 @@ class Effect:
     # prescribed motion), "actuation" (sim.actuation_work(): active lines) or "load"
     # (sim.load_work(): declared loads); None: no work account
     work_kind: str | None = None
-    # whether the loads evaluated at an output time are read through it (a drive's reaction):
-    # the compile step then compiles the loads on their own as well
-    reads_loads = False
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)

@@ -20,9 +20,9 @@ from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
 from ..kernels.compose import bind_slots, empty_slots
-from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type, typed_call
+from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type
 from ..kernels.motion import place_line_ends
-from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders, evaluate_loads,
+from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders,
                                 stability_interval, steps_to)
 from ..core.net import Line, Net, Node
 from ..core.rotations import matrix_from_quat
@@ -296,6 +296,13 @@ class Simulation:
         self._slots_process = os.getpid()
         return self.step_records
 
+    def evaluate_loads(self):
+        """Update self.loads given the state, and return them: the internal loads (3.2)/(3.3),
+        every load effect's, then the node balances (4.3)/(4.4), as a kick evaluates them (the
+        stepper run for no steps). The line ends are where the state last put them."""
+        self._stepper()(self.model, self.state, self.loads, self.step_records, 0.0, 0, self.backend)
+        return self.loads
+
     def _stepper(self):
         """The stepper compiled (or loaded from the cache) for step_signature, called directly:
         numba's own dispatch would type the records by their flags alone. Kept while the
@@ -446,8 +453,7 @@ class Simulation:
         if drive is None:
             return np.zeros(3), np.zeros(3)
         place_line_ends(self.model, self.state)
-        typed_call(evaluate_loads, self.model, self.state, self.loads, self.bind_kernels(), self.backend)
-        return drive.reaction(self, self.loads)
+        return drive.reaction(self, self.evaluate_loads())
 
     def driver_work(self) -> float:
         """Work done on the net by every drive so far (J): the kicks' quadrature of the
