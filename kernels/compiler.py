@@ -286,6 +286,27 @@ def stable_cache_key(dispatcher):
     return dispatcher
 
 
+def extend_cache_key(dispatcher, extra, key=None):
+    """Key ``dispatcher``'s cached code by ``extra`` after ``key`` (a cache's index key; its
+    own by default), and return it: functions that share a source line share an index file,
+    and numba's key (code and argument types) would let one load another's code."""
+    key = key or dispatcher._cache._index_key
+    dispatcher._cache._index_key = lambda sig, codegen: key(sig, codegen) + (extra,)
+    return dispatcher
+
+
+def keyed_twin(kernel, py_func, extra, **options):
+    """A dispatcher of ``py_func`` with ``kernel``'s options updated by ``options``, cached as
+    ``kernel`` is, under its key plus ``extra`` (extend_cache_key)."""
+    from numba.core import caching
+    options = {**{k: v for k, v in kernel.targetoptions.items() if k != "nopython"}, **options}
+    twin = numba.njit(**options)(py_func)
+    if isinstance(kernel._cache, caching.Cache):
+        twin.enable_caching()
+        extend_cache_key(twin, extra, kernel._cache._index_key)   # (stable_cache_key's, for a closure)
+    return twin
+
+
 def _cache_options() -> dict:
     """Return the options every kernel starts from, and point numba's on-disk cache at a
     directory of this exact kernel source: "cosnet-<digest of kernels/*.py>" under

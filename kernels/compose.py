@@ -39,7 +39,7 @@ from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
 from .backend import STEP
-from .compiler import compiling_elsewhere, stable_cache_key
+from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
 from .slots import call_slot, core_type, deref, load_table, slot_argtypes, slot_key
 
 LOAD_KERNELS: dict = {}
@@ -58,16 +58,10 @@ def _inner(kernel):
     callable from Python. The twin is cached as its kernel is, under a key of its own: the two
     share one index file (one function, one source line), and numba's key (the argument types)
     would let either load the other's code, the twin's lacking the entry Python calls."""
-    options = dict(kernel.targetoptions)
-    if options.get("no_cpython_wrapper"):
+    if kernel.targetoptions.get("no_cpython_wrapper"):
         return kernel
-    options.pop("nopython", None)
-    twin = njit(**options, no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
-    if isinstance(kernel._cache, caching.Cache):
-        twin.enable_caching()
-        key = kernel._cache._index_key   # the kernel's (stable_cache_key's, for a closure)
-        twin._cache._index_key = lambda sig, codegen: key(sig, codegen) + ("without entry wrapper",)
-    return twin
+    return keyed_twin(kernel, kernel.py_func, "without entry wrapper", no_cpython_wrapper=True,
+                      no_cfunc_wrapper=True)
 
 
 def load_kernel(declaration):
@@ -172,8 +166,7 @@ def slot_wrapper(kernel, hook):
     if stamp is None:
         held._cache = caching.NullCache()
     else:
-        key = held._cache._index_key
-        held._cache._index_key = lambda sig, codegen: key(sig, codegen) + (stamp,)
+        extend_cache_key(held, stamp)
     return held
 
 

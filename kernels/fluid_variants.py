@@ -5,8 +5,6 @@ options' bits (FluidParams_01), found by that name wherever a record is unpickle
 
 from typing import NamedTuple
 
-import numpy as np
-
 from . import added_mass, fluid
 from .compose import flow_kernel, inertia_kernel
 from .fluid import OPTIONS, FluidParams
@@ -15,17 +13,19 @@ from .specialise import specialise
 
 def options_of(p) -> str:
     """The variant record ``p``'s data needs: a bit per entry of OPTIONS, "1" where that part
-    of the medium may act."""
-    moving = p.wave_a.shape[0] > 0 or p.profile_z.shape[0] > 0 or p.power[0] != 0.0 or p.times.shape[0] > 0
-    carries = bool(np.any(p.added_n) or np.any(p.added_t) or p.buoy_node.shape[0] > 0)
+    of the medium may act (by the kernels' own tests, run in Python)."""
+    moving = not fluid.still_medium.py_func(p)
+    carries = fluid.has_added_mass.py_func(p) or p.buoy_node.shape[0] > 0
     return "".join("1" if b else "0" for b in (moving, carries))
 
 
 class FluidVariant(NamedTuple):
-    record: type                    # the record class (a subclass of FluidParams) the step is typed by
-    sample_fluid: object            # its kernels callable from Python
-    fluid_entrained_energy: object
-    family: dict                    # its kernels by name, where they differ from kernels.fluid's
+    record: type    # the record class (a subclass of FluidParams) the step is typed by
+    family: dict    # its kernels by name, where they differ from kernels.fluid's
+
+    def kernel(self, name: str):
+        """Its kernel ``name`` (one callable from Python: sample_fluid, fluid_entrained_energy)."""
+        return self.family.get(name) or getattr(fluid, name)
 
 
 _VARIANTS: dict = {}
@@ -44,7 +44,7 @@ def fluid_variant(bits: str) -> FluidVariant:
     cls = type(f"FluidParams_{bits}", (FluidParams,), {"__slots__": (), "__module__": __name__})
     flow_kernel(cls)(kernels["flow_fluid"])
     inertia_kernel(cls)(kernels["add_fluid_mass"])
-    held = _VARIANTS[bits] = FluidVariant(cls, kernels["sample_fluid"], kernels["fluid_entrained_energy"], kernels)
+    held = _VARIANTS[bits] = FluidVariant(cls, kernels)
     return held
 
 
@@ -56,7 +56,7 @@ def fluid_record(p):
 def fluid_kernels(p) -> FluidVariant:
     """The variant whose record ``p`` is (FluidParams itself: every part)."""
     if type(p) is FluidParams:
-        return FluidVariant(FluidParams, fluid.sample_fluid, fluid.fluid_entrained_energy, {})
+        return FluidVariant(FluidParams, {})
     return fluid_variant(type(p).__name__[len("FluidParams_"):])
 
 

@@ -11,9 +11,9 @@ set: the modules' own functions stay the variant with every option on.
 
 import types as _pytypes
 
-from numba import njit
-from numba.core import caching
 from numba.core.registry import CPUDispatcher
+
+from .compiler import keyed_twin
 
 
 def _jitted(module) -> dict:
@@ -60,10 +60,4 @@ def _clone(f, space: dict, tag: str):
     clone = _pytypes.FunctionType(py.__code__, space, py.__name__, py.__defaults__, py.__closure__)
     clone.__qualname__, clone.__doc__, clone.__kwdefaults__ = py.__qualname__, py.__doc__, py.__kwdefaults__
     clone.cosnet_options = tag   # (compiler._describe: a closure calling it is keyed by it too)
-    options = {k: v for k, v in f.targetoptions.items() if k != "nopython"}
-    d = njit(**options)(clone)
-    if isinstance(f._cache, caching.Cache):
-        d.enable_caching()
-        key = d._cache._index_key
-        d._cache._index_key = lambda sig, codegen: key(sig, codegen) + (("variant", tag),)
-    return d
+    return keyed_twin(f, clone, ("variant", tag))

@@ -361,7 +361,7 @@ class Fluid(Effect):
         p = fluid_record(p)   # of the variant that compiles only the parts its data can use
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
-            typed_call(fluid_kernels(p).sample_fluid, p, on.model, on.state)
+            typed_call(fluid_kernels(p).kernel("sample_fluid"), p, on.model, on.state)
         return p
 
     @staticmethod
@@ -424,12 +424,12 @@ class Fluid(Effect):
             return 0.0
         kernels = fluid_kernels(p)
         if held:
-            return typed_call(kernels.fluid_entrained_energy, p, on.model, on.state)
+            return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         # sampled in place and put back: the step's own record keeps typed_call's held entry
         kept = p.sample.copy(), p.buoy_sample.copy()
         try:
-            typed_call(kernels.sample_fluid, p, on.model, on.state)
-            return typed_call(kernels.fluid_entrained_energy, p, on.model, on.state)
+            typed_call(kernels.kernel("sample_fluid"), p, on.model, on.state)
+            return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         finally:
             p.sample[...], p.buoy_sample[...] = kept
 
@@ -494,7 +494,7 @@ class Fluid(Effect):
         """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):
         the added mass the first kick's account starts from."""
         p = self.params(sim)
-        typed_call(fluid_kernels(p).sample_fluid, p, sim.model, sim.state)
+        typed_call(fluid_kernels(p).kernel("sample_fluid"), p, sim.model, sim.state)
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
