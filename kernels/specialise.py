@@ -10,6 +10,7 @@ set: the modules' own functions stay the variant with every option on.
 """
 
 import types as _pytypes
+from typing import NamedTuple
 
 from numba.core.registry import CPUDispatcher
 
@@ -61,3 +62,71 @@ def _clone(f, space: dict, tag: str):
     clone.__qualname__, clone.__doc__, clone.__kwdefaults__ = py.__qualname__, py.__doc__, py.__kwdefaults__
     clone.cosnet_options = tag   # (compiler._describe: a closure calling it is keyed by it too)
     return keyed_twin(f, clone, ("variant", tag))
+
+
+class Variant(NamedTuple):
+    record: type    # the record class (a subclass of the effect's) the step is typed by
+    family: dict    # its kernels by name, where they differ from the modules' own
+    modules: tuple  # the effect's kernel modules
+
+    def kernel(self, name: str):
+        """Its kernel ``name`` (one called from Python: a sample, an energy)."""
+        held = self.family.get(name)
+        if held is not None:
+            return held
+        for m in self.modules:
+            if name in vars(m):
+                return vars(m)[name]
+        raise AttributeError(f"no kernel {name!r} in {[m.__name__ for m in self.modules]}")
+
+
+class Variants:
+    """The variants of one effect's kernels: a record class per combination of ``options``
+    (module globals, each True or False), a subclass of ``base`` named by their bits
+    (``base.__name__`` + "_01"), whose hook kernels are the clones compiled with those options
+    (``register(record class, clones)`` registers them with kernels.compose). ``home``, the
+    module the record classes say they belong to, finds them by name (``find``) from its
+    module ``__getattr__``, where pickle looks for them (a sweep's worker, a step's cache index).
+    ``modules`` is called at the first variant: the effect's kernel modules."""
+
+    def __init__(self, base: type, modules, options: tuple, register, home: str):
+        self.base, self.modules, self.options, self.register, self.home = base, modules, options, register, home
+        self._held: dict = {}
+
+    def variant(self, bits: str) -> Variant:
+        """The variant with the options whose bits are "1", built once per process."""
+        held = self._held.get(bits)
+        if held is not None:
+            return held
+        if len(bits) != len(self.options) or set(bits) - {"0", "1"}:
+            raise ValueError(f"{self.base.__name__} variant {bits!r}: expected {len(self.options)} bits, "
+                             f"one per option {self.options}")
+        modules = tuple(self.modules())
+        clones = specialise(modules, {name: b == "1" for name, b in zip(self.options, bits)},
+                            f"{self.base.__name__}:{bits}")
+        cls = type(f"{self.base.__name__}_{bits}", (self.base,), {"__slots__": (), "__module__": self.home})
+        self.register(cls, clones)
+        held = self._held[bits] = Variant(cls, clones, modules)
+        return held
+
+    def record(self, p, options) -> tuple:
+        """``p`` (a base record) as the record of the variant with ``options`` (a bool per
+        option), sharing its arrays."""
+        return self.variant("".join("1" if b else "0" for b in options)).record(*p)
+
+    def of(self, p) -> Variant:
+        """The variant whose record ``p`` is (the base record itself: every option on, the
+        modules' own kernels)."""
+        if type(p) is self.base:
+            return Variant(self.base, {}, tuple(self.modules()))
+        return self.variant(type(p).__name__[len(self.base.__name__) + 1:])
+
+    def find(self, name: str):
+        """The record class named ``name``, or None where it names no variant of this family."""
+        prefix = self.base.__name__ + "_"
+        if name.startswith(prefix):
+            try:
+                return self.variant(name[len(prefix):]).record
+            except ValueError:
+                pass
+        return None
