@@ -110,7 +110,7 @@ class ContactParams(NamedTuple):
 
 
 @njit(**CACHED, inline="always")
-def _clamp01(a):
+def clamp01(a):
     return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
 
 
@@ -130,14 +130,14 @@ def segment_closest(px, py, pz, qx, qy, qz, ax, ay, az, bx, by, bz):
     if a <= tiny and e <= tiny:
         return 0.0, 0.0
     if a <= tiny:
-        return 0.0, _clamp01(f / e)
+        return 0.0, clamp01(f / e)
     c = d1x * rx + d1y * ry + d1z * rz
     if e <= tiny:
-        return _clamp01(-c / a), 0.0
+        return clamp01(-c / a), 0.0
     b = d1x * d2x + d1y * d2y + d1z * d2z
     denom = a * e - b * b
     if denom > 1e-12 * a * e:
-        s = _clamp01((b * f - c * e) / denom)
+        s = clamp01((b * f - c * e) / denom)
     else:  # parallel: the other segment's extent projected on this one, [-c, b - c] / a
         lo, hi = -c / a, (b - c) / a
         if lo > hi:
@@ -146,9 +146,9 @@ def segment_closest(px, py, pz, qx, qy, qz, ax, ay, az, bx, by, bz):
         s = 0.5 * (lo + hi) if lo <= hi else (0.0 if hi < 0.0 else 1.0)
     t = (b * s + f) / e
     if t < 0.0:
-        return _clamp01(-c / a), 0.0
+        return clamp01(-c / a), 0.0
     if t > 1.0:
-        return _clamp01((b - c) / a), 1.0
+        return clamp01((b - c) / a), 1.0
     return s, t
 
 

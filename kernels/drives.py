@@ -15,6 +15,7 @@ that the node follows its path given the loads on it, R = m a - F, T = dL/dt - L
 """
 
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -26,9 +27,16 @@ from .effects import table_interval
 from .motion import place_line_end
 from .compiler import CACHED
 from .rotations import cross, exp_rates, quat_exp, quat_mul, quat_rotate, quat_rotate_inv
+from .specialise import Variants
 
 # what a drive holds of a node's position and rotation (ORIENTED: a rotation on SO(3))
 FREE, PRESCRIBED, ACROSS_AXIS, ORIENTED = 0, 1, 2, 3
+
+# A compile-time option (kernels/specialise.py): a drive's record is of the variant its data
+# needs (VARIANTS), whose kernels leave out the turning where its rotation is free. This
+# module's own functions, and its record DriveParams, are the variant that turns.
+TURNS = True    # the rotation is prescribed: an angle about an axis or a rotation vector
+OPTIONS = ("TURNS",)
 
 
 class DriveParams(NamedTuple):
@@ -103,7 +111,7 @@ def prescribe_turn(p, t):
     """Update p.kin[9:15] with the prescribed lab angular velocity and acceleration at time t
     (zero for a free rotation); return the prescribed turn from the node as built (a quaternion)."""
     kin = p.kin
-    if p.rotation == PRESCRIBED:
+    if TURNS and p.rotation == PRESCRIBED:
         eval_path(t, p.ang_rate, p.ang_amp, p.ang_wave, p.ang_times, p.ang_coef, p.ang_start, kin, np.int64(15))
         th, dth, ddth = kin[15], kin[16], kin[17]
         for k in range(3):
@@ -111,7 +119,7 @@ def prescribe_turn(p, t):
             kin[12 + k] = ddth * p.axis[k]
         c, s = math.cos(0.5 * th), math.sin(0.5 * th)
         return c, s * p.axis[0], s * p.axis[1], s * p.axis[2]
-    if p.rotation == ORIENTED:
+    if TURNS and p.rotation == ORIENTED:
         eval_path(t, p.rv_rate, p.rv_amp, p.rv_wave, p.rv_times, p.rv_coef, p.rv_zero, kin, np.int64(15))
         w, a = exp_rates(kin[15], kin[16], kin[17], kin[18], kin[19], kin[20], kin[21], kin[22], kin[23])
         for k in range(3):
@@ -133,7 +141,7 @@ def drive_kinematics(p, t):
     eval_path(t, p.pos_rate, p.pos_amp, p.pos_wave, p.pos_times, p.pos_coef, p.pos_start, kin, np.int64(0))
     tw, tx, ty, tz = prescribe_turn(p, t)
     q0 = p.q0
-    if p.rotation != FREE:
+    if TURNS and p.rotation != FREE:
         rx, ry, rz = quat_rotate(tw, tx, ty, tz, p.rho0[0], p.rho0[1], p.rho0[2])
         # the centre of mass turns about the reference point: v += w x rho, a += alpha x rho + w x (w x rho)
         wx, wy, wz = kin[9], kin[10], kin[11]
@@ -149,6 +157,8 @@ def drive_kinematics(p, t):
             kin[6 + k] += acc[k]
     for k in range(3):
         kin[k] += p.ref0[k]
+    if not TURNS:
+        return q0[0], q0[1], q0[2], q0[3]
     return quat_mul(tw, tx, ty, tz, q0[0], q0[1], q0[2], q0[3])
 
 
@@ -164,7 +174,7 @@ def set_drive_velocity(p, model, state):
         pa = kin[3] * a[0] + kin[4] * a[1] + kin[5] * a[2]
         for k in range(3):
             state.node_v[nd, k] = kin[3 + k] + (va - pa) * a[k]
-    if p.rotation != FREE:
+    if TURNS and p.rotation != FREE:
         q = state.node_q[nd]
         bx, by, bz = quat_rotate_inv(q[0], q[1], q[2], q[3], kin[9], kin[10], kin[11])
         state.node_w[nd, 0], state.node_w[nd, 1], state.node_w[nd, 2] = bx, by, bz
@@ -185,7 +195,7 @@ def pose_drive(p, model, state):
         pa = kin[0] * a[0] + kin[1] * a[1] + kin[2] * a[2]
         for k in range(3):
             state.node_x[nd, k] = kin[k] + (xa - pa) * a[k]
-    if p.rotation != FREE:
+    if TURNS and p.rotation != FREE:
         state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3] = qw, qx, qy, qz
     set_drive_velocity(p, model, state)
     for j in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
@@ -209,7 +219,7 @@ def drive_reaction(p, model, state, loads):
             r[k] -= ra * a[k]
     for k in range(3):
         r[3 + k] = 0.0
-    if p.rotation != FREE:
+    if TURNS and p.rotation != FREE:
         q = state.node_q[nd]
         inert = model.node_inertia[nd]
         # body angular acceleration: d/dt (R^T w_lab) = R^T alpha_lab (the w x w term vanishes)
@@ -255,3 +265,23 @@ def reaction_now(p, model, state, loads):
     """Update p.reaction given the current state and its evaluated loads (from Python)."""
     drive_kinematics(p, state.clock[0])
     drive_reaction(p, model, state, loads)
+
+
+def _register(cls, kernels):
+    constraint_kernels(cls, kernels["drive_after_drift"], kernels["drive_after_kick"])
+
+
+VARIANTS = Variants(DriveParams, lambda: (sys.modules[__name__],), OPTIONS, _register, __name__)
+
+
+def drive_record(p):
+    """``p`` (a DriveParams) as the record of the variant its data needs, sharing its arrays."""
+    return VARIANTS.record(p, (p.rotation != FREE,))
+
+
+def __getattr__(name):
+    # a variant's record class by its name, as pickle looks for it
+    cls = VARIANTS.find(name)
+    if cls is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return cls

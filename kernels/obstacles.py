@@ -37,11 +37,19 @@ import numpy as np
 from numba import njit
 
 from .backend import ENTRY
+from .contact import clamp01
 from .friction import plane_tangent, slip_law
 from .compiler import CACHED, CACHED_INNER, CACHED_LANES, noalias
 
 PLANE, SPHERE, CAPSULE, BOX, MESH = 0, 1, 2, 3, 4
 SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mesh": MESH}
+
+# Compile-time options (kernels/specialise.py): an obstacle's record is of the variant its shape
+# needs (kernels.segments.VARIANTS), whose kernels leave out the shapes it is not. This module's
+# own functions, and its record ObstacleParams, are the variant with every shape.
+ROUND = True    # a shape other than a plane: its elements meet it as well as its vertices
+MESHED = True   # a mesh: its triangles, their grid, the segment walking the grid
+OPTIONS = ("ROUND", "MESHED")
 FAR = 1e300  # the distance of a vertex no mesh triangle is near
 FREE, STICK, SLIDE = 0, 1, 2  # contact modes
 # rows of ObstacleParams.rows, the vertex contacts' columns: centre, velocity, overlap, normal,
@@ -85,11 +93,6 @@ class ObstacleParams(NamedTuple):
     damp: np.ndarray         # (m, 3) dashpot forces of the vertex contacts
     rows: np.ndarray         # (ROWS, m) scratch of add_obstacle's passes, a row per column
     held: np.ndarray         # (2, m) int64 scratch of add_obstacle's passes: the vertices gathered, their modes
-
-
-@njit(**CACHED, inline="always")
-def _clamp01(a):
-    return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
 
 
 @njit(**CACHED)
@@ -175,7 +178,7 @@ def obstacle_distance(p, cx, cy, cz):
     (positive outside) and the outward unit normal there (FAR for a mesh with no triangle
     near c)."""
     o, a, s = p.origin, p.axis, p.size
-    if p.shape == PLANE:
+    if not ROUND or p.shape == PLANE:
         return (cx - o[0]) * a[0] + (cy - o[1]) * a[1] + (cz - o[2]) * a[2], a[0], a[1], a[2]
     if p.shape == SPHERE:
         dx, dy, dz = cx - o[0], cy - o[1], cz - o[2]
@@ -183,7 +186,7 @@ def obstacle_distance(p, cx, cy, cz):
     if p.shape == CAPSULE:
         ux, uy, uz = a[0] - o[0], a[1] - o[1], a[2] - o[2]
         uu = ux * ux + uy * uy + uz * uz
-        t = _clamp01(((cx - o[0]) * ux + (cy - o[1]) * uy + (cz - o[2]) * uz) / uu) if uu > 0.0 else 0.0
+        t = clamp01(((cx - o[0]) * ux + (cy - o[1]) * uy + (cz - o[2]) * uz) / uu) if uu > 0.0 else 0.0
         dx, dy, dz = cx - o[0] - t * ux, cy - o[1] - t * uy, cz - o[2] - t * uz
         return _away(dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz), s[0], 0.0, 0.0, 1.0)
     if p.shape == BOX:
@@ -208,7 +211,9 @@ def obstacle_distance(p, cx, cy, cz):
                 d, n2 = o2, (1.0 if q2 >= 0.0 else -1.0)
         return (d, r[0, 0] * n0 + r[1, 0] * n1 + r[2, 0] * n2, r[0, 1] * n0 + r[1, 1] * n1 + r[2, 1] * n2,
                 r[0, 2] * n0 + r[1, 2] * n1 + r[2, 2] * n2)
-    return _mesh_distance(p, cx, cy, cz)
+    if MESHED:
+        return _mesh_distance(p, cx, cy, cz)
+    return FAR, 0.0, 0.0, 1.0
 
 
 @njit(**CACHED_LANES)

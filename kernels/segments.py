@@ -38,25 +38,23 @@ the elements' in p.edamp.
 """
 
 import math
+import sys
 
 import numpy as np
 from numba import njit
 
 from .backend import ENTRY
 from .compose import account_kernel, load_kernel
-from .contact import segment_closest
+from .contact import clamp01, segment_closest
 from .friction import plane_tangent, stick_slip, turn_into_plane
-from .obstacles import (BOX, CAPSULE, FAR, FREE, MESH, PLANE, SLIDE, SPHERE, STICK, ObstacleParams, add_obstacle,
-                        obstacle_distance, triangle_closest)
+from . import obstacles
+from .obstacles import (BOX, CAPSULE, FAR, FREE, MESH, MESHED, OPTIONS, PLANE, ROUND, SLIDE, SPHERE, STICK,
+                        ObstacleParams, add_obstacle, obstacle_distance, triangle_closest)
+from .specialise import Variants
 from .compiler import CACHED, CACHED_INNER
 
 BISECTIONS = 48  # of a box's distance slope along the segment: t* to 4e-15
 TINY = 1e-300
-
-
-@njit(**CACHED, inline="always")
-def _clamp01(a):
-    return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
 
 
 @njit(**CACHED)
@@ -185,7 +183,7 @@ def _box_deepest(p, ax, ay, az, bx, by, bz, reach):
     o, s = p.origin, p.size
     wx, wy, wz = bx - ax, by - ay, bz - az
     ww = wx * wx + wy * wy + wz * wz
-    t = _clamp01(((o[0] - ax) * wx + (o[1] - ay) * wy + (o[2] - az) * wz) / ww) if ww > 0.0 else 0.0
+    t = clamp01(((o[0] - ax) * wx + (o[1] - ay) * wy + (o[2] - az) * wz) / ww) if ww > 0.0 else 0.0
     cx, cy, cz = ax + t * wx - o[0], ay + t * wy - o[1], az + t * wz - o[2]
     if cx * cx + cy * cy + cz * cz > (math.sqrt(s[0] ** 2 + s[1] ** 2 + s[2] ** 2) + reach) ** 2:
         return -1.0
@@ -215,14 +213,14 @@ def deepest_point(p, ax, ay, az, bx, by, bz, reach):
     wx, wy, wz = bx - ax, by - ay, bz - az
     ww = wx * wx + wy * wy + wz * wz
     if p.shape == SPHERE:
-        t = _clamp01(((o[0] - ax) * wx + (o[1] - ay) * wy + (o[2] - az) * wz) / ww) if ww > 0.0 else 0.0
+        t = clamp01(((o[0] - ax) * wx + (o[1] - ay) * wy + (o[2] - az) * wz) / ww) if ww > 0.0 else 0.0
     elif p.shape == CAPSULE:
         t, e = segment_closest(ax, ay, az, bx, by, bz, o[0], o[1], o[2], a[0], a[1], a[2])
     elif p.shape == BOX:
         t = _box_deepest(p, ax, ay, az, bx, by, bz, reach)
         if t < 0.0:
             return 0.0, FAR, 0.0, 0.0, 1.0
-    elif p.shape == MESH:
+    elif MESHED and p.shape == MESH:
         t, qx, qy, qz, d2, tri = mesh_segment(p, ax, ay, az, bx, by, bz)
         if tri < 0:
             return 0.0, FAR, 0.0, 0.0, 1.0
@@ -317,7 +315,7 @@ def add_element_contacts(p, x, v, f):
             # tangential displacement of the material point that touched at the last call
             ax, ay, az = data[e, 0], data[e, 1], data[e, 2]
             ax, ay, az = turn_into_plane(ax, ay, az, nx, ny, nz)
-            s0 = _clamp01(data[e, 3])
+            s0 = clamp01(data[e, 3])
             ux = (1.0 - s0) * x[ia, 0] + s0 * x[ib, 0] - data[e, 4]
             uy = (1.0 - s0) * x[ia, 1] + s0 * x[ib, 1] - data[e, 5]
             uz = (1.0 - s0) * x[ia, 2] + s0 * x[ib, 2] - data[e, 6]
@@ -356,7 +354,7 @@ def add_line_obstacle(p, model, state, loads):
     """Update loads.f (nv, 3) and the contact records of p given the vertex positions and
     velocities: the vertex contacts (add_obstacle), then the elements' (module docstring)."""
     add_obstacle(p, model, state, loads)
-    if p.shape != PLANE and p.elems.shape[0] > 0:
+    if ROUND and p.shape != PLANE and p.elems.shape[0] > 0:
         p.dissipated[0] += add_element_contacts(p, state.x, state.v, loads.f)
 
 
@@ -374,7 +372,7 @@ def account_obstacle_dashpots(p, model, state, hh):
         i = p.verts[j]
         power += p.damp[j, 0] * v[i, 0] + p.damp[j, 1] * v[i, 1] + p.damp[j, 2] * v[i, 2]
     m = p.verts.shape[0]
-    for e in range(p.elems.shape[0]):
+    for e in range(p.elems.shape[0] if ROUND else 0):
         for side in range(2):
             j = p.elems[e, side]
             if 0 <= j < m:
@@ -388,10 +386,34 @@ def element_energy(p, state):
     """Return the elements' stored energy: k eps_int^2 / 2 over the excess contacts plus the
     energy k_t |delta|^2 / 2 of their springs."""
     e = 0.0
-    for c in range(p.elems.shape[0]):
+    for c in range(p.elems.shape[0] if ROUND else 0):
         eps = element_overlap(p, state.x, c)[0]
         if eps > 0.0:
             e += 0.5 * p.k * eps * eps
             if p.emode[c] != FREE:
                 e += 0.5 * p.k_t * (p.edata[c, 0] ** 2 + p.edata[c, 1] ** 2 + p.edata[c, 2] ** 2)
     return e
+
+
+def _register(cls, kernels):
+    load_kernel(cls)(kernels["add_line_obstacle"])
+    account_kernel(cls)(kernels["account_obstacle_dashpots"])
+
+
+# the variants of the obstacle's kernels by shape (kernels.obstacles.OPTIONS): a plane's step
+# compiles none of the element contacts or the other shapes, a sphere's, capsule's or box's
+# none of the mesh
+VARIANTS = Variants(ObstacleParams, lambda: (obstacles, sys.modules[__name__]), OPTIONS, _register, __name__)
+
+
+def obstacle_record(p):
+    """``p`` (an ObstacleParams) as the record of the variant its shape needs, sharing its arrays."""
+    return VARIANTS.record(p, (p.shape != PLANE, p.shape == MESH))
+
+
+def __getattr__(name):
+    # a variant's record class by its name, as pickle looks for it
+    cls = VARIANTS.find(name)
+    if cls is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return cls

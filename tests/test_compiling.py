@@ -359,6 +359,62 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
                         "nodes_entrained", "buoys_entrained", "add_turning_forces"}, typed
 
 
+def _reached(kernel, *argtypes) -> str:
+    """The LLVM IR of ``kernel``'s Python function compiled afresh for ``argtypes`` (not loaded
+    from the cache): every function it reaches, inlined or linked, is named in it."""
+    from numba import njit
+    options = {k: v for k, v in kernel.targetoptions.items() if k not in ("nopython", "cache")}
+    fresh = njit(**options)(kernel.py_func)
+    fresh.compile(argtypes)
+    return fresh.inspect_llvm(argtypes)
+
+
+def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
+    """As a fluid's (above), an obstacle's and a drive's records are of the variant their data
+    needs: a plane's load kernel, compiled afresh, reaches the vertex contacts and none of the
+    element contacts or the other shapes (the deepest point of a capsule in a half-space is an
+    end sphere, which the vertex contact is); a capsule's reaches the element contacts and
+    none of the mesh; a drive that leaves the rotation free compiles none of the turning (the
+    prescribed angle's rotation, the exponential's rates). Every variant pickles by name."""
+    import pickle
+
+    from numba import typeof
+
+    import cosnet
+    from cosnet.kernels.compose import DRIFT_CONSTRAINTS, KICK_CONSTRAINTS, LOAD_KERNELS
+    from cosnet.kernels.drives import DriveParams
+    from cosnet.kernels.layout import empty_loads, record_type
+    from cosnet.kernels.obstacles import ObstacleParams
+    net = cosnet.Net()
+    a, b = net.add_node((0.0, 0.0, 0.01)), net.add_node((1.0, 0.0, 0.01))
+    net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
+                 elements=4)
+    plane = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1e3)
+    capsule = cosnet.Obstacle("capsule", start=(0.5, -1, -0.5), end=(0.5, 1, -0.5), radius=0.5, k=1e3)
+    shaken = cosnet.Drive(a, position=dict(amplitude=[0.0, 0.0, 0.01], omega=3.0))
+    turned = cosnet.Drive(b, position=dict(amplitude=[0.0, 0.0, 0.01], omega=3.0),
+                          rotation=dict(amplitude=[0.1], omega=3.0), axis=(1.0, 0.0, 0.0))
+    sim = cosnet.Simulation(net, [plane, capsule, shaken, turned])
+    model, state = record_type(sim.model), record_type(sim.state)
+    loads = typeof(empty_loads(sim.model))
+    records = [x.params(sim) for x in (plane, capsule, shaken, turned)]
+    for p in records:
+        assert type(p) not in (ObstacleParams, DriveParams) and isinstance(p, (ObstacleParams, DriveParams))
+        assert pickle.loads(pickle.dumps(p)).__class__ is type(p)
+    on_plane, on_capsule = (_reached(LOAD_KERNELS[type(p)], typeof(p), model, state, loads) for p in records[:2])
+    assert "obstacle_distance" in on_plane and "add_obstacle" in on_plane
+    for name in ("add_element_contacts", "deepest_point", "_mesh_distance", "mesh_segment", "_box_deepest"):
+        assert name not in on_plane, name
+    assert "add_element_contacts" in on_capsule and "deepest_point" in on_capsule
+    for name in ("_mesh_distance", "mesh_segment"):
+        assert name not in on_capsule, name
+    for p, turns in zip(records[2:], (False, True)):
+        kick = typeof((empty_loads(sim.model), 0.5))
+        ir = _reached(DRIFT_CONSTRAINTS[type(p)], typeof(p), model, state, typeof(0.5)) + \
+            _reached(KICK_CONSTRAINTS[type(p)], typeof(p), model, state, kick)
+        assert ("quat_exp" in ir and "exp_rates" in ir) is turns, ir.count("quat")
+
+
 def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():
     """Numba compiles a kernel whose options leave fast-math, the error model or reference
     counting unset with its first caller's, and keys neither its overloads nor its cache by

@@ -17,7 +17,7 @@ from ..core import samples
 from ..core import checks
 from ..engine.registry import Binding, Effect, Key
 from ..core.units import ANGULAR_VELOCITY, LENGTH, RATE, TIME, VELOCITY, BadValue, shown, boolean, direction, number
-from ..kernels.drives import ACROSS_AXIS, FREE, ORIENTED, PRESCRIBED, DriveParams, eval_path, place_drive, reaction_now
+from ..kernels.drives import ACROSS_AXIS, FREE, ORIENTED, PRESCRIBED, VARIANTS, DriveParams, drive_record, eval_path
 from ..kernels.layout import typed_call
 from ..core.net import Node
 
@@ -256,14 +256,15 @@ class Drive(Effect):
         out = np.zeros(9)
         eval_path(on.time, *self._rv, np.zeros(3), out, 0)
         back = np.array(conj(quat_from_rotvec(out[:3])))
-        p = DriveParams(nd, pos, rot, self.axis.copy(), s.node_x[nd].copy(), rho, s.node_q[nd].copy(),
+        # of the variant that compiles the turning only where the rotation is prescribed
+        p = drive_record(DriveParams(nd, pos, rot, self.axis.copy(), s.node_x[nd].copy(), rho, s.node_q[nd].copy(),
                         *self._pos, np.zeros(3), *self._ang, np.zeros(1), *self._rv, np.zeros(3), back,
-                        np.zeros(24), np.zeros(6), np.zeros(1))
+                        np.zeros(24), np.zeros(6), np.zeros(1)))
         eval_path(on.time, *self._pos, np.zeros(3), out, 0)
         p.pos_start[:] = out[:3]
         eval_path(on.time, *self._ang, np.zeros(1), out, 0)
         p.ang_start[0] = out[0]
-        typed_call(place_drive, p, m, s)
+        typed_call(VARIANTS.of(p).kernel("place_drive"), p, m, s)
         return p
 
     def check_state(self, sim):
@@ -271,7 +272,7 @@ class Drive(Effect):
         p, st, nd = self.params(sim), sim.state, self.node.index
         rows = (st.node_x, st.node_v, st.node_q, st.node_w)
         now = [a[nd].copy() for a in rows]
-        typed_call(place_drive, p, sim.model, st)
+        typed_call(VARIANTS.of(p).kernel("place_drive"), p, sim.model, st)
         want = [a[nd].copy() for a in rows]
         for a, v in zip(rows, now):
             a[nd] = v
@@ -286,7 +287,7 @@ class Drive(Effect):
         mass), given sim.loads evaluated at the current state."""
         p = self.params(sim)
         # typed as the step types the records: drive_reaction is then the kick's own, not a second compile
-        typed_call(reaction_now, p, sim.model, sim.state, loads_evaluated)
+        typed_call(VARIANTS.of(p).kernel("reaction_now"), p, sim.model, sim.state, loads_evaluated)
         return p.reaction[:3].copy(), p.reaction[3:].copy()
 
     def drives(self, node) -> bool:

@@ -17,9 +17,8 @@ from .contact import chosen_lines, smallest_mass
 from ..core.net import Line
 from ..engine.registry import Binding, Key
 from ..core.units import (LENGTH, choice, coefficients, direction, frame, positive, string, vec3)
-from ..kernels import segments as _obstacle_kernels  # noqa: F401  (registers the obstacle kernels)
-from ..kernels.obstacles import SHAPES, SLIDE, ROWS, ObstacleParams, obstacle_energy
-from ..kernels.segments import element_energy
+from ..kernels.obstacles import SHAPES, SLIDE, ROWS, ObstacleParams
+from ..kernels.segments import VARIANTS, obstacle_record
 from ..kernels.layout import typed_call
 
 GRID_CELLS = 4_000_000  # the mesh grid's cell size grows until it has at most this many cells
@@ -334,14 +333,15 @@ class Obstacle(Frictional):
         else:
             normal = np.zeros((0, 3))
             grid = (np.zeros(3), 1.0, np.zeros(3, np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64))
-        return ObstacleParams(
+        # of the variant that compiles only its own shape
+        return obstacle_record(ObstacleParams(
             SHAPES[self.shape], self.origin.copy(), self.axis.copy(), self.size.copy(), self.rot.copy(),
             np.ascontiguousarray(tri), normal, *grid, self.k, self.gamma, self.k_t,
             self.mu_s.copy(), self.mu_k.copy(), np.array(verts, np.int64), np.array(prev, np.int64),
             np.array(nxt, np.int64), np.array(radius, float), np.zeros((count, 3)), np.zeros(count, np.int64),
             np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.array(elems, np.int64).reshape(-1, 2),
             np.zeros((len(elems), 7)), np.zeros(len(elems), np.int64), np.zeros((len(elems), 2, 3)),
-            np.zeros((count, 3)), np.zeros((ROWS, count)), np.zeros((2, count), np.int64))
+            np.zeros((count, 3)), np.zeros((ROWS, count)), np.zeros((2, count), np.int64)))
 
     # ------------------------------------------------------------------ reports
     def deepest(self, sim) -> float:
@@ -353,7 +353,9 @@ class Obstacle(Frictional):
 
     # ------------------------------------------------------------------ effect interface
     def potential(self, p, on: Binding) -> float:
-        return float(typed_call(obstacle_energy, p, on.state) + typed_call(element_energy, p, on.state))
+        kernels = VARIANTS.of(p)
+        return float(typed_call(kernels.kernel("obstacle_energy"), p, on.state)
+                     + typed_call(kernels.kernel("element_energy"), p, on.state))
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
