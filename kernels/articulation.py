@@ -36,6 +36,7 @@ than its arithmetic (a joint's step took 1.7 us so, 0.2 inlined).
 """
 
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -44,11 +45,19 @@ from numba import njit
 from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
+from .specialise import Variants
 from .elastic import bend_torques, end_frame
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
     relative_rotation, solve_sym3
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
+
+# Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
+# needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
+# functions, and its record ArticulationParams, are the variant with both.
+BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a cone, one friction torque
+HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
+OPTIONS = ("BALLS", "HELD")
 NEWTON_STEPS = 40                  # at most; a balance converges in a few
 NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
 
@@ -107,7 +116,7 @@ def joint_turn(p, j, phi):
     zero = (0.0, 0.0, 0.0)
     if n == HINGE:
         return quat_exp(phi[0] * a[0], phi[0] * a[1], phi[0] * a[2]), (a[0], a[1], a[2]), zero, zero
-    if n == UNIVERSAL:
+    if n == UNIVERSAL or not BALLS:
         ra = quat_exp(phi[0] * a[0], phi[0] * a[1], phi[0] * a[2])
         rb = quat_exp(phi[1] * b[0], phi[1] * b[1], phi[1] * b[2])
         r = quat_mul(ra[0], ra[1], ra[2], ra[3], rb[0], rb[1], rb[2], rb[3])
@@ -287,7 +296,7 @@ def within_cone(p, j, phi):
     about X's d3 if it has left it: R = swing twist (twist about d3), the swing's angle cut
     to the cone's, its axis and the twist kept. Other joints' coordinates come back as given."""
     cone = p.cone[j]
-    if p.dofs[j] != BALL or not cone < math.pi:
+    if not BALLS or p.dofs[j] != BALL or not cone < math.pi:
         return phi
     r = quat_exp(phi[0], phi[1], phi[2])
     dx, dy, dz = quat_rotate(r[0], r[1], r[2], r[3], 0.0, 0.0, 1.0)
@@ -311,9 +320,9 @@ def settle_joint(p, j, model, state, dt):
     point's torques on the joint frame and on the end element (boundary_torques)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
-    if free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
+    if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
-    elif n == BALL:
+    elif BALLS and n == BALL:
         m0, f0, f1, f2 = start_turning(p, j, model, state, prev, dt)
         m1, m2 = m0, m0
     else:
@@ -417,3 +426,24 @@ def articulation_fields(p, model, state, frames, moments, strains):
         frames[j, 0], frames[j, 1], frames[j, 2], frames[j, 3] = g
         moments[j, 0], moments[j, 1], moments[j, 2] = quat_rotate(g[0], g[1], g[2], g[3], m[0], m[1], m[2])
         strains[j, 0], strains[j, 1], strains[j, 2] = kappa
+
+
+VARIANTS = Variants(ArticulationParams, lambda: (sys.modules[__name__],), OPTIONS,
+                    lambda cls, kernels: load_kernel(cls)(kernels["add_articulations"]), __name__)
+
+
+def articulation_record(p):
+    """``p`` (an ArticulationParams) as the record of the variant its joints need, sharing its
+    arrays."""
+    k = p.attach.shape[0]
+    balls = bool(np.any(p.dofs == BALL))
+    held = not all(free_joint.py_func(p, j) for j in range(k))
+    return VARIANTS.record(p, (balls, held))
+
+
+def __getattr__(name):
+    # a variant's record class by its name, as pickle looks for it
+    cls = VARIANTS.find(name)
+    if cls is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return cls

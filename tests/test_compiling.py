@@ -415,6 +415,32 @@ def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
         assert ("quat_exp" in ir and "exp_rates" in ir) is turns, ir.count("quat")
 
 
+def test_joints_compile_only_what_the_nets_joints_have():
+    """The articulated ends' record is of the variant its joints need: a net of free universal
+    joints compiles neither the ball joints' coordinates and friction nor the sticking of
+    coordinates that no joint of it has; one with a ball joint with friction compiles both."""
+    from numba import typeof
+
+    import cosnet
+    from cosnet.kernels.compose import LOAD_KERNELS
+    from cosnet.kernels.layout import empty_loads, record_type
+    reached = []
+    for joint in (cosnet.Universal(), cosnet.Ball(friction=(0.1, 0.05))):
+        net = cosnet.Net()
+        a, b = net.add_node((0.0, 0.0, 0.0), mass=1.0), net.add_node((1.0, 0.0, 0.0))
+        net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
+                     elements=4, start_joint=joint)
+        sim = cosnet.Simulation(net, [cosnet.Gravity()])
+        p = next(r for group in sim.step_records[:3] for r in group if hasattr(r, "dofs"))
+        reached.append(_reached(LOAD_KERNELS[type(p)], typeof(p), record_type(sim.model), record_type(sim.state),
+                                typeof(empty_loads(sim.model))))
+    free_universal, ball = reached
+    assert "settle_joint" in free_universal and "joint_turn" in free_universal
+    for name in ("start_turning", "ball_axis"):
+        assert name not in free_universal, name
+        assert name in ball, name
+
+
 def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():
     """Numba compiles a kernel whose options leave fast-math, the error model or reference
     counting unset with its first caller's, and keys neither its overloads nor its cache by

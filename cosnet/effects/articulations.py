@@ -13,7 +13,7 @@ import numpy as np
 from ..core import samples
 from ..core.articulation import Hinge
 from ..engine.bounds import index_error, offsets_error
-from ..kernels.articulation import ArticulationParams, articulation_energy, articulation_fields
+from ..kernels.articulation import VARIANTS, ArticulationParams, articulation_record
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect
 from ..core.rotations import matrix_from_quat
@@ -109,11 +109,11 @@ class Articulations(Effect):
             for name in ("stiffness", "rest", "damping", "static", "kinetic", "lower", "upper"):
                 getattr(p, name)[i] = getattr(joint, name)
             p.phi[i] = np.clip(0.0, joint.lower, joint.upper)
-        return p
+        return articulation_record(p)   # of the variant that compiles only what its joints have
 
     def potential(self, p, on: Binding) -> float:
         """The joints' springs and the bending of the articulated ends' boundary points."""
-        return float(typed_call(articulation_energy, p, on.model, on.state))
+        return float(typed_call(VARIANTS.of(p).kernel("articulation_energy"), p, on.model, on.state))
 
     def exchange(self, p, on: Binding) -> float:
         return abs(self.potential(p, on))
@@ -127,7 +127,7 @@ class Articulations(Effect):
         (quaternion), the internal torque m (lab) and u - u0 (its frame) (3.22)."""
         k = p.attach.shape[0]
         frames, torque, curvature = np.zeros((k, 4)), np.zeros((k, 3)), np.zeros((k, 3))
-        typed_call(articulation_fields, p, on.model, on.state, frames, torque, curvature)
+        typed_call(VARIANTS.of(p).kernel("articulation_fields"), p, on.model, on.state, frames, torque, curvature)
         return on.model.attach_vertex[p.attach], frames, torque, curvature
 
     def dissipated(self, sim) -> float:
