@@ -43,11 +43,16 @@ from numba import njit
 
 from .backend import ENTRY
 from .compose import account_kernel, load_kernel
-from .obstacles import FREE, SLIDE, STICK, obstacle_distance
+from .obstacles import FREE, SLIDE, STICK
 from .compiler import CACHED
 from .effects import add_wrench
 from .rotations import cross, quat_rotate, quat_rotate_inv
-from .segments import deepest_point
+from .segments import VARIANTS
+
+# a body's shape and its targets are never meshes: the obstacles' kernels compiled without them
+# (kernels/specialise.py; the variant of a sphere, capsule or box obstacle)
+_ROUND = VARIANTS.with_options((True, False)).family   # ROUND, not MESHED
+obstacle_distance, deepest_point = _ROUND["obstacle_distance"], _ROUND["deepest_point"]
 
 
 class BodyShape(NamedTuple):

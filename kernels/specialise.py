@@ -109,10 +109,14 @@ class Variants:
         held = self._held[bits] = Variant(cls, clones, modules)
         return held
 
+    def with_options(self, options) -> Variant:
+        """The variant with ``options`` (a bool per option)."""
+        return self.variant("".join("1" if b else "0" for b in options))
+
     def record(self, p, options) -> tuple:
         """``p`` (a base record) as the record of the variant with ``options`` (a bool per
         option), sharing its arrays."""
-        return self.variant("".join("1" if b else "0" for b in options)).record(*p)
+        return self.with_options(options).record(*p)
 
     def of(self, p) -> Variant:
         """The variant whose record ``p`` is (the base record itself: every option on, the

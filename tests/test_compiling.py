@@ -374,14 +374,16 @@ def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
     needs: a plane's load kernel, compiled afresh, reaches the vertex contacts and none of the
     element contacts or the other shapes (the deepest point of a capsule in a half-space is an
     end sphere, which the vertex contact is); a capsule's reaches the element contacts and
-    none of the mesh; a drive that leaves the rotation free compiles none of the turning (the
-    prescribed angle's rotation, the exponential's rates). Every variant pickles by name."""
+    none of the mesh, nor does a body's shape (never a mesh); a drive that leaves the rotation
+    free compiles none of the turning (the prescribed angle's rotation, the exponential's
+    rates). Every variant pickles by name."""
     import pickle
 
     from numba import typeof
 
     import cosnet
     from cosnet.kernels.compose import DRIFT_CONSTRAINTS, KICK_CONSTRAINTS, LOAD_KERNELS
+    from cosnet.kernels.bodies import BodyParams
     from cosnet.kernels.drives import DriveParams
     from cosnet.kernels.layout import empty_loads, record_type
     from cosnet.kernels.obstacles import ObstacleParams
@@ -389,12 +391,14 @@ def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
     a, b = net.add_node((0.0, 0.0, 0.01)), net.add_node((1.0, 0.0, 0.01))
     net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
                  elements=4)
-    plane = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1e3)
+    plane = cosnet.Obstacle("plane", point=(0, 0, 0), normal=(0, 0, 1), k=1e3, name="floor")
     capsule = cosnet.Obstacle("capsule", start=(0.5, -1, -0.5), end=(0.5, 1, -0.5), radius=0.5, k=1e3)
+    ball = net.add_node((0.5, 0.0, 0.5), mass=1.0, inertia=(1e-2, 1e-2, 1e-2))
+    body = cosnet.Body(ball, "sphere", radius=0.1, k=1e3, obstacles=["floor"])
     shaken = cosnet.Drive(a, position=dict(amplitude=[0.0, 0.0, 0.01], omega=3.0))
     turned = cosnet.Drive(b, position=dict(amplitude=[0.0, 0.0, 0.01], omega=3.0),
                           rotation=dict(amplitude=[0.1], omega=3.0), axis=(1.0, 0.0, 0.0))
-    sim = cosnet.Simulation(net, [plane, capsule, shaken, turned])
+    sim = cosnet.Simulation(net, [plane, capsule, shaken, turned, body])
     model, state = record_type(sim.model), record_type(sim.state)
     loads = typeof(empty_loads(sim.model))
     records = [x.params(sim) for x in (plane, capsule, shaken, turned)]
@@ -406,8 +410,11 @@ def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
     for name in ("add_element_contacts", "deepest_point", "_mesh_distance", "mesh_segment", "_box_deepest"):
         assert name not in on_plane, name
     assert "add_element_contacts" in on_capsule and "deepest_point" in on_capsule
+    on_body = _reached(LOAD_KERNELS[BodyParams], typeof(body.params(sim)), model, state, loads)
     for name in ("_mesh_distance", "mesh_segment"):
         assert name not in on_capsule, name
+        assert name not in on_body, name   # a body's shape and targets are never meshes
+    assert "deepest_point" in on_body
     for p, turns in zip(records[2:], (False, True)):
         kick = typeof((empty_loads(sim.model), 0.5))
         ir = _reached(DRIFT_CONSTRAINTS[type(p)], typeof(p), model, state, typeof(0.5)) + \
