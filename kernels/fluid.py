@@ -138,6 +138,11 @@ def medium_at(p, x, y, z, t):
     """Return (wet, U, A): whether point (x, y, z) is in the medium at time t (below the
     free surface, waves included), and the medium's velocity U and acceleration A there
     (3-tuples; zero where it is dry)."""
+    if not MOVING:   # the variant of a still medium: the current, under the still surface
+        if z - p.surface > 0.0:
+            return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        c0, c1, c2 = p.current[0], p.current[1], p.current[2]
+        return True, (c0, c1, c2), (c0 * 0.0, c1 * 0.0, c2 * 0.0)   # as below: the time factor's rate 0
     nw = p.wave_a.shape[0]
     zeta = z - p.surface
     eta = 0.0
