@@ -528,7 +528,8 @@ def add_contact(p, model, state, loads):
     forces of every overlapping pair of capsules and, with k_t > 0, their friction, updating
     the pair table and p.dissipated (see the module docstring); p.narrow_tests and p.active
     count the narrow-phase tests and the contacts."""
-    sweep(p, model, state, loads.f, True)
+    # a run-time flag, not a literal: the step and the energy share one compilation of the sweep
+    sweep(p, model, state, loads.f, np.bool_(True))
 
 
 @account_kernel(ContactParams)
@@ -550,5 +551,5 @@ def account_contact_dashpots(p, model, state, hh):
 def contact_energy(p, model, state):
     """Return the contact potential: the sum of k eps^2 / 2 over overlapping pairs, plus the
     friction springs' energy k_t |delta|^2 / 2."""
-    e = sweep(p, model, state, state.x, False)
+    e = sweep(p, model, state, state.x, np.bool_(False))
     return e + pair_springs(p) if p.k_t > 0.0 else e
