@@ -45,12 +45,14 @@ from numba import njit
 from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
-from .specialise import Variants
 from .elastic import bend_torques, end_frame
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
     relative_rotation, solve_sym3
+from .specialise import Variants
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
+NEWTON_STEPS = 40                  # at most; a balance converges in a few
+NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
 
 # Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
 # needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
@@ -58,8 +60,6 @@ HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
 BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a cone, one friction torque
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
 OPTIONS = ("BALLS", "HELD")
-NEWTON_STEPS = 40                  # at most; a balance converges in a few
-NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
 
 
 class ArticulationParams(NamedTuple):
@@ -441,9 +441,4 @@ def articulation_record(p):
     return VARIANTS.record(p, (balls, held))
 
 
-def __getattr__(name):
-    # a variant's record class by its name, as pickle looks for it
-    cls = VARIANTS.find(name)
-    if cls is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return cls
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -279,9 +279,4 @@ def drive_record(p):
     return VARIANTS.record(p, (p.rotation != FREE,))
 
 
-def __getattr__(name):
-    # a variant's record class by its name, as pickle looks for it
-    cls = VARIANTS.find(name)
-    if cls is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return cls
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

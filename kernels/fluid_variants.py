@@ -25,11 +25,6 @@ def options_of(p) -> tuple:
     return moving, carries
 
 
-def fluid_variant(bits: str) -> Variant:
-    """The variant of the fluid's kernels with the parts of ``bits`` ("1" per option on)."""
-    return VARIANTS.variant(bits)
-
-
 def fluid_record(p):
     """``p`` (a FluidParams) as the record of the variant its data needs, sharing its arrays."""
     return VARIANTS.record(p, options_of(p))
@@ -40,9 +35,4 @@ def fluid_kernels(p) -> Variant:
     return VARIANTS.of(p)
 
 
-def __getattr__(name):
-    # a variant's record class by its name, as pickle looks for it
-    cls = VARIANTS.find(name)
-    if cls is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return cls
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -386,7 +386,9 @@ def element_energy(p, state):
     """Return the elements' stored energy: k eps_int^2 / 2 over the excess contacts plus the
     energy k_t |delta|^2 / 2 of their springs."""
     e = 0.0
-    for c in range(p.elems.shape[0] if ROUND else 0):
+    if not ROUND:   # a plane's elements add nothing to its vertices' contacts
+        return e
+    for c in range(p.elems.shape[0]):
         eps = element_overlap(p, state.x, c)[0]
         if eps > 0.0:
             e += 0.5 * p.k * eps * eps
@@ -411,9 +413,4 @@ def obstacle_record(p):
     return VARIANTS.record(p, (p.shape != PLANE, p.shape == MESH))
 
 
-def __getattr__(name):
-    # a variant's record class by its name, as pickle looks for it
-    cls = VARIANTS.find(name)
-    if cls is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return cls
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -85,8 +85,8 @@ class Variants:
     (module globals, each True or False), a subclass of ``base`` named by their bits
     (``base.__name__`` + "_01"), whose hook kernels are the clones compiled with those options
     (``register(record class, clones)`` registers them with kernels.compose). ``home``, the
-    module the record classes say they belong to, finds them by name (``find``) from its
-    module ``__getattr__``, where pickle looks for them (a sweep's worker, a step's cache index).
+    module the record classes say they belong to, finds them by name with its module
+    ``__getattr__ = VARIANTS.module_getattr``.
     ``modules`` is called at the first variant: the effect's kernel modules."""
 
     def __init__(self, base: type, modules, options: tuple, register, home: str):
@@ -125,12 +125,13 @@ class Variants:
             return Variant(self.base, {}, tuple(self.modules()))
         return self.variant(type(p).__name__[len(self.base.__name__) + 1:])
 
-    def find(self, name: str):
-        """The record class named ``name``, or None where it names no variant of this family."""
+    def module_getattr(self, name: str):
+        """``home``'s module ``__getattr__``: the record class named ``name``, as pickle looks
+        for it (a sweep's worker; a step's cache index naming the records it was compiled for)."""
         prefix = self.base.__name__ + "_"
         if name.startswith(prefix):
             try:
                 return self.variant(name[len(prefix):]).record
             except ValueError:
                 pass
-        return None
+        raise AttributeError(f"module {self.home!r} has no attribute {name!r}")

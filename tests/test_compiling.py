@@ -383,6 +383,7 @@ def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
 
     import cosnet
     from cosnet.kernels.compose import DRIFT_CONSTRAINTS, KICK_CONSTRAINTS, LOAD_KERNELS
+    from cosnet.kernels import segments
     from cosnet.kernels.bodies import BodyParams
     from cosnet.kernels.drives import DriveParams
     from cosnet.kernels.layout import empty_loads, record_type
@@ -407,6 +408,9 @@ def test_obstacles_and_drives_compile_only_the_parts_their_data_can_use():
         assert pickle.loads(pickle.dumps(p)).__class__ is type(p)
     on_plane, on_capsule = (_reached(LOAD_KERNELS[type(p)], typeof(p), model, state, loads) for p in records[:2])
     assert "obstacle_distance" in on_plane and "add_obstacle" in on_plane
+    for p in records[:2]:   # the elements' energy: nothing for a plane
+        energy = segments.VARIANTS.of(p).kernel("element_energy")
+        assert ("element_overlap" in _reached(energy, typeof(p), state)) is (p.shape != segments.PLANE)
     for name in ("add_element_contacts", "deepest_point", "_mesh_distance", "mesh_segment", "_box_deepest"):
         assert name not in on_plane, name
     assert "add_element_contacts" in on_capsule and "deepest_point" in on_capsule
