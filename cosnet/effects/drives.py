@@ -258,8 +258,8 @@ class Drive(Effect):
         back = np.array(conj(quat_from_rotvec(out[:3])))
         # of the variant that compiles the turning only where the rotation is prescribed
         p = drive_record(DriveParams(nd, pos, rot, self.axis.copy(), s.node_x[nd].copy(), rho, s.node_q[nd].copy(),
-                        *self._pos, np.zeros(3), *self._ang, np.zeros(1), *self._rv, np.zeros(3), back,
-                        np.zeros(24), np.zeros(6), np.zeros(1)))
+                                     *self._pos, np.zeros(3), *self._ang, np.zeros(1), *self._rv, np.zeros(3), back,
+                                     np.zeros(24), np.zeros(6), np.zeros(1)))
         eval_path(on.time, *self._pos, np.zeros(3), out, 0)
         p.pos_start[:] = out[:3]
         eval_path(on.time, *self._ang, np.zeros(1), out, 0)
