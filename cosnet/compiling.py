@@ -226,11 +226,11 @@ _HELPER = ("import sys; from cosnet.compiling import compile_kick; "
 
 
 def compile_kick(path, threads: int | None):
-    """Compile (into numba's cache) the kernels a scene's step calls through its slots
-    (kernels/slots.py): the kick's own (internal loads, node balances, velocity update), the
-    effects', the drift's, for the types the step will call them with, then the step (which a
-    scene with drives needs at frame 0 already: its drives' reactions evaluate the loads
-    through it). PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built
+    """Compile (into numba's cache) a scene's step (which a scene with drives needs at frame 0
+    already: its drives' reactions evaluate the loads through it), then the kernels it calls
+    through its slots (kernels/slots.py): the kick's own (internal loads, node balances,
+    velocity update), the effects', the drift's, for the types the step will call them with.
+    PEFRL's kick, a kernel of its own, is compiled as well. The simulation is built
     for its types alone: the kernels building it runs from Python (the fluid's sample, a
     drive's pose) are left to the parent, which needs them first. Returns at once where the
     step is cached already (the parent may start this before it knows)."""
@@ -248,14 +248,15 @@ def compile_kick(path, threads: int | None):
     if kernels_compiled(sim):
         return
     model, state, loads, records, _, _, backend = sim.step_signature()
+    # the step first: it types its kernels' calls without compiling them (compose), the parent
+    # reaches it last, or at frame 0 where drives need it (their reactions evaluate the loads
+    # through it), and the kernels after it are a queue the parent shares at the end
+    sim.advance_kernel.compile(sim.step_signature())
+    if sim.stepper == "pefrl":   # its kick is a kernel of its own (the Verlet step inlines it)
+        kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
     slots = sim.step_records[3]
     bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel,
                compile_orders(len(slots))[1])
-    if sim.stepper == "pefrl":   # its kick is a kernel of its own (the Verlet step inlines it)
-        kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
-    # the step itself, which the parent reaches last (with drives, at frame 0: their reactions
-    # evaluate the loads through it)
-    sim.advance_kernel.compile(sim.step_signature())
 
 
 @contextlib.contextmanager

@@ -233,16 +233,18 @@ def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None
         with ConfigStack().enter(flags):
             kernel.compile(argtypes)
         cres = kernel.overloads[argtypes]
+        if cres.signature.return_type != types.none:   # the step calls it as returning nothing
+            raise TypeError(f"slot kernel {kernel.py_func.__qualname__} must return nothing")
         slots[row] = (cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name),
                       slot_key(kernel, argtypes), os.getpid())
 
 
-def _resolve(typingctx, kernel, args, what):
-    fnty = typingctx.resolve_value_type(kernel)
-    sig = typingctx.resolve_function_type(fnty, tuple(args), {})
-    if sig is None or sig.return_type != types.none:
-        raise TypeError(f"{what} kernel {kernel.py_func.__qualname__} must return nothing")
-    return sig
+def _slot_signature(args):
+    """The signature a step calls a slot kernel by: every slot kernel returns nothing
+    (bind_slots refuses one that does not). Written, not typed from the kernel: typing the
+    call would compile the kernel inside the step's compilation, so that a step could not be
+    compiled while another process compiles its kernels."""
+    return types.none(*args)
 
 
 def _pointed(ptrs, what):
@@ -265,7 +267,7 @@ def core_kernel(kernel):
     def call(typingctx, ptrs, h, order):
         core, effects = _pointed(ptrs, what)
         argtypes = slot_argtypes(core)
-        sig = _resolve(typingctx, kernel, argtypes, what)
+        sig = _slot_signature(argtypes)
         key = slot_key(kernel, argtypes)
 
         def codegen(context, builder, signature, args):
@@ -295,7 +297,7 @@ def _chain(hook):
             if k == hook:
                 wrapper = slot_wrapper(kernel, hook)
                 argtypes = slot_argtypes(core, effects.types[gg].types[i])
-                sig = _resolve(typingctx, wrapper, argtypes, what)
+                sig = _slot_signature(argtypes)
                 calls.append((len(CORE) + row, i, sig, slot_key(wrapper, argtypes)))
 
         def codegen(context, builder, signature, args):
