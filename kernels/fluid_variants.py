@@ -6,7 +6,7 @@ options' bits (FluidParams_01), found by that name wherever a record is unpickle
 from . import added_mass, fluid
 from .compose import flow_kernel, inertia_kernel
 from .fluid import OPTIONS, FluidParams
-from .specialise import Variant, Variants
+from .specialise import Variants
 
 
 def _register(cls, kernels):
@@ -28,11 +28,6 @@ def options_of(p) -> tuple:
 def fluid_record(p):
     """``p`` (a FluidParams) as the record of the variant its data needs, sharing its arrays."""
     return VARIANTS.record(p, options_of(p))
-
-
-def fluid_kernels(p) -> Variant:
-    """The variant whose record ``p`` is (FluidParams itself: every part)."""
-    return VARIANTS.of(p)
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -315,7 +315,7 @@ def test_kernels_called_from_python_are_typed_as_the_step_types_the_records():
     entrained = sim.energy() - 0.5 * net.total_mass() * 0.25
     assert entrained == pytest.approx(0.5 * 1000.0 * math.pi * 1e-4 * 1.0 * 0.25, rel=1e-12)
     model, state = record_type(sim.model), record_type(sim.state)
-    variant = fluid_variants.fluid_kernels(water.params(sim))
+    variant = fluid_variants.VARIANTS.of(water.params(sim))
     for kernel in (variant.kernel("sample_fluid"), variant.kernel("fluid_entrained_energy")):
         assert kernel.overloads and all(sig[1:3] == (model, state) for sig in kernel.overloads), kernel
 
@@ -349,7 +349,7 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
     for kernel, last in ((FLOW_KERNELS[cls], h), (INERTIAS[cls], typeof((empty_loads(sim.model), 0.5)))):
         njit(**{k: v for k, v in kernel.targetoptions.items() if k != "nopython"})(kernel.py_func).compile(
             (typeof(p), model, state, last))
-    variant = fluid_variants.fluid_kernels(p)
+    variant = fluid_variants.VARIANTS.of(p)
     kernels = {**{n: f for m in (fluid, added_mass) for n, f in vars(m).items() if hasattr(f, "overloads")},
                **variant.family}
     rec = typeof(p)

@@ -16,7 +16,7 @@ from .drives import driven_nodes
 from .loads import Gravity, checked_table
 from ..kernels.added_mass import TURNING_ROWS
 from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams
-from ..kernels.fluid_variants import fluid_kernels, fluid_record
+from ..kernels.fluid_variants import VARIANTS, fluid_record
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
 from ..core.turbulence import IEC_LENGTH, turbulent_series
@@ -361,7 +361,7 @@ class Fluid(Effect):
         p = fluid_record(p)   # of the variant that compiles only the parts its data can use
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
-            typed_call(fluid_kernels(p).kernel("sample_fluid"), p, on.model, on.state)
+            typed_call(VARIANTS.of(p).kernel("sample_fluid"), p, on.model, on.state)
         return p
 
     @staticmethod
@@ -422,7 +422,7 @@ class Fluid(Effect):
         (0 without added mass)."""
         if not (np.any(p.added_n) or np.any(p.added_t) or np.any(p.buoy_added)):
             return 0.0
-        kernels = fluid_kernels(p)
+        kernels = VARIANTS.of(p)
         if held:
             return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         # sampled in place and put back: the step's own record keeps typed_call's held entry
@@ -494,7 +494,7 @@ class Fluid(Effect):
         """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):
         the added mass the first kick's account starts from."""
         p = self.params(sim)
-        typed_call(fluid_kernels(p).kernel("sample_fluid"), p, sim.model, sim.state)
+        typed_call(VARIANTS.of(p).kernel("sample_fluid"), p, sim.model, sim.state)
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
