@@ -37,6 +37,8 @@ from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
+TANGENT_ROW = 7          # its rows of a vertex's unit tangent (three) and of its inverse masses across and
+INVERSE_ROW = 14         # along the line (two), which the rings' impulses read too (kernels/sliding.py)
 
 # Compile-time options (kernels/specialise.py): a fluid's record is of the variant its data needs
 # (kernels/fluid_variants.py), whose kernels leave out the parts that cannot act. This module's
@@ -966,11 +968,12 @@ def fluid_entrained_energy(p, model, state):
 
 @njit(**ENTRY)
 def sample_fluid(p, model, state):
-    """Update p.sample given the positions and the clock, as a kick's first half flow does
-    (the added mass a simulation holds before its first step)."""
+    """Update p.sample (and p.node_mass) given the positions and the clock, as a kick's
+    first half flow does (the added mass a simulation holds before its first step)."""
     sample_medium(p, model, state)
     if CARRIES:
         sample_buoys(p, state, state.clock[0])
+        sample_node_masses(p, model, state)
 
 
 @njit(**CACHED, inline="always")

@@ -177,6 +177,16 @@ def exp_rates(rx, ry, rz, dx, dy, dz, ex, ey, ez):
 
 
 @njit(**OPTS, inline="always")
+def inverse_sym3(a00, a01, a02, a11, a12, a22):
+    """Return A^-1 (b00, b01, b02, b11, b12, b22) of the symmetric invertible A (its adjugate
+    over its determinant)."""
+    c00, c01, c02 = a11 * a22 - a12 * a12, a02 * a12 - a01 * a22, a01 * a12 - a02 * a11
+    c11, c12, c22 = a00 * a22 - a02 * a02, a01 * a02 - a00 * a12, a00 * a11 - a01 * a01
+    inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)
+    return c00 * inv, c01 * inv, c02 * inv, c11 * inv, c12 * inv, c22 * inv
+
+
+@njit(**OPTS, inline="always")
 def solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
     """Return x with A x = b for the symmetric positive definite A (Cramer's rule)."""
     c00 = a11 * a22 - a12 * a12

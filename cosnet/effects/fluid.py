@@ -426,12 +426,12 @@ class Fluid(Effect):
         if held:
             return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         # sampled in place and put back: the step's own record keeps typed_call's held entry
-        kept = p.sample.copy(), p.buoy_sample.copy()
+        kept = p.sample.copy(), p.buoy_sample.copy(), p.node_mass.copy()
         try:
             typed_call(kernels.kernel("sample_fluid"), p, on.model, on.state)
             return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         finally:
-            p.sample[...], p.buoy_sample[...] = kept
+            p.sample[...], p.buoy_sample[...], p.node_mass[...] = kept
 
     def exchange(self, p, on: Binding) -> float:
         """Upthrust of the lines in the medium times the diagonal of the net's bounding box."""
@@ -498,10 +498,11 @@ class Fluid(Effect):
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
-        # the sample: the added mass the step holds (the entrained fluid's energy and its account)
+        # the sample: the added mass the step holds (the entrained fluid's energy and its account;
+        # the nodes' mass matrices, which rings and eyelets move them by before the next sample)
         # and the turning fluid's forces of the last kick, the next one's predictor (kernels/added_mass.py)
         return {"turn": p.turn, "dissipated": p.dissipated, "supplied": p.supplied, "sample": p.sample,
-                "turning": p.turning}
+                "node_mass": p.node_mass, "turning": p.turning}
 
     def describe(self):
         law = f"resistance={self.resistance.tolist()}" if self.resistance is not None else f"drag={self.drag.tolist()}"

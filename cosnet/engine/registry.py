@@ -51,12 +51,14 @@ class Key:
 
 class Binding(NamedTuple):
     """What an effect binds to: the net as declared, its flattened ``model``, the ``state``
-    as built (cosnet.engine.flatten) and the ``effects`` declared with it."""
+    as built (cosnet.engine.flatten), the ``effects`` declared with it and the ``records`` of
+    those bound before it (a simulation binds them in order; implied effects come last)."""
 
     net: Any
     model: Any
     state: Any
     effects: tuple = ()
+    records: tuple = ()
 
     @property
     def time(self) -> float:
@@ -431,6 +433,24 @@ def _load(ep):
     if cls.kind != ep.name:
         raise ValueError(f"{where} declares kind {cls.kind!r}; the entry point's name must be its kind")
     return cls
+
+
+def carried_by(on: Binding, who: str, lines, nodes):
+    """Return (effect, record, vertex, node) of the one effect bound before in ``on`` whose
+    kick sees another mass than the model's on some of ``lines`` or ``nodes`` (a fluid's
+    added mass; vertex, node: its carried_mass flags), or None; two such effects there are
+    refused in one line naming ``who``."""
+    found = []
+    vo = on.model.line_vertex_offsets
+    for e, p in zip(on.effects, on.records):
+        carried = e.carried_mass(p, on)
+        if carried is not None and (any(carried[0][vo[l.index]:vo[l.index + 1]].any() for l in lines)
+                                    or any(carried[1][n.index] for n in nodes)):
+            found.append((e, p) + tuple(carried))
+    if len(found) > 1:
+        raise ValueError(f"{who}: {found[0][0].kind} and {found[1][0].kind} both give their lines or nodes an "
+                         f"added mass; give it in one effect")
+    return found[0] if found else None
 
 
 def refuse_carried_mass(sim, who: str, lines, nodes):

@@ -131,7 +131,10 @@ class Simulation:
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
         self.effects += implied_effects(net, self.grids)
         on = Binding(net, self.model, self.state, tuple(self.effects))
-        self.records, kernel_records = joined_records(self.effects, [e.bind(on) for e in self.effects])
+        bound: list = []
+        for e in self.effects:   # in order: an effect may share arrays of one bound before it (sliders, a fluid's)
+            bound.append(e.bind(on._replace(records=tuple(bound))))
+        self.records, kernel_records = joined_records(self.effects, bound)
         self.kernel_records = [p for _, p, _ in kernel_records]   # what the kernels read
         self.kernel_effects = [cls for _, _, cls in kernel_records]   # the class declaring each
         self.load_records = tuple(p for stage, p, _ in kernel_records if stage == "load")
