@@ -29,9 +29,23 @@ its two elements, nearest_on_path) crosses back and forth between them at every 
 counts only the first crossing of that stay. Elsewhere the constraint's work is the
 scheme's own, second-order error, and left to it.
 The impulses are equal and opposite, so they keep the momentum of a free net exactly.
+
+Where a fluid adds mass to the line (kernels/fluid.py, added_mass.py), the kick moves a wet
+vertex by its inverse mass tensor W = w_n (1 - t t^T) + w_t t t^T (t its sampled tangent) and
+a free node at a wet line's end by the inverse of its mass matrix; the impulses move them by
+the same, read from the fluid's own arrays (p.carried, p.carried_node_mass: the arrays the
+fluid samples into, shared), so that they are the impulses that mass takes and the energy of
+line and entrained fluid is kept as in air. The slider's relative displacement and velocity
+then answer an impulse J by K J, K = W_P + (1 - t)^2 W_i + t^2 W_i+1, no longer along J: the
+impulse across the element is found in the plane across it (K restricted to that plane), the
+friction along it meets the effective inverse mass of the motion along the element with the
+motion across it held (the Schur complement w* = d.K d - (K d)_n . K_n^-1 (K d)_n), and a stop
+or a kink's vertex, which hold every direction, take J = -K^-1 u. With K a multiple of 1 these
+are the scalar formulas above (the variant without CARRIED compiles those alone).
 """
 
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -39,11 +53,20 @@ from numba import njit
 
 from .compiler import CACHED, INLINE, INNER
 from .compose import constraint_kernels
+from .fluid import INVERSE_ROW, TANGENT_ROW
 from .motion import place_line_end
+from .rotations import inverse_sym3, solve_sym3
+from .specialise import Variants
 
 PASSES = 8          # projections after a drift, at most (each leaves the square of the last misfit)
 TOLERANCE = 1e-14   # misfit relative to the element's length that ends them
 SETTLED = 1e-3      # fraction of an element past a vertex where a passage over it is settled
+
+# Compile-time option (kernels/specialise.py): some vertex or node of a slider's path carries a
+# fluid's added mass, and the impulses move it by a tensor. The record is of the variant its
+# data needs (VARIANTS); this module's own functions are the variant with it.
+CARRIED = True
+OPTIONS = ("CARRIED",)
 
 
 class SlidingParams(NamedTuple):
@@ -66,6 +89,10 @@ class SlidingParams(NamedTuple):
     corner: np.ndarray      # (k,) int64 the element (first vertex) a passage not yet settled came from; -1: none
     pending: np.ndarray     # (k,) the energy that passage takes, counted once it is settled (J)
     dissipated: np.ndarray  # (1,) energy friction, dampers and passages took (J)
+    carried_vertex: np.ndarray  # (nv,) 1 where the kick moves an interior vertex by the carried inverse masses
+    carried_node: np.ndarray    # (nn,) 1 where it moves a node by the carried mass matrix
+    carried: np.ndarray         # (SAMPLE_ROWS, nv) the fluid's sample (kernels/fluid.py), shared; (0, 0): none
+    carried_node_mass: np.ndarray  # (nn, 6) the fluid's node_mass, shared; (0, 6): none
 
 
 @njit(**INLINE)
@@ -77,6 +104,71 @@ def inverse_mass(p, model, l, v):
     if v == off[l + 1] - 1:
         return p.node_weight[model.attach_node[2 * l + 1]]
     return model.vertex_inv_mass[v]
+
+
+@njit(**INLINE)
+def node_tensor(p, nd):
+    """Return the inverse mass tensor (w00, w01, w02, w11, w12, w22) that moves node nd here:
+    the inverse of the carried mass matrix where the fluid adds to it, else its weight times 1."""
+    w = p.node_weight[nd]
+    if CARRIED and w > 0.0 and p.carried_node[nd] != 0:
+        a = p.carried_node_mass[nd]
+        return inverse_sym3(a[0], a[1], a[2], a[3], a[4], a[5])
+    return w, 0.0, 0.0, w, 0.0, w
+
+
+@njit(**INLINE)
+def vertex_tensor(p, model, l, v):
+    """Return the inverse mass tensor that moves vertex v of line l as the kick moves it (an
+    end vertex: its node's; a wet one: w_n (1 - t t^T) + w_t t t^T as the fluid sampled it)."""
+    off = model.line_vertex_offsets
+    if v == off[l]:
+        return node_tensor(p, model.attach_node[2 * l])
+    if v == off[l + 1] - 1:
+        return node_tensor(p, model.attach_node[2 * l + 1])
+    if CARRIED and p.carried_vertex[v] != 0:
+        S = p.carried
+        wn, d = S[INVERSE_ROW, v], S[INVERSE_ROW + 1, v] - S[INVERSE_ROW, v]
+        tx, ty, tz = S[TANGENT_ROW, v], S[TANGENT_ROW + 1, v], S[TANGENT_ROW + 2, v]
+        return wn + d * tx * tx, d * tx * ty, d * tx * tz, wn + d * ty * ty, d * ty * tz, wn + d * tz * tz
+    w = model.vertex_inv_mass[v]
+    return w, 0.0, 0.0, w, 0.0, w
+
+
+@njit(**INLINE)
+def times(a, x, y, z):
+    """Return A v for the symmetric A = (a00, a01, a02, a11, a12, a22)."""
+    return (a[0] * x + a[1] * y + a[2] * z, a[1] * x + a[3] * y + a[4] * z, a[2] * x + a[4] * y + a[5] * z)
+
+
+@njit(**INNER)
+def slider_tensor(p, j, model, i, t):
+    """Return K = W_P + (1 - t)^2 W_i + t^2 W_i+1: the relative displacement of slider j's node
+    from its line's point at t on element i (first vertex) per unit impulse on them."""
+    l = p.path_lines[p.link[j]]
+    a, b, c = node_tensor(p, p.node[j]), vertex_tensor(p, model, l, i), vertex_tensor(p, model, l, i + 1)
+    u, v = (1.0 - t) ** 2, t * t
+    return (a[0] + u * b[0] + v * c[0], a[1] + u * b[1] + v * c[1], a[2] + u * b[2] + v * c[2],
+            a[3] + u * b[3] + v * c[3], a[4] + u * b[4] + v * c[4], a[5] + u * b[5] + v * c[5])
+
+
+@njit(**INLINE)
+def across(k, dx, dy, dz):
+    """Return P K P + tr(K) d d^T (P = 1 - d d^T, d a unit vector): K restricted to the plane
+    across d, made invertible along d without coupling to it, so that solving with it for a
+    right-hand side across d gives the impulse across d whose displacement across d is that."""
+    kx, ky, kz = times(k, dx, dy, dz)
+    dk = dx * kx + dy * ky + dz * kz
+    c = k[0] + k[3] + k[5] + dk
+    return (k[0] - 2.0 * dx * kx + c * dx * dx, k[1] - dx * ky - dy * kx + c * dx * dy,
+            k[2] - dx * kz - dz * kx + c * dx * dz, k[3] - 2.0 * dy * ky + c * dy * dy,
+            k[4] - dy * kz - dz * ky + c * dy * dz, k[5] - 2.0 * dz * kz + c * dz * dz)
+
+
+@njit(**INLINE)
+def solve(a, x, y, z):
+    """Return A^-1 v for the symmetric positive definite A (6-tuple)."""
+    return solve_sym3(a[0], a[1], a[2], a[3], a[4], a[5], x, y, z)
 
 
 @njit(**INNER)
@@ -109,6 +201,13 @@ def apply_impulse(p, j, model, state, i, t, jx, jy, jz, h):
     -t J on the vertices: velocities by J times inverse masses, positions by h times that
     (h = 0: velocities only)."""
     l, nd = p.path_lines[p.link[j]], p.node[j]
+    if CARRIED:   # each moved by its inverse mass tensor (module docstring)
+        d = times(node_tensor(p, nd), jx, jy, jz)
+        move_node(model, state, nd, (h * d[0], h * d[1], h * d[2]), d)
+        for v, share in ((i, 1.0 - t), (i + 1, t)):
+            d = times(vertex_tensor(p, model, l, v), -share * jx, -share * jy, -share * jz)
+            move_vertex(model, state, l, v, (h * d[0], h * d[1], h * d[2]), d)
+        return
     wp = p.node_weight[nd]
     move_node(model, state, nd, (h * wp * jx, h * wp * jy, h * wp * jz), (wp * jx, wp * jy, wp * jz))
     for v, share in ((i, 1.0 - t), (i + 1, t)):
@@ -149,6 +248,13 @@ def passage_loss(p, j, model, state, i, t):
     size2 = dx * dx + dy * dy + dz * dz
     along = (ux * dx + uy * dy + uz * dz) / size2 if size2 > 0.0 else 0.0
     nx, ny, nz = ux - along * dx, uy - along * dy, uz - along * dz
+    if CARRIED:   # 1/2 u_n . K_n^-1 u_n
+        k = slider_tensor(p, j, model, i, t)
+        if not (k[0] + k[3] + k[5] > 0.0 and size2 > 0.0):
+            return 0.0
+        size = math.sqrt(size2)
+        jn = solve(across(k, dx / size, dy / size, dz / size), nx, ny, nz)
+        return 0.5 * (nx * jn[0] + ny * jn[1] + nz * jn[2])
     w = effective_inverse_mass(p, j, model, i, t)
     return 0.5 * (nx * nx + ny * ny + nz * nz) / w if w > 0.0 else 0.0
 
@@ -202,6 +308,22 @@ def effective_inverse_mass(p, j, model, i, t):
             + t * t * inverse_mass(p, model, l, i + 1))
 
 
+@njit(**INNER)
+def drift_impulse(p, j, model, state, i, t, rx, ry, rz, size2, h):
+    """Return the impulse on slider j's node that, over h, takes away its misfit r from the
+    point at t on element i (first vertex; size2 its length squared) by the inverse mass
+    tensors: across the element only where t lies within it, in every direction at a stop or
+    a kink's vertex (t = 0 or 1); (0, 0, 0) where nothing can move."""
+    k = slider_tensor(p, j, model, i, t)
+    if not k[0] + k[3] + k[5] > 0.0:
+        return 0.0, 0.0, 0.0
+    if 0.0 < t < 1.0:
+        x = state.x
+        size = math.sqrt(size2)
+        k = across(k, (x[i + 1, 0] - x[i, 0]) / size, (x[i + 1, 1] - x[i, 1]) / size, (x[i + 1, 2] - x[i, 2]) / size)
+    return solve(k, -rx / h, -ry / h, -rz / h)
+
+
 @njit(**CACHED)
 def slide_after_drift(p, model, state, h):
     """Update the positions and velocities of every slider's node and line after a drift of h:
@@ -225,10 +347,15 @@ def slide_after_drift(p, model, state, h):
             size2 = (x[i + 1, 0] - x[i, 0]) ** 2 + (x[i + 1, 1] - x[i, 1]) ** 2 + (x[i + 1, 2] - x[i, 2]) ** 2
             if rx * rx + ry * ry + rz * rz <= TOLERANCE * TOLERANCE * size2 or not h > 0.0:
                 break
-            w = effective_inverse_mass(p, j, model, i, t)
-            if not w > 0.0:
-                break
-            jx, jy, jz = -rx / (w * h), -ry / (w * h), -rz / (w * h)
+            if CARRIED:
+                jx, jy, jz = drift_impulse(p, j, model, state, i, t, rx, ry, rz, size2, h)
+                if jx == 0.0 and jy == 0.0 and jz == 0.0:
+                    break
+            else:
+                w = effective_inverse_mass(p, j, model, i, t)
+                if not w > 0.0:
+                    break
+                jx, jy, jz = -rx / (w * h), -ry / (w * h), -rz / (w * h)
             apply_impulse(p, j, model, state, i, t, jx, jy, jz, h)
             p.push[j, 0] += jx
             p.push[j, 1] += jy
@@ -271,10 +398,25 @@ def slide_after_kick(p, model, state, arg):
         tx, ty, tz = dx / size, dy / size, dz / size
         ux, uy, uz = relative_velocity(p, j, state, i, t)
         ut = ux * tx + uy * ty + uz * tz
-        w = effective_inverse_mass(p, j, model, i, t)
-        if not w > 0.0:
-            continue
-        nx, ny, nz = -(ux - ut * tx) / w, -(uy - ut * ty) / w, -(uz - ut * tz) / w
+        if CARRIED:
+            k = slider_tensor(p, j, model, i, t)
+            if not k[0] + k[3] + k[5] > 0.0:
+                continue
+            # the impulse across that holds the motion across at rest, with the friction's
+            # impulse jt along: n + jt m (module docstring)
+            kn = across(k, tx, ty, tz)
+            nx, ny, nz = solve(kn, -(ux - ut * tx), -(uy - ut * ty), -(uz - ut * tz))
+            kx, ky, kz = times(k, tx, ty, tz)
+            kt = kx * tx + ky * ty + kz * tz
+            mx, my, mz = solve(kn, -(kx - kt * tx), -(ky - kt * ty), -(kz - kt * tz))
+            ut = ut + kx * nx + ky * ny + kz * nz
+            w = kt + kx * mx + ky * my + kz * mz
+        else:
+            w = effective_inverse_mass(p, j, model, i, t)
+            if not w > 0.0:
+                continue
+            nx, ny, nz = -(ux - ut * tx) / w, -(uy - ut * ty) / w, -(uz - ut * tz) / w
+            mx, my, mz = 0.0, 0.0, 0.0
         pt = p.push[j, 0] * tx + p.push[j, 1] * ty + p.push[j, 2] * tz
         px, py, pz = p.push[j, 0] - pt * tx, p.push[j, 1] - pt * ty, p.push[j, 2] - pt * tz
         normal = math.sqrt((nx + px) ** 2 + (ny + py) ** 2 + (nz + pz) ** 2)
@@ -290,8 +432,21 @@ def slide_after_kick(p, model, state, arg):
                                                 p.sliding[j])
             after = ut + w * jt
             lost += 0.5 * (ut * ut - after * after) / w
-        apply_impulse(p, j, model, state, i, t, nx + jt * tx, ny + jt * ty, nz + jt * tz, 0.0)
+        apply_impulse(p, j, model, state, i, t, nx + jt * (tx + mx), ny + jt * (ty + my), nz + jt * (tz + mz), 0.0)
     p.dissipated[0] += lost
 
 
 constraint_kernels(SlidingParams, slide_after_drift, slide_after_kick)
+
+
+VARIANTS = Variants(SlidingParams, lambda: (sys.modules[__name__],), OPTIONS,
+                    lambda cls, kernels: constraint_kernels(cls, kernels["slide_after_drift"],
+                                                            kernels["slide_after_kick"]), __name__)
+
+
+def sliding_record(p):
+    """``p`` (a SlidingParams) as the record of the variant its data needs, sharing its arrays."""
+    return VARIANTS.record(p, (bool(p.carried_vertex.any() or p.carried_node.any()),))
+
+
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -452,6 +452,38 @@ def test_joints_compile_only_what_the_nets_joints_have():
         assert name in ball, name
 
 
+def test_rings_compile_the_fluid_s_masses_only_where_a_fluid_adds_some():
+    """The sliders' record is of the variant its net needs: a ring on a dry line moves it by
+    scalar inverse masses, and its drift's projection, compiled afresh, reaches none of the
+    inverse mass tensors; on a line that carries a fluid's added mass, it reaches them. Both
+    variants pickle by name."""
+    import pickle
+
+    from numba import typeof
+
+    import cosnet
+    from cosnet.kernels.compose import DRIFT_CONSTRAINTS
+    from cosnet.kernels.layout import record_type
+    from cosnet.kernels.sliding import SlidingParams
+    reached = []
+    for effects in ([], [cosnet.Fluid(1025.0, added_mass=(1.0, 0.0))]):
+        net = cosnet.Net()
+        a, b = net.add_node((0.0, 0.0, 0.0), mass=1.0), net.add_node((1.0, 0.0, 0.0), mass=1.0)
+        line = net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0),
+                            section=cosnet.Circle(0.01), elements=4)
+        net.add_ring(line, s=0.5, mass=0.1)
+        sim = cosnet.Simulation(net, effects)
+        p = next(r for r in sim.step_records[2] if isinstance(r, SlidingParams))
+        assert type(p) is not SlidingParams and pickle.loads(pickle.dumps(p)).__class__ is type(p)
+        reached.append(_reached(DRIFT_CONSTRAINTS[type(p)], typeof(p), record_type(sim.model),
+                                record_type(sim.state), typeof(0.5)))
+    dry, wet = reached
+    assert "nearest_on_path" in dry and "nearest_on_path" in wet
+    for name in ("drift_impulse", "slider_tensor"):
+        assert name not in dry, name
+        assert name in wet, name
+
+
 def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():
     """Numba compiles a kernel whose options leave fast-math, the error model or reference
     counting unset with its first caller's, and keys neither its overloads nor its cache by

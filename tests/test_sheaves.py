@@ -122,6 +122,18 @@ def test_bad_sheaves_are_refused_in_one_line(make, message):
     assert not net.sheaves    # nothing half made
 
 
+def test_a_sheave_on_a_line_that_carries_an_added_mass_is_refused_in_one_line():
+    """A sheave's impulses move the rope by its dry masses (rings and eyelets move it by the
+    fluid's too: tests/test_sliding_carried.py); in water whose added mass the rope carries,
+    the run is refused before it starts, naming the line."""
+    net, _ = over_a_sheave(radius=R, drop=0.5, masses=(M1, M2))
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(1025.0, added_mass=(1.0, 0.0))])
+    with pytest.raises(ValueError, match="sheaves: fluid gives line 'rope' an added mass, which their impulses do "
+                                         "not see"):
+        sim.run(steps=1)
+    assert sim.steps == 0
+
+
 SCENE = """
 [materials.rope]
 E = 2e9

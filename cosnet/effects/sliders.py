@@ -12,8 +12,9 @@ from .sheaves import Sheaves
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.motion import place_line_ends
-from ..kernels.sliding import PASSES, SlidingParams
-from ..engine.registry import Binding, Effect, refuse_carried_mass
+from ..kernels.fluid import INVERSE_ROW, SAMPLE_ROWS, TANGENT_ROW
+from ..kernels.sliding import PASSES, SlidingParams, sliding_record
+from ..engine.registry import Binding, Effect, carried_by
 
 
 class Sliders(Effect):
@@ -63,6 +64,11 @@ class Sliders(Effect):
         problem = index_error("sliders.corner", p.corner[p.corner != -1], nv)
         if problem:
             return problem
+        if p.carried_vertex.shape != (nv,) or p.carried_node.shape != (nn,):
+            return "sliders: carried_vertex needs one entry per vertex, carried_node one per node"
+        if (p.carried_vertex.any() and p.carried.shape != (SAMPLE_ROWS, nv)) or (
+                p.carried_node.any() and p.carried_node_mass.shape != (nn, 6)):
+            return f"sliders: carried needs {SAMPLE_ROWS} rows of one entry per vertex, carried_node_mass (nodes, 6)"
         return None
 
     def __init__(self, sliders):
@@ -80,7 +86,7 @@ class Sliders(Effect):
         for j, sl in enumerate(self.sliders):
             here, at[j], _ = where_on_path(m, arc, sl)
             link[j] = offsets[j] + here
-        return SlidingParams(
+        return sliding_record(SlidingParams(
             node=np.array([sl.node.index for sl in self.sliders], dtype=np.int64), path_offsets=offsets,
             path_lines=path_lines, path_arc=path_arc.reshape(-1), link=link, node_weight=weight, arc=arc,
             mu_s=np.array([sl.mu_s for sl in self.sliders], dtype=float),
@@ -88,11 +94,22 @@ class Sliders(Effect):
             damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
             s=np.array([sl.s for sl in self.sliders], dtype=float), push=np.zeros((k, 3)), sliding=np.zeros(k),
             corner=np.full(k, -1, dtype=np.int64), pending=np.zeros(k),
-            dissipated=np.zeros(1))
+            dissipated=np.zeros(1), **self._carried(on, weight)))
 
-    def check_state(self, sim):
-        refuse_carried_mass(sim, "rings and eyelets", [l for sl in self.sliders for l in sl.lines],
-                            [sl.node for sl in self.sliders])
+    def _carried(self, on: Binding, weight) -> dict:
+        """The record's carried_* rows: where a fluid bound before adds mass to the sliders'
+        lines or nodes, its flags and its own sampled arrays (shared, so that the impulses
+        move the net by the masses the kick takes: kernels/sliding.py)."""
+        m = on.model
+        nv, nn = m.vertex_mass.shape[0], m.node_mass.shape[0]
+        found = carried_by(on, "rings and eyelets", [l for sl in self.sliders for l in sl.lines],
+                           [sl.node for sl in self.sliders])
+        if found is None:
+            return dict(carried_vertex=np.zeros(nv, dtype=np.int64), carried_node=np.zeros(nn, dtype=np.int64),
+                        carried=np.zeros((0, 0)), carried_node_mass=np.zeros((0, 6)))
+        _, fluid, vertex, node = found
+        return dict(carried_vertex=vertex.astype(np.int64), carried_node=(node & (weight > 0)).astype(np.int64),
+                    carried=fluid.sample, carried_node_mass=fluid.node_mass)
 
     def start(self, sim):
         """Catch every slider: its node and line take one velocity across the line at the
@@ -122,21 +139,24 @@ class Sliders(Effect):
         def velocity(v):   # a line end moves with its node (the kick's inverse_mass)
             return st.node_v[ends[v]] if v in ends else st.v[v]
 
-        def weight(v):
-            return p.node_weight[ends[v]] if v in ends else m.vertex_inv_mass[v]
+        def weight(v):   # the inverse mass tensor that moves vertex v (kernels/sliding.vertex_tensor)
+            return node_tensor(p, ends[v]) if v in ends else vertex_tensor(p, m, v)
 
         tangent = st.x[i + 1] - st.x[i]
         tangent = tangent / np.linalg.norm(tangent)
         u = st.node_v[nd] - ((1.0 - t) * velocity(i) + t * velocity(i + 1))
         across = u - (u @ tangent) * tangent
-        w = p.node_weight[nd] + (1.0 - t) ** 2 * weight(i) + t * t * weight(i + 1)
-        if not w > 0.0:
+        k = node_tensor(p, nd) + (1.0 - t) ** 2 * weight(i) + t * t * weight(i + 1)
+        if not np.trace(k) > 0.0:
             return 0.0
-        impulse = -across / w
-        st.node_v[nd] += p.node_weight[nd] * impulse
+        # the impulse across the line that stops the motion across it (kernels/sliding.across)
+        across_k = k - np.outer(tangent, k @ tangent) - np.outer(k @ tangent, tangent)
+        across_k += (np.trace(k) + tangent @ k @ tangent) * np.outer(tangent, tangent)
+        impulse = -np.linalg.solve(across_k, across)
+        st.node_v[nd] += node_tensor(p, nd) @ impulse
         for v, share in ((i, 1.0 - t), (i + 1, t)):
-            velocity(v)[:] -= share * weight(v) * impulse
-        return 0.5 * float(across @ across) / w
+            velocity(v)[:] -= share * (weight(v) @ impulse)
+        return -0.5 * float(across @ impulse)
 
     def dissipated(self, sim) -> float:
         """Energy the sliders' friction and dampers have taken so far (J)."""
@@ -149,6 +169,23 @@ class Sliders(Effect):
 
     def describe(self) -> str:
         return f"Sliders({len(self.sliders)} rings and eyelets)"
+
+
+def node_tensor(p, nd) -> np.ndarray:
+    """The inverse mass tensor (3, 3) that moves node nd by the sliders' impulses."""
+    if p.node_weight[nd] > 0.0 and p.carried_node[nd]:
+        a = p.carried_node_mass[nd]
+        return np.linalg.inv(np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]))
+    return p.node_weight[nd] * np.eye(3)
+
+
+def vertex_tensor(p, model, v) -> np.ndarray:
+    """The inverse mass tensor (3, 3) that moves interior vertex v by the sliders' impulses."""
+    if not p.carried_vertex[v]:
+        return model.vertex_inv_mass[v] * np.eye(3)
+    wn, wt = p.carried[INVERSE_ROW, v], p.carried[INVERSE_ROW + 1, v]
+    t = p.carried[TANGENT_ROW:TANGENT_ROW + 3, v]
+    return wn * np.eye(3) + (wt - wn) * np.outer(t, t)
 
 
 def vertex_arcs(model) -> np.ndarray:
