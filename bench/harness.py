@@ -104,7 +104,7 @@ def commit() -> str:
                                  capture_output=True, text=True, timeout=10).stdout.splitlines()
     except (OSError, subprocess.SubprocessError):
         return "unknown"
-    dirty = [line for line in changed if not line.rstrip().endswith((".json", ".png", ".md"))]
+    dirty = [line for line in changed if not line.rstrip().endswith((".json", ".png", ".gif", ".md"))]
     return (head + ("+changes" if dirty else "")) or "unknown"
 
 
