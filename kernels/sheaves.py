@@ -28,9 +28,18 @@ velocity into the rim before the drift that brought it there) is counted as diss
 longer if the next kick lets the vertex go, undoing the landing with the rest); for a line that
 runs onto the wheel it goes to zero with the turn of one element over the rim. The impulses
 keep a free net's momentum.
+
+Where a fluid adds mass to the line or the node (kernels/sliding.py says how rings take it),
+the impulses move a wet vertex and the node by the inverse mass tensors the kick divides by,
+read from the fluid's own arrays: K = W_v + W_node. The rim holds the vertex along the radial
+n alone, whose effective inverse mass is n.K n; the radial impulse then moves the vertex
+along the rim a little too, and friction along the slip s, the radial motion held, meets
+s.K s - (n.K s)^2 / n.K n and comes with the radial impulse that holds it. With K a multiple of
+1 these are the scalar formulas above (the variant without CARRIED compiles those alone).
 """
 
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -38,9 +47,16 @@ from numba import njit
 
 from .compiler import CACHED, INLINE, INNER
 from .compose import constraint_kernels
-from .sliding import PASSES, TOLERANCE, friction_impulse, inverse_mass, move_node, move_vertex
+from .sliding import PASSES, TOLERANCE, carries, friction_impulse, inverse_mass, move_node, move_vertex, \
+    node_tensor, times, vertex_tensor
+from .specialise import Variants
 
 REACH = 1.5    # the window: the run of the line's vertices within REACH * R of the centre
+
+# Compile-time option (kernels/specialise.py): the line or node carries a fluid's added mass
+# (the variant with it moves them by tensors). This module's own functions have it.
+CARRIED = True
+OPTIONS = ("CARRIED",)
 
 
 class SheaveParams(NamedTuple):
@@ -66,6 +82,10 @@ class SheaveParams(NamedTuple):
     landing: np.ndarray     # (nv,) kinetic energy of a landing in this step's drifts (counted as it
                             # lands; a vertex the kick lets go undoes it)
     dissipated: np.ndarray  # (1,) energy the landings, friction and dampers took (J)
+    carried_vertex: np.ndarray  # (nv,) 1 where the kick moves an interior vertex by the carried inverse masses
+    carried_node: np.ndarray    # (nn,) 1 where it moves a node by the carried mass matrix
+    carried: np.ndarray         # (SAMPLE_ROWS, nv) the fluid's sample (kernels/fluid.py), shared; (0, 0): none
+    carried_node_mass: np.ndarray  # (nn, 6) the fluid's node_mass, shared; (0, 6): none
 
 
 @njit(**INLINE)
@@ -150,10 +170,34 @@ def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
     by the displacement D that its integral over time means: velocities by J, positions by D,
     times their inverse masses."""
     l, nd = p.line[j], p.node[j]
+    if CARRIED:   # by the inverse mass tensors (module docstring)
+        wv, wn = vertex_tensor(p, model, l, v), node_tensor(p, nd)
+        move_vertex(model, state, l, v, times(wv, dx, dy, dz), times(wv, jx, jy, jz))
+        if p.node_weight[nd] > 0.0:
+            d, u = times(wn, dx, dy, dz), times(wn, jx, jy, jz)
+            move_node(model, state, nd, (-d[0], -d[1], -d[2]), (-u[0], -u[1], -u[2]))
+        return
     wv, wn = inverse_mass(p, model, l, v), p.node_weight[nd]
     move_vertex(model, state, l, v, (wv * dx, wv * dy, wv * dz), (wv * jx, wv * jy, wv * jz))
     if wn > 0.0:
         move_node(model, state, nd, (-wn * dx, -wn * dy, -wn * dz), (-wn * jx, -wn * jy, -wn * jz))
+
+
+@njit(**INLINE)
+def pair_tensor(p, j, model, v):
+    """Return K = W_v + W_node: the relative displacement of vertex v from sheave j's centre
+    per unit impulse on them."""
+    a, b = vertex_tensor(p, model, p.line[j], v), node_tensor(p, p.node[j])
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
+
+
+@njit(**INLINE)
+def pair_weight(p, j, model, v, nx, ny, nz):
+    """Return the effective inverse mass of vertex v and sheave j's node along the unit n."""
+    if CARRIED:
+        kx, ky, kz = times(pair_tensor(p, j, model, v), nx, ny, nz)
+        return nx * kx + ny * ky + nz * kz
+    return inverse_mass(p, model, p.line[j], v) + p.node_weight[p.node[j]]
 
 
 @njit(**CACHED)
@@ -164,7 +208,7 @@ def wrap_after_drift(p, model, state, h):
     (landings) follow."""
     for j in range(p.node.shape[0]):
         find_window(p, j, model, state)
-        R, l = p.radius[j], p.line[j]
+        R = p.radius[j]
         for _ in range(PASSES):
             worst = 0.0
             for v in range(p.lo[j], p.hi[j] + 1):
@@ -172,7 +216,7 @@ def wrap_after_drift(p, model, state, h):
                 inside = rho < R and abs(z) <= p.groove[j]
                 if not (inside or p.engaged[v] != 0.0) or not rho > TOLERANCE * R or own_end(p, j, model, v):
                     continue
-                w = inverse_mass(p, model, l, v) + p.node_weight[p.node[j]]
+                w = pair_weight(p, j, model, v, rx / rho, ry / rho, rz / rho)
                 if not (w > 0.0 and h > 0.0):
                     continue
                 if p.engaged[v] == 0.0:   # a plastic landing: the approach's kinetic energy is taken
@@ -193,8 +237,22 @@ def wrap_after_drift(p, model, state, h):
                 p.moved[v, 0] += mx / w
                 p.moved[v, 1] += my / w
                 p.moved[v, 2] += mz / w
-            if worst <= TOLERANCE * R or p.node_weight[p.node[j]] == 0.0:   # a fixed wheel: one pass is exact
+            # a fixed wheel: one pass is exact, unless a tensor moved the vertices along the rim too
+            if worst <= TOLERANCE * R or (p.node_weight[p.node[j]] == 0.0 and not CARRIED):
                 break
+
+
+@njit(**INLINE)
+def slip_rate(p, j, model, v, loads, sx, sy, sz):
+    """Return the rate at which the kick's loads change vertex v's velocity relative to sheave
+    j's node along the unit s (through the inverse masses that move them)."""
+    f, fn, nd = loads.f, loads.node_f, p.node[j]
+    if CARRIED:
+        a, b = times(vertex_tensor(p, model, p.line[j], v), sx, sy, sz), times(node_tensor(p, nd), sx, sy, sz)
+        return (a[0] * f[v, 0] + a[1] * f[v, 1] + a[2] * f[v, 2]) - (b[0] * fn[nd, 0] + b[1] * fn[nd, 1]
+                                                                      + b[2] * fn[nd, 2])
+    wv, wn = inverse_mass(p, model, p.line[j], v), p.node_weight[nd]
+    return wv * (f[v, 0] * sx + f[v, 1] * sy + f[v, 2] * sz) - wn * (fn[nd, 0] * sx + fn[nd, 1] * sy + fn[nd, 2] * sz)
 
 
 @njit(**CACHED)
@@ -206,15 +264,17 @@ def wrap_after_kick(p, model, state, arg):
     h = arg[1]
     lost = 0.0
     for j in range(p.node.shape[0]):
-        nd, l = p.node[j], p.line[j]
+        nd = p.node[j]
         for v in range(p.lo[j], p.hi[j] + 1):
             if p.engaged[v] == 0.0:
                 continue
             rx, ry, rz, rho, z = rim_frame(p, j, state, v)
-            w = inverse_mass(p, model, l, v) + p.node_weight[nd]
-            if not (w > 0.0 and rho > 0.0):
+            if not rho > 0.0:
                 continue
             nx, ny, nz = rx / rho, ry / rho, rz / rho
+            w = pair_weight(p, j, model, v, nx, ny, nz)
+            if not w > 0.0:
+                continue
             ux, uy, uz = (state.v[v, 0] - state.node_v[nd, 0], state.v[v, 1] - state.node_v[nd, 1],
                           state.v[v, 2] - state.node_v[nd, 2])
             radial = -(ux * nx + uy * ny + uz * nz) / w
@@ -233,21 +293,31 @@ def wrap_after_kick(p, model, state, arg):
                 # impulse the step's (drifts' and this kick's); its work over the kick taken on
                 # the mean of the velocities before the kick's loads and after it (a stuck
                 # vertex does none)
-                ur = -radial * w
+                if CARRIED:   # the radial impulse moves the vertex along the rim too
+                    kn = times(pair_tensor(p, j, model, v), nx, ny, nz)
+                    ux, uy, uz = ux + radial * kn[0], uy + radial * kn[1], uz + radial * kn[2]
+                    ur = ux * nx + uy * ny + uz * nz
+                else:
+                    ur = -radial * w
                 sx, sy, sz = ux - ur * nx, uy - ur * ny, uz - ur * nz
                 slip = math.sqrt(sx * sx + sy * sy + sz * sz)
-                jt = 0.0
+                jt, mx, my, mz = 0.0, 0.0, 0.0, 0.0
                 if slip > 0.0 and (p.mu_s[j] > 0.0 or p.damping[j] > 0.0):   # else a wheel on free bearings
                     sx, sy, sz = sx / slip, sy / slip, sz / slip
-                    jt, p.sliding[v] = friction_impulse(slip, w, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
+                    ws = w
+                    if CARRIED:   # along s with the radial motion held: the radial share m of the impulse
+                        k = pair_tensor(p, j, model, v)
+                        ks = times(k, sx, sy, sz)
+                        ns = nx * ks[0] + ny * ks[1] + nz * ks[2]
+                        mu = -ns / w
+                        mx, my, mz = mu * nx, mu * ny, mu * nz
+                        ws = sx * ks[0] + sy * ks[1] + sz * ks[2] + mu * ns
+                    jt, p.sliding[v] = friction_impulse(slip, ws, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
                                                         p.sliding[v])
-                    wv, wn = inverse_mass(p, model, l, v), p.node_weight[nd]
-                    f, fn = arg[0].f, arg[0].node_f
-                    before = slip - h * (wv * (f[v, 0] * sx + f[v, 1] * sy + f[v, 2] * sz)
-                                         - wn * (fn[nd, 0] * sx + fn[nd, 1] * sy + fn[nd, 2] * sz))
-                    lost -= jt * 0.5 * (before + slip + w * jt)
-                push_pair(p, j, model, state, v, radial * nx + jt * sx, radial * ny + jt * sy, radial * nz + jt * sz,
-                          0.0, 0.0, 0.0)
+                    before = slip - h * slip_rate(p, j, model, v, arg[0], sx, sy, sz)
+                    lost -= jt * 0.5 * (before + slip + ws * jt)
+                push_pair(p, j, model, state, v, radial * nx + jt * (sx + mx), radial * ny + jt * (sy + my),
+                          radial * nz + jt * (sz + mz), 0.0, 0.0, 0.0)
                 p.landing[v] = 0.0
             for k in range(3):
                 p.push[v, k], p.moved[v, k] = 0.0, 0.0
@@ -255,3 +325,16 @@ def wrap_after_kick(p, model, state, arg):
 
 
 constraint_kernels(SheaveParams, wrap_after_drift, wrap_after_kick)
+
+
+VARIANTS = Variants(SheaveParams, lambda: (sys.modules[__name__],), OPTIONS,
+                    lambda cls, kernels: constraint_kernels(cls, kernels["wrap_after_drift"],
+                                                            kernels["wrap_after_kick"]), __name__)
+
+
+def sheave_record(p):
+    """``p`` (a SheaveParams) as the record of the variant its data needs, sharing its arrays."""
+    return VARIANTS.record(p, (carries(p),))
+
+
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

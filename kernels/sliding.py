@@ -444,9 +444,15 @@ VARIANTS = Variants(SlidingParams, lambda: (sys.modules[__name__],), OPTIONS,
                                                             kernels["slide_after_kick"]), __name__)
 
 
+def carries(p) -> bool:
+    """Whether record ``p`` (a slider's or a sheave's) moves some vertex or node by a carried
+    mass: the CARRIED option of its variant."""
+    return bool(p.carried_vertex.any() or p.carried_node.any())
+
+
 def sliding_record(p):
     """``p`` (a SlidingParams) as the record of the variant its data needs, sharing its arrays."""
-    return VARIANTS.record(p, (bool(p.carried_vertex.any() or p.carried_node.any()),))
+    return VARIANTS.record(p, (carries(p),))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

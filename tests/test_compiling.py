@@ -455,8 +455,8 @@ def test_joints_compile_only_what_the_nets_joints_have():
 def test_rings_compile_the_fluid_s_masses_only_where_a_fluid_adds_some():
     """The sliders' record is of the variant its net needs: a ring on a dry line moves it by
     scalar inverse masses, and its drift's projection, compiled afresh, reaches none of the
-    inverse mass tensors; on a line that carries a fluid's added mass, it reaches them. Both
-    variants pickle by name."""
+    inverse mass tensors; on a line that carries a fluid's added mass, it reaches them. A
+    sheave's record is of its variant likewise. Every variant pickles by name."""
     import pickle
 
     from numba import typeof
@@ -482,6 +482,12 @@ def test_rings_compile_the_fluid_s_masses_only_where_a_fluid_adds_some():
     for name in ("drift_impulse", "slider_tensor"):
         assert name not in dry, name
         assert name in wet, name
+    from cosnet.effects.sheaves import Sheaves, over_a_sheave   # a sheave's record likewise
+    for effects, bits in (([], "0"), ([cosnet.Fluid(1025.0, added_mass=(1.0, 0.0))], "1")):
+        net, _ = over_a_sheave(radius=0.05, drop=0.2, masses=(0.3, 0.2))
+        sim = cosnet.Simulation(net, effects)
+        p = next(e for e in sim.effects if isinstance(e, Sheaves)).params(sim)
+        assert type(p).__name__ == "SheaveParams_" + bits and pickle.loads(pickle.dumps(p)).__class__ is type(p)
 
 
 def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():

@@ -11,8 +11,9 @@ import numpy as np
 from .drives import driven_nodes
 from .loads import Gravity
 from ..engine.bounds import index_error
-from ..kernels.sheaves import SheaveParams
-from ..engine.registry import Binding, Effect, refuse_carried_mass
+from .carried import carried_rows, table_error as carried_error
+from ..kernels.sheaves import SheaveParams, sheave_record
+from ..engine.registry import Binding, Effect
 
 
 class Sheaves(Effect):
@@ -57,7 +58,7 @@ class Sheaves(Effect):
                 return f"sheaves.{name} holds {a[bad][0]}, outside the vertices of its line"
         if np.any(p.lo > p.hi):
             return "sheaves.lo must not exceed sheaves.hi"
-        return None
+        return carried_error(p, model, "sheaves")
 
     def __init__(self, sheaves):
         self.sheaves = list(sheaves)
@@ -72,7 +73,7 @@ class Sheaves(Effect):
         for j, sh in enumerate(self.sheaves):
             l = sh.line.index
             near[j] = vo[l] + int(np.argmin(np.linalg.norm(x[vo[l]:vo[l + 1]] - sh.centre, axis=1)))
-        return SheaveParams(
+        return sheave_record(SheaveParams(
             node=np.array([sh.node.index for sh in self.sheaves], dtype=np.int64),
             line=np.array([sh.line.index for sh in self.sheaves], dtype=np.int64),
             offset=np.array([sh.centre - on.state.node_x[sh.node.index] for sh in self.sheaves]).reshape(k, 3),
@@ -84,10 +85,8 @@ class Sheaves(Effect):
             damping=np.array([sh.damping for sh in self.sheaves], dtype=float), node_weight=weight,
             near=near, lo=near.copy(), hi=near.copy(), engaged=np.zeros(nv), push=np.zeros((nv, 3)),
             moved=np.zeros((nv, 3)), sliding=np.zeros(nv), landing=np.zeros(nv),
-            dissipated=np.zeros(1))
-
-    def check_state(self, sim):
-        refuse_carried_mass(sim, "sheaves", [sh.line for sh in self.sheaves], [sh.node for sh in self.sheaves])
+            dissipated=np.zeros(1),
+            **carried_rows(on, "sheaves", [sh.line for sh in self.sheaves], [sh.node for sh in self.sheaves], weight)))
 
     def dissipated(self, sim) -> float:
         """Kinetic energy the line's landings on the rims have taken so far (J)."""

@@ -7,14 +7,14 @@ import math
 
 import numpy as np
 
+from .carried import carried_rows, node_tensor, table_error as carried_error, vertex_tensor
 from .drives import driven_nodes
 from .sheaves import Sheaves
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.motion import place_line_ends
-from ..kernels.fluid import INVERSE_ROW, SAMPLE_ROWS, TANGENT_ROW
 from ..kernels.sliding import PASSES, SlidingParams, sliding_record
-from ..engine.registry import Binding, Effect, carried_by
+from ..engine.registry import Binding, Effect
 
 
 class Sliders(Effect):
@@ -64,11 +64,9 @@ class Sliders(Effect):
         problem = index_error("sliders.corner", p.corner[p.corner != -1], nv)
         if problem:
             return problem
-        if p.carried_vertex.shape != (nv,) or p.carried_node.shape != (nn,):
-            return "sliders: carried_vertex needs one entry per vertex, carried_node one per node"
-        if (p.carried_vertex.any() and p.carried.shape != (SAMPLE_ROWS, nv)) or (
-                p.carried_node.any() and p.carried_node_mass.shape != (nn, 6)):
-            return f"sliders: carried needs {SAMPLE_ROWS} rows of one entry per vertex, carried_node_mass (nodes, 6)"
+        problem = carried_error(p, model, "sliders")
+        if problem:
+            return problem
         return None
 
     def __init__(self, sliders):
@@ -94,22 +92,9 @@ class Sliders(Effect):
             damping=np.array([sl.damping for sl in self.sliders], dtype=float), at=at,
             s=np.array([sl.s for sl in self.sliders], dtype=float), push=np.zeros((k, 3)), sliding=np.zeros(k),
             corner=np.full(k, -1, dtype=np.int64), pending=np.zeros(k),
-            dissipated=np.zeros(1), **self._carried(on, weight)))
-
-    def _carried(self, on: Binding, weight) -> dict:
-        """The record's carried_* rows: where a fluid bound before adds mass to the sliders'
-        lines or nodes, its flags and its own sampled arrays (shared, so that the impulses
-        move the net by the masses the kick takes: kernels/sliding.py)."""
-        m = on.model
-        nv, nn = m.vertex_mass.shape[0], m.node_mass.shape[0]
-        found = carried_by(on, "rings and eyelets", [l for sl in self.sliders for l in sl.lines],
-                           [sl.node for sl in self.sliders])
-        if found is None:
-            return dict(carried_vertex=np.zeros(nv, dtype=np.int64), carried_node=np.zeros(nn, dtype=np.int64),
-                        carried=np.zeros((0, 0)), carried_node_mass=np.zeros((0, 6)))
-        _, fluid, vertex, node = found
-        return dict(carried_vertex=vertex.astype(np.int64), carried_node=(node & (weight > 0)).astype(np.int64),
-                    carried=fluid.sample, carried_node_mass=fluid.node_mass)
+            dissipated=np.zeros(1),
+            **carried_rows(on, "rings and eyelets", [l for sl in self.sliders for l in sl.lines],
+                           [sl.node for sl in self.sliders], weight)))
 
     def start(self, sim):
         """Catch every slider: its node and line take one velocity across the line at the
@@ -169,23 +154,6 @@ class Sliders(Effect):
 
     def describe(self) -> str:
         return f"Sliders({len(self.sliders)} rings and eyelets)"
-
-
-def node_tensor(p, nd) -> np.ndarray:
-    """The inverse mass tensor (3, 3) that moves node nd by the sliders' impulses."""
-    if p.node_weight[nd] > 0.0 and p.carried_node[nd]:
-        a = p.carried_node_mass[nd]
-        return np.linalg.inv(np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]))
-    return p.node_weight[nd] * np.eye(3)
-
-
-def vertex_tensor(p, model, v) -> np.ndarray:
-    """The inverse mass tensor (3, 3) that moves interior vertex v by the sliders' impulses."""
-    if not p.carried_vertex[v]:
-        return model.vertex_inv_mass[v] * np.eye(3)
-    wn, wt = p.carried[INVERSE_ROW, v], p.carried[INVERSE_ROW + 1, v]
-    t = p.carried[TANGENT_ROW:TANGENT_ROW + 3, v]
-    return wn * np.eye(3) + (wt - wn) * np.outer(t, t)
 
 
 def vertex_arcs(model) -> np.ndarray:

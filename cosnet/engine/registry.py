@@ -199,8 +199,9 @@ class Effect:
     def carried_mass(self, p, on: Binding):
         """(vertex, node) bool arrays (nv,), (nn,): where the kick sees a mass other than the
         model's in some direction (a fluid's added mass); None where it sees the model's
-        everywhere. Constraints whose impulses move the net by the model's masses refuse
-        these places (refuse_carried_mass)."""
+        everywhere. A constraint acting there moves the net by that mass: its record shares
+        the arrays that hold it (carried_by, cosnet/effects/carried.py), which only the
+        effect's own kernels know (a fluid's: kernels/sliding.py)."""
         return None
 
     def held_stiffness(self, p, on: Binding):
@@ -451,23 +452,3 @@ def carried_by(on: Binding, who: str, lines, nodes):
         raise ValueError(f"{who}: {found[0][0].kind} and {found[1][0].kind} both give their lines or nodes an "
                          f"added mass; give it in one effect")
     return found[0] if found else None
-
-
-def refuse_carried_mass(sim, who: str, lines, nodes):
-    """Raise ValueError (one line naming ``who``) if an effect of ``sim`` makes the kick see
-    another mass than the model's on any of ``lines`` or ``nodes`` (Line, Node): constraints
-    whose impulses move the net by the model's masses are not the ones that mass takes, and
-    the energy balance would not close (a purse line through rings with an added mass drew
-    energy from nothing)."""
-    on = Binding(sim.net, sim.model, sim.state, tuple(sim.effects))
-    vo = sim.model.line_vertex_offsets
-    for e, p in zip(sim.effects, sim.records):
-        carried = e.carried_mass(p, on)
-        if carried is None:
-            continue
-        hit = [f"line {l.name!r}" for l in lines if carried[0][vo[l.index]:vo[l.index + 1]].any()]
-        hit += [f"node {n.name!r}" for n in nodes if carried[1][n.index]]
-        if hit:
-            raise ValueError(f"{who}: {e.kind} gives {hit[0]} an added mass, which their impulses do not "
-                             f"see (they move the net by its own masses); give it none there "
-                             f"(added_mass = [0, 0], or leave it out of the effect's lines)")
