@@ -6,7 +6,8 @@ spring, a damper and friction; every net stepped at the welded chain's stable st
 rounds, one thread. Each row also gives the net's own stable step against the welded one's.
 
 Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings of 1 kg
-sliding on it with friction, each pulled down by a node load; the cost per step and per ring.
+sliding on it with friction, each pulled down by a node load, in air and in water (the wire
+carrying its added mass across itself); the cost per step and per ring.
 
 Accuracy: a double compound pendulum of two 1 m steel arms (r = 10 mm, 10 elements each) on a
 fixed pivot, released from the horizontal, against the rigid-body limit of the same arms (their
@@ -69,9 +70,11 @@ def cost(links, rounds, elements=5):
     return out
 
 
-def wire_with_rings(rings, dt=None):
+def wire_with_rings(rings, dt=None, water=False):
     """A stiff 100-element wire between two pins, loaded by ``rings`` rings of 1 kg spread
-    along it (a node load each), sliding; returns the simulation (at step dt if given)."""
+    along it (a node load each), sliding; returns the simulation (at step dt if given). In
+    ``water``, the wire carries the added mass of a cylinder across itself (no drag, no
+    upthrust: the rings' own share of the cost is what differs)."""
     net = cosnet.Net()
     a, b = net.add_node((0.0, 0.0, 0.0), fixed=True), net.add_node((10.0, 0.0, 1.0), fixed=True)
     wire = net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=100)
@@ -79,19 +82,22 @@ def wire_with_rings(rings, dt=None):
     for k in range(rings):
         ring = net.add_ring(wire, s=wire.length * (k + 0.5) / rings, mass=1.0, mu_s=0.1, mu_k=0.05)
         loads.append(cosnet.NodeLoad(ring, force=(0.0, 0.0, -G)))
-    return cosnet.Simulation(net, loads, threads=1, dt=dt, force_dt=dt is not None)
+    fluid = [cosnet.Fluid(1025.0, drag=(0.0, 0.0), added_mass=(1.0, 0.0), buoyancy=False)] if water else []
+    return cosnet.Simulation(net, fluid + loads, threads=1, dt=dt, force_dt=dt is not None)
 
 
 def ring_cost(counts, rounds):
-    """us per step of the wire with each number of rings, at the bare wire's step."""
+    """us per step of the wire with each number of rings, dry and in water (the rings then move
+    the wire by the inverse mass tensors the added mass makes), at the bare dry wire's step."""
     bare = wire_with_rings(0)
-    sims = [bare] + [wire_with_rings(k, bare.dt) for k in counts]
+    runs = [(water, n) for water in (False, True) for n in (0, *counts)]
+    sims = [bare if (water, n) == (False, 0) else wire_with_rings(n, bare.dt, water) for water, n in runs]
     steps = 20_000
     times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims], rounds)
-    base = times[0] / steps
-    return [{"rings": n, "us_per_step": 1e6 * t / steps,
-             "us_per_ring": 0.0 if n == 0 else 1e6 * (t / steps - base) / n}
-            for n, t in zip((0, *counts), times)]
+    base = {water: t / steps for (water, n), t in zip(runs, times) if n == 0}
+    return [{"medium": "water" if water else "air", "rings": n, "us_per_step": 1e6 * t / steps,
+             "us_per_ring": 0.0 if n == 0 else 1e6 * (t / steps - base[water]) / n}
+            for (water, n), t in zip(runs, times)]
 
 
 def double_pendulum(middle, k=0.0):
@@ -175,7 +181,8 @@ def main():
            for r in runs])
     rings = ring_cost((1, 10) if quick else (1, 10, 50), rounds)
     table("joints: cost per step of rings sliding on a 100-element wire (one thread, the bare wire's step)",
-          ["rings", "us/step", "us per ring"], [[r["rings"], r["us_per_step"], r["us_per_ring"]] for r in rings])
+          ["medium", "rings", "us/step", "us per ring"],
+          [[r["medium"], r["rings"], r["us_per_step"], r["us_per_ring"]] for r in rings])
     until = 0.1 if quick else 0.5
     acc = accuracy(until, 10 if quick else 50, (1e6, 1e8) if quick else (1e5, 1e6, 1e7, 1e8))
     table(f"joints: double compound pendulum against its rigid limit over {until} s",
