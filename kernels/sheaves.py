@@ -101,7 +101,7 @@ def rim_frame(p, j, state, v):
     return rx, ry, rz, math.sqrt(rx * rx + ry * ry + rz * rz), z
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def centre_distance2(p, j, state, v):
     nd = p.node[j]
     return ((state.x[v, 0] - state.node_x[nd, 0] - p.offset[j, 0]) ** 2
@@ -118,7 +118,7 @@ def own_end(p, j, model, v):
             or (v == off[l + 1] - 1 and model.attach_node[2 * l + 1] == p.node[j]))
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def find_window(p, j, model, state):
     """Update p.near, p.lo, p.hi of sheave j: the run of vertices within REACH * R of its
     centre, moved at its ends from the last (a rope slides a fraction of an element a step);
@@ -183,7 +183,7 @@ def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
         move_node(model, state, nd, (-wn * dx, -wn * dy, -wn * dz), (-wn * jx, -wn * jy, -wn * jz))
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def pair_tensor(p, j, model, v):
     """Return K = W_v + W_node: the relative displacement of vertex v from sheave j's centre
     per unit impulse on them."""
@@ -191,7 +191,7 @@ def pair_tensor(p, j, model, v):
     return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def pair_weight(p, j, model, v, nx, ny, nz):
     """Return the effective inverse mass of vertex v and sheave j's node along the unit n."""
     if CARRIED:
@@ -242,7 +242,7 @@ def wrap_after_drift(p, model, state, h):
                 break
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def slip_rate(p, j, model, v, loads, sx, sy, sz):
     """Return the rate at which the kick's loads change vertex v's velocity relative to sheave
     j's node along the unit s (through the inverse masses that move them)."""

@@ -106,7 +106,7 @@ def inverse_mass(p, model, l, v):
     return model.vertex_inv_mass[v]
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def node_tensor(p, nd):
     """Return the inverse mass tensor (w00, w01, w02, w11, w12, w22) that moves node nd here:
     the inverse of the carried mass matrix where the fluid adds to it, else its weight times 1."""
@@ -117,7 +117,7 @@ def node_tensor(p, nd):
     return w, 0.0, 0.0, w, 0.0, w
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def vertex_tensor(p, model, l, v):
     """Return the inverse mass tensor that moves vertex v of line l as the kick moves it (an
     end vertex: its node's; a wet one: w_n (1 - t t^T) + w_t t t^T as the fluid sampled it)."""
@@ -135,7 +135,7 @@ def vertex_tensor(p, model, l, v):
     return w, 0.0, 0.0, w, 0.0, w
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def times(a, x, y, z):
     """Return A v for the symmetric A = (a00, a01, a02, a11, a12, a22)."""
     return (a[0] * x + a[1] * y + a[2] * z, a[1] * x + a[3] * y + a[4] * z, a[2] * x + a[4] * y + a[5] * z)
@@ -152,7 +152,7 @@ def slider_tensor(p, j, model, i, t):
             a[3] + u * b[3] + v * c[3], a[4] + u * b[4] + v * c[4], a[5] + u * b[5] + v * c[5])
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def across(k, dx, dy, dz):
     """Return P K P + tr(K) d d^T (P = 1 - d d^T, d a unit vector): K restricted to the plane
     across d, made invertible along d without coupling to it, so that solving with it for a
@@ -165,7 +165,7 @@ def across(k, dx, dy, dz):
             k[4] - dy * kz - dz * ky + c * dy * dz, k[5] - 2.0 * dz * kz + c * dz * dz)
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def solve(a, x, y, z):
     """Return A^-1 v for the symmetric positive definite A (6-tuple)."""
     return solve_sym3(a[0], a[1], a[2], a[3], a[4], a[5], x, y, z)
