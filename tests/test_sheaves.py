@@ -127,29 +127,31 @@ def test_an_atwood_machine_in_water_accelerates_with_the_water_its_rope_carries(
     upthrust), the Atwood machine falls as the rigid rope with that mass added to what moves
     (0.5 %; the water slows it 1.5 %); the rim's impulses move the rope by the masses the kick
     takes, so its engaged vertices lie on the rim to round-off and energy + what the landings
-    took is conserved at order 2 (measured 6e-8 J at 0.9 times the stable step; moved by its
-    dry masses, it missed 2.6e-6 J whatever the step)."""
+    took is conserved at order 2 (over its first 0.1 s, measured 9e-9 J at 0.9 times the stable
+    step; moved by its dry masses, it missed 5e-7 J whatever the step)."""
     errors = []
-    for factor in (0.9, 0.45):
+    for factor, until in ((0.9, 0.3), (0.45, 0.1)):   # the balance over the first 0.1 s at both steps
         net, sheave = over_a_sheave(radius=R, drop=0.5, masses=(M1, M2))
         effects = [cosnet.Gravity(), cosnet.Fluid(1025.0, drag=(0.0, 0.0), added_mass=(1.0, 0.5), buoyancy=False)]
         sim = cosnet.Simulation(net, effects, dt=factor * cosnet.Simulation(net, effects).dt)
         heavy, rope = net.node("left"), net.lines[0]
         z0, e0, worst = sim.node_position(heavy)[2], sim.energy(), 0.0
-        while sim.time < 0.3:
+        while sim.time < until:
             sim.run(steps=int(180 / factor))
-            worst = max(worst, abs(sim.energy() + sim.dissipated() - e0))
+            if sim.time < 0.1:
+                worst = max(worst, abs(sim.energy() + sim.dissipated() - e0))
         errors.append(worst)
-        lam, carried = rope.material.density * rope.section.A, 0.5 * 1025.0 * rope.section.A
-        mass = M1 + M2 + (lam + carried) * rope.length
-        alpha, beta = G * (M1 - M2) / mass, 2.0 * lam * G / mass
-        expected = alpha / beta * (np.cosh(np.sqrt(beta) * sim.time) - 1.0)
-        assert abs((z0 - sim.node_position(heavy)[2]) / expected - 1.0) < 5e-3   # measured 1e-4
+        if until == 0.3:   # (the rope's release rings for a while: its mean motion, later)
+            lam, carried = rope.material.density * rope.section.A, 0.5 * 1025.0 * rope.section.A
+            mass = M1 + M2 + (lam + carried) * rope.length
+            alpha, beta = G * (M1 - M2) / mass, 2.0 * lam * G / mass
+            expected = alpha / beta * (np.cosh(np.sqrt(beta) * sim.time) - 1.0)
+            assert abs((z0 - sim.node_position(heavy)[2]) / expected - 1.0) < 5e-3   # measured 1e-4
     p = next(e for e in sim.effects if isinstance(e, Sheaves)).params(sim)
     on = np.flatnonzero(p.engaged)
     rho = np.linalg.norm(sim.state.x[on][:, [0, 2]] - sim.node_position(sheave)[[0, 2]], axis=1)
     assert len(on) >= 25 and np.abs(rho / R - 1.0).max() < 1e-12
-    assert errors[0] / errors[1] > 3.5 and errors[0] < 2e-7
+    assert errors[0] / errors[1] > 3.5 and errors[0] < 5e-8
 
 
 SCENE = """
