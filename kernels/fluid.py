@@ -968,11 +968,19 @@ def fluid_entrained_energy(p, model, state):
 
 @njit(**ENTRY)
 def sample_fluid(p, model, state):
-    """Update p.sample (and p.node_mass) given the positions and the clock, as a kick's
-    first half flow does (the added mass a simulation holds before its first step)."""
+    """Update p.sample given the positions and the clock, as a kick's first half flow does
+    (the added mass a simulation holds before its first step)."""
     sample_medium(p, model, state)
     if CARRIES:
         sample_buoys(p, state, state.clock[0])
+
+
+@njit(**ENTRY)
+def sample_fluid_nodes(p, model, state):
+    """Update p.node_mass given the sample, as a kick's first half flow does: the nodes' mass
+    matrices that rings, eyelets and sheaves move them by before the first step (their own
+    entry, which scenes without those do not compile: cosnet/effects/carried.py)."""
+    if CARRIES:
         sample_node_masses(p, model, state)
 
 

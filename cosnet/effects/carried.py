@@ -9,6 +9,8 @@ import numpy as np
 
 from ..engine.registry import Binding, carried_by
 from ..kernels.fluid import INVERSE_ROW, TANGENT_ROW
+from ..kernels.fluid_variants import VARIANTS
+from ..kernels.layout import typed_call
 
 
 def carried_rows(on: Binding, who: str, lines, nodes, weight) -> dict:
@@ -23,6 +25,8 @@ def carried_rows(on: Binding, who: str, lines, nodes, weight) -> dict:
         return dict(carried_vertex=np.zeros(nv, dtype=np.int64), carried_node=np.zeros(nn, dtype=np.int64),
                     carried=np.zeros((0, 0)), carried_node_mass=np.zeros((0, 6)))
     _, fluid, vertex, node = found
+    if node.any():   # the nodes' mass matrices as the first kick will hold them (the catch and first drift read them)
+        typed_call(VARIANTS.of(fluid).kernel("sample_fluid_nodes"), fluid, m, on.state)
     return dict(carried_vertex=vertex.astype(np.int64), carried_node=(node & (weight > 0)).astype(np.int64),
                 carried=fluid.sample, carried_node_mass=fluid.node_mass)
 

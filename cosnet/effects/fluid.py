@@ -426,12 +426,12 @@ class Fluid(Effect):
         if held:
             return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         # sampled in place and put back: the step's own record keeps typed_call's held entry
-        kept = p.sample.copy(), p.buoy_sample.copy(), p.node_mass.copy()
+        kept = p.sample.copy(), p.buoy_sample.copy()
         try:
             typed_call(kernels.kernel("sample_fluid"), p, on.model, on.state)
             return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
         finally:
-            p.sample[...], p.buoy_sample[...], p.node_mass[...] = kept
+            p.sample[...], p.buoy_sample[...] = kept
 
     def exchange(self, p, on: Binding) -> float:
         """Upthrust of the lines in the medium times the diagonal of the net's bounding box."""
