@@ -325,7 +325,7 @@ def joints_cost() -> str:
 
 def rings_cost() -> str:
     d = _json("joints.json")
-    rows = [[r.get("medium", "air"), str(r["rings"]), f"{r['us_per_step']:.3g}",
+    rows = [[r["medium"], str(r["rings"]), f"{r['us_per_step']:.3g}",
              "–" if r["rings"] == 0 else f"{r['us_per_ring']:.2g}"] for r in d["rings"]]
     return _table(["medium", "rings", "µs per step", "µs per ring"], rows) + measured_on(
         d["machine"], f", one thread, `{d['command']}`")

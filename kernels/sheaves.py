@@ -184,18 +184,18 @@ def push_pair(p, j, model, state, v, jx, jy, jz, dx, dy, dz):
 
 
 @njit(**INNER)
-def pair_tensor(p, j, model, v):
-    """Return K = W_v + W_node: the relative displacement of vertex v from sheave j's centre
-    per unit impulse on them."""
+def pair_tensors(p, j, model, v):
+    """Return (W_v, W_node, K = W_v + W_node): the inverse mass tensors of vertex v and sheave
+    j's node, and the relative displacement of the vertex from the centre per unit impulse."""
     a, b = vertex_tensor(p, model, p.line[j], v), node_tensor(p, p.node[j])
-    return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
+    return a, b, (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5])
 
 
 @njit(**INNER)
 def pair_weight(p, j, model, v, nx, ny, nz):
     """Return the effective inverse mass of vertex v and sheave j's node along the unit n."""
     if CARRIED:
-        kx, ky, kz = times(pair_tensor(p, j, model, v), nx, ny, nz)
+        kx, ky, kz = times(pair_tensors(p, j, model, v)[2], nx, ny, nz)
         return nx * kx + ny * ky + nz * kz
     return inverse_mass(p, model, p.line[j], v) + p.node_weight[p.node[j]]
 
@@ -243,16 +243,11 @@ def wrap_after_drift(p, model, state, h):
 
 
 @njit(**INNER)
-def slip_rate(p, j, model, v, loads, sx, sy, sz):
-    """Return the rate at which the kick's loads change vertex v's velocity relative to sheave
-    j's node along the unit s (through the inverse masses that move them)."""
-    f, fn, nd = loads.f, loads.node_f, p.node[j]
-    if CARRIED:
-        a, b = times(vertex_tensor(p, model, p.line[j], v), sx, sy, sz), times(node_tensor(p, nd), sx, sy, sz)
-        return (a[0] * f[v, 0] + a[1] * f[v, 1] + a[2] * f[v, 2]) - (b[0] * fn[nd, 0] + b[1] * fn[nd, 1]
-                                                                      + b[2] * fn[nd, 2])
-    wv, wn = inverse_mass(p, model, p.line[j], v), p.node_weight[nd]
-    return wv * (f[v, 0] * sx + f[v, 1] * sy + f[v, 2] * sz) - wn * (fn[nd, 0] * sx + fn[nd, 1] * sy + fn[nd, 2] * sz)
+def slip_rate(loads, v, nd, a, b):
+    """Return a.f_v - b.f_nd: the rate at which the kick's loads change vertex v's velocity
+    relative to node nd along the unit s, given a = W_v s and b = W_node s."""
+    f, fn = loads.f, loads.node_f
+    return (a[0] * f[v, 0] + a[1] * f[v, 1] + a[2] * f[v, 2]) - (b[0] * fn[nd, 0] + b[1] * fn[nd, 1] + b[2] * fn[nd, 2])
 
 
 @njit(**CACHED)
@@ -272,7 +267,12 @@ def wrap_after_kick(p, model, state, arg):
             if not rho > 0.0:
                 continue
             nx, ny, nz = rx / rho, ry / rho, rz / rho
-            w = pair_weight(p, j, model, v, nx, ny, nz)
+            if CARRIED:   # the pair's tensors, once a vertex: K n gives the radial weight and its coupling
+                wv, wn, pk = pair_tensors(p, j, model, v)
+                kn = times(pk, nx, ny, nz)
+                w = nx * kn[0] + ny * kn[1] + nz * kn[2]
+            else:
+                w = pair_weight(p, j, model, v, nx, ny, nz)
             if not w > 0.0:
                 continue
             ux, uy, uz = (state.v[v, 0] - state.node_v[nd, 0], state.v[v, 1] - state.node_v[nd, 1],
@@ -294,7 +294,6 @@ def wrap_after_kick(p, model, state, arg):
                 # the mean of the velocities before the kick's loads and after it (a stuck
                 # vertex does none)
                 if CARRIED:   # the radial impulse moves the vertex along the rim too
-                    kn = times(pair_tensor(p, j, model, v), nx, ny, nz)
                     ux, uy, uz = ux + radial * kn[0], uy + radial * kn[1], uz + radial * kn[2]
                     ur = ux * nx + uy * ny + uz * nz
                 else:
@@ -304,17 +303,21 @@ def wrap_after_kick(p, model, state, arg):
                 jt, mx, my, mz = 0.0, 0.0, 0.0, 0.0
                 if slip > 0.0 and (p.mu_s[j] > 0.0 or p.damping[j] > 0.0):   # else a wheel on free bearings
                     sx, sy, sz = sx / slip, sy / slip, sz / slip
-                    ws = w
                     if CARRIED:   # along s with the radial motion held: the radial share m of the impulse
-                        k = pair_tensor(p, j, model, v)
-                        ks = times(k, sx, sy, sz)
+                        ks = times(pk, sx, sy, sz)
                         ns = nx * ks[0] + ny * ks[1] + nz * ks[2]
                         mu = -ns / w
                         mx, my, mz = mu * nx, mu * ny, mu * nz
                         ws = sx * ks[0] + sy * ks[1] + sz * ks[2] + mu * ns
+                        rate = slip_rate(arg[0], v, nd, times(wv, sx, sy, sz), times(wn, sx, sy, sz))
+                    else:
+                        ws = w
+                        f, fn = arg[0].f, arg[0].node_f
+                        rate = (inverse_mass(p, model, p.line[j], v) * (f[v, 0] * sx + f[v, 1] * sy + f[v, 2] * sz)
+                                - p.node_weight[nd] * (fn[nd, 0] * sx + fn[nd, 1] * sy + fn[nd, 2] * sz))
                     jt, p.sliding[v] = friction_impulse(slip, ws, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
                                                         p.sliding[v])
-                    before = slip - h * slip_rate(p, j, model, v, arg[0], sx, sy, sz)
+                    before = slip - h * rate
                     lost -= jt * 0.5 * (before + slip + ws * jt)
                 push_pair(p, j, model, state, v, radial * nx + jt * (sx + mx), radial * ny + jt * (sy + my),
                           radial * nz + jt * (sz + mz), 0.0, 0.0, 0.0)
