@@ -14,6 +14,14 @@ element's pair of vertices in turn, it is stable at any step:
   (xi x t)_k^2 / I_k on the axes that turn);
 - the change is made by the impulses +-J t, J = (u' - u) / w: momentum and angular momentum
   are kept, and the kinetic energy taken, 1/2 (u^2 - u'^2) / w, is counted as dissipated.
+On a line that carries a fluid's added mass (kernels/fluid.py), the kick moves a vertex by the
+inverse mass tensor W = w_n (1 - s s^T) + w_t s s^T (s its sampled tangent, w_n and w_t its
+inverse masses across and along the line, the water's share included) and a node by the
+inverse of its mass matrix: the impulse J t then moves the vertex by W t J, and w is t^T W t
+summed over the two ends. The same flow, with those w, is exact for those masses and takes
+the kinetic energy of the line and the water it carries (the record shares the fluid's
+sampled arrays, cosnet/effects/carried.py; the variant without CARRIED compiles the scalar
+formulas alone).
 The dashpots run once a kick, for the kick's length: before it on one kick, taking the even
 elements then the odd, and after it on the next, the odd then the even (p.turn), so that two
 kicks form the symmetric sequence F_eo K D ... D K F_oe (the splitting's order 2, at half the
@@ -23,6 +31,7 @@ only squared).
 """
 
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -31,8 +40,16 @@ from numba import njit
 from .backend import STEP
 from .compiler import INLINE, INNER
 from .compose import flow_kernel
+from .fluid import INVERSE_ROW, TANGENT_ROW
 from .motion import place_line_end
 from .rotations import cross, quat_rotate, quat_rotate_inv
+from .sliding import carries, node_tensor, times
+from .specialise import Variants
+
+# Compile-time option (kernels/specialise.py): some damped line or node carries a fluid's added
+# mass; the dry variant compiles the scalar inverse masses alone.
+CARRIED = True
+OPTIONS = ("CARRIED",)
 
 
 class InternalDampingParams(NamedTuple):
@@ -48,6 +65,10 @@ class InternalDampingParams(NamedTuple):
     decay_h: np.ndarray      # (1,) the flow length of gain and loss (nan: none yet)
     turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side the dashpots run on
     dissipated: np.ndarray   # (1,) kinetic energy taken so far (J)
+    carried_vertex: np.ndarray  # (nv,) 1 at the vertices of damped lines a fluid adds mass to
+    carried_node: np.ndarray    # (nn,) 1 where the kick moves a node by the fluid's mass matrix
+    carried: np.ndarray         # (SAMPLE_ROWS, nv) the fluid's sample (kernels/fluid.py), shared; (0, 0): none
+    carried_node_mass: np.ndarray  # (nn, 6) the fluid's node_mass, shared; (0, 6): none
 
 
 @njit(**INNER)
@@ -66,7 +87,11 @@ def end_weight(p, model, state, a, tx, ty, tz):
     nd = model.attach_node[a]
     cx, cy, cz = end_moment(model, state, a, tx, ty, tz)
     turn = p.node_turn[nd]
-    return p.node_weight[nd] + turn[0] * cx * cx + turn[1] * cy * cy + turn[2] * cz * cz
+    w = p.node_weight[nd]
+    if CARRIED and p.carried_node[nd] != 0:   # t^T W t, W the inverse of its mass matrix
+        g = times(node_tensor(p, nd), tx, ty, tz)
+        w = g[0] * tx + g[1] * ty + g[2] * tz
+    return w + turn[0] * cx * cx + turn[1] * cy * cy + turn[2] * cz * cz
 
 
 @njit(**INNER)
@@ -94,14 +119,38 @@ def push_end(p, model, state, a, jx, jy, jz):
     nd = model.attach_node[a]
     cx, cy, cz = end_moment(model, state, a, jx, jy, jz)
     w, turn = p.node_weight[nd], p.node_turn[nd]
-    state.node_v[nd, 0] += w * jx
-    state.node_v[nd, 1] += w * jy
-    state.node_v[nd, 2] += w * jz
+    gx, gy, gz = w * jx, w * jy, w * jz
+    if CARRIED and p.carried_node[nd] != 0:
+        gx, gy, gz = times(node_tensor(p, nd), jx, jy, jz)
+    state.node_v[nd, 0] += gx
+    state.node_v[nd, 1] += gy
+    state.node_v[nd, 2] += gz
     state.node_w[nd, 0] += turn[0] * cx
     state.node_w[nd, 1] += turn[1] * cy
     state.node_w[nd, 2] += turn[2] * cz
     for k in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
         place_line_end(model.node_attach_list[k], model, state)
+
+
+@njit(**INNER)
+def vertex_push(p, model, i, tx, ty, tz):
+    """Return (W t, t^T W t): the velocity a unit impulse along the unit t gives interior vertex
+    i and its part along t (W: its inverse mass tensor as the kick holds it, module docstring)."""
+    if CARRIED and p.carried_vertex[i] != 0:
+        g = carried_push(p.carried, i, tx, ty, tz)
+        return g[0], g[1], g[2], g[0] * tx + g[1] * ty + g[2] * tz
+    w = model.vertex_inv_mass[i]
+    return w * tx, w * ty, w * tz, w
+
+
+@njit(**INLINE)
+def carried_push(S, i, dx, dy, dz):
+    """Return W d at interior vertex i of a line that carries added mass, W = w_n (1 - s s^T) +
+    w_t s s^T with s, w_n, w_t the fluid's sample rows (S: p.carried)."""
+    sx, sy, sz = S[TANGENT_ROW, i], S[TANGENT_ROW + 1, i], S[TANGENT_ROW + 2, i]
+    wn, wt = S[INVERSE_ROW, i], S[INVERSE_ROW + 1, i]
+    c = (wt - wn) * (sx * dx + sy * dy + sz * dz)
+    return wn * dx + c * sx, wn * dy + c * sy, wn * dz + c * sz
 
 
 @njit(**INNER)
@@ -120,26 +169,28 @@ def damp_end_element(p, model, state, l, e, i, tau):
     bx, by, bz = end_velocity(p, model, state, 2 * l + 1) if last else (v[i + 1, 0], v[i + 1, 1], v[i + 1, 2])
     ua, ub = tx * ax + ty * ay + tz * az, tx * bx + ty * by + tz * bz
     u = ub - ua
-    wa = end_weight(p, model, state, 2 * l, tx, ty, tz) if first else model.vertex_inv_mass[i]
-    wb = end_weight(p, model, state, 2 * l + 1, tx, ty, tz) if last else model.vertex_inv_mass[i + 1]
+    ga = (0.0, 0.0, 0.0, end_weight(p, model, state, 2 * l, tx, ty, tz)) if first else vertex_push(p, model, i, tx,
+                                                                                                    ty, tz)
+    gb = (0.0, 0.0, 0.0, end_weight(p, model, state, 2 * l + 1, tx, ty, tz)) if last else vertex_push(p, model, i + 1,
+                                                                                                       tx, ty, tz)
+    wa, wb = ga[3], gb[3]
     w = wa + wb
     if not w > 0.0:
         return 0.0
     after = u * math.exp(-p.rate[e] * w * tau / model.element_rest_length[e])
     j = (after - u) / w
-    jx, jy, jz = j * tx, j * ty, j * tz
     if first:
-        push_end(p, model, state, 2 * l, -jx, -jy, -jz)
+        push_end(p, model, state, 2 * l, -j * tx, -j * ty, -j * tz)
     else:
-        v[i, 0] -= wa * jx
-        v[i, 1] -= wa * jy
-        v[i, 2] -= wa * jz
+        v[i, 0] -= j * ga[0]
+        v[i, 1] -= j * ga[1]
+        v[i, 2] -= j * ga[2]
     if last:
-        push_end(p, model, state, 2 * l + 1, jx, jy, jz)
+        push_end(p, model, state, 2 * l + 1, j * tx, j * ty, j * tz)
     else:
-        v[i + 1, 0] += wb * jx
-        v[i + 1, 1] += wb * jy
-        v[i + 1, 2] += wb * jz
+        v[i + 1, 0] += j * gb[0]
+        v[i + 1, 1] += j * gb[1]
+        v[i + 1, 2] += j * gb[2]
     # the kinetic energy the impulses took from each side, P.v + w P^2 / 2; a driven node's
     # velocity is its drive's, which pays that side (not in its reaction: a flow, not a load)
     taken_a = 0.0 if first and p.is_driven[model.attach_node[2 * l]] != 0.0 else j * ua - 0.5 * wa * j * j
@@ -164,6 +215,33 @@ def damp_element(p, model, state, e, i):
     v[i + 1, 1] += wb * dy
     v[i + 1, 2] += wb * dz
     return p.loss[e] * ud * s   # 1/2 (1 - c^2) u^2 / w
+
+
+@njit(**INLINE)   # as damp_element
+def damp_carried_element(p, model, state, e, i, tau):
+    """Update the velocities of interior vertices i, i+1 (element e) of a line that carries added
+    mass by the flow of its dashpot over tau; return the kinetic energy taken (of the line and
+    its water). On the chord d, with g = W d at each end: u = d (v_b - v_a) / |d|, w = d (g_a +
+    g_b) / |d|^2, and the impulse J d / |d| moves b by (c - 1) (d (v_b - v_a)) g_b / (d (g_a + g_b)):
+    only |d|^2 enters, but the decay c = exp(-c w tau / l0) is made here (w changes as the line
+    turns)."""
+    x, v = state.x, state.v
+    dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    ga, gb = carried_push(p.carried, i, dx, dy, dz), carried_push(p.carried, i + 1, dx, dy, dz)
+    wd = dx * (ga[0] + gb[0]) + dy * (ga[1] + gb[1]) + dz * (ga[2] + gb[2])   # w |d|^2
+    dd = dx * dx + dy * dy + dz * dz
+    if not (wd > 0.0 and dd > 0.0):
+        return 0.0
+    ud = dx * (v[i + 1, 0] - v[i, 0]) + dy * (v[i + 1, 1] - v[i, 1]) + dz * (v[i + 1, 2] - v[i, 2])
+    c = math.exp(-p.rate[e] * tau * wd / (dd * model.element_rest_length[e]))
+    s = (c - 1.0) * ud / wd
+    v[i, 0] -= s * ga[0]
+    v[i, 1] -= s * ga[1]
+    v[i, 2] -= s * ga[2]
+    v[i + 1, 0] += s * gb[0]
+    v[i + 1, 1] += s * gb[1]
+    v[i + 1, 2] += s * gb[2]
+    return 0.5 * (1.0 - c * c) * ud * ud / wd   # 1/2 (1 - c^2) u^2 / w
 
 
 @njit(**INNER)
@@ -206,9 +284,29 @@ def damp_stretching(p, model, state, h):
             e0, e1 = eo[l], eo[l + 1]
             if odd == 0 and p.rate[e0] > 0.0:
                 lost += damp_end_element(p, model, state, l, e0, vo[l], tau)
-            for e in range(e0 + 2 - odd, e1 - 1, 2):   # an interior element of rate 0 has gain 0
-                lost += damp_element(p, model, state, e, vo[l] + e - e0)
+            if CARRIED and p.carried_vertex[vo[l]] != 0:
+                for e in range(e0 + 2 - odd, e1 - 1, 2):
+                    lost += damp_carried_element(p, model, state, e, vo[l] + e - e0, tau)
+            else:
+                for e in range(e0 + 2 - odd, e1 - 1, 2):   # an interior element of rate 0 has gain 0
+                    lost += damp_element(p, model, state, e, vo[l] + e - e0)
             last = e1 - 1
             if last > e0 and (last - e0) % 2 == odd and p.rate[last] > 0.0:
                 lost += damp_end_element(p, model, state, l, last, vo[l] + last - e0, tau)
     p.dissipated[0] += lost
+
+
+def _register(cls, kernels):
+    flow_kernel(cls)(kernels["damp_stretching"])
+
+
+VARIANTS = Variants(InternalDampingParams, lambda: (sys.modules[__name__],), OPTIONS, _register, __name__)
+
+
+def damping_record(p):
+    """``p`` (an InternalDampingParams) as the record of the variant its data needs, sharing its
+    arrays: CARRIED where some damped vertex or node carries a fluid's added mass."""
+    return VARIANTS.record(p, (carries(p),))
+
+
+__getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -461,6 +461,9 @@ class Fluid(Effect):
                     node[nd] += a[i]
         return (vertex, node) if np.any(vertex) or np.any(node) else None
 
+    def adds_mass(self) -> bool:
+        return bool(np.any(self.added_coefficients)) or bool(np.any(self.buoys[3]))
+
     def carried_mass(self, p, on: Binding):
         """The vertices of the lines that carry an added mass across or along them, the free
         nodes at their ends, and the nodes of buoys with an added mass."""

@@ -8,7 +8,8 @@ from ..core import checks, samples
 from ..core.units import STRAIN_DAMPING, nonnegative
 from ..engine.bounds import index_error
 from ..engine.registry import Binding, Effect, Key
-from ..kernels.strain_damping import InternalDampingParams
+from ..kernels.strain_damping import InternalDampingParams, damping_record
+from .carried import carried_rows, table_error as carried_error
 from .contact import chosen_lines
 from .drives import driven_nodes
 
@@ -34,7 +35,8 @@ class InternalDamping(Effect):
     Integrated as an exact flow of each element in turn, so stable at any dt; momentum is
     kept, and the kinetic energy taken is ``dissipated(sim)``, part of ``sim.dissipated()`` (at
     a driven node, its drive pays what the dashpot takes there, which neither account holds,
-    nor the drive's reaction).
+    nor the drive's reaction). On lines that carry a fluid's added mass, the dashpot moves them
+    by that mass, as the kick does (it then runs after the fluid, whatever the order declared).
     Bending, twisting and shearing rates are not damped."""
 
     kind = "internal_damping"
@@ -43,6 +45,7 @@ class InternalDamping(Effect):
             Key("lines", "lines", doc="the damped lines (default: all)"))
     record = InternalDampingParams
     free_integers = ("turn",)   # which half of the kick is next, compared
+    reads_added_mass = True     # its impulses move wet lines by the fluid's sampled masses
 
     @classmethod
     def example(cls):
@@ -57,7 +60,7 @@ class InternalDamping(Effect):
                 or p.turn.shape != (1,)):
             return ("internal_damping: rate, weight, gain and loss need one entry per element, node_weight, "
                     "node_turn, is_driven and held one row per node")
-        return index_error("internal_damping.driven", p.driven, nn)
+        return carried_error(p, model, "internal_damping") or index_error("internal_damping.driven", p.driven, nn)
 
     def __init__(self, axial: float | None = None, *, ratio: float | None = None, lines=None):
         if (axial is None) == (ratio is None):
@@ -93,10 +96,12 @@ class InternalDamping(Effect):
         turn = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=free)   # a point junction: no arm to turn
         ne, nn = m.element_rest_length.shape[0], m.node_mass.shape[0]
         pair = pair_weights(m)
-        return InternalDampingParams(self.element_rates(on, pair), weight, turn,
-                                     np.flatnonzero(driven).astype(np.int64), driven.astype(float),
-                                     np.zeros((nn, 6)), pair, np.zeros(ne), np.zeros(ne),
-                                     np.full(1, np.nan), np.zeros(1, dtype=np.int64), np.zeros(1))
+        lines = chosen_lines(on, self.lines, "InternalDamping")
+        carried = carried_rows(on, "InternalDamping", lines, [n for ln in lines for n in (ln.start, ln.end)], weight)
+        return damping_record(InternalDampingParams(
+            self.element_rates(on, pair), weight, turn, np.flatnonzero(driven).astype(np.int64),
+            driven.astype(float), np.zeros((nn, 6)), pair, np.zeros(ne), np.zeros(ne), np.full(1, np.nan),
+            np.zeros(1, dtype=np.int64), np.zeros(1), **carried))
 
     def dissipated(self, sim) -> float:
         """Kinetic energy the dashpots have taken so far (J)."""

@@ -118,6 +118,9 @@ class Effect:
     # prescribed motion), "actuation" (sim.actuation_work(): active lines) or "load"
     # (sim.load_work(): declared loads); None: no work account
     work_kind: str | None = None
+    # whether its kernels move the net by the masses an effect that adds_mass gives it (read
+    # from that effect's record): it then binds and runs after such effects
+    reads_added_mass = False
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -195,6 +198,12 @@ class Effect:
         and node in every direction (a fluid's added mass), which lowers the frequencies and
         lengthens the stable step; None when it adds none."""
         return None
+
+    def adds_mass(self) -> bool:
+        """Whether this effect, as declared, may give the net a mass the kick divides by
+        besides the model's (a fluid's added mass): effects that read it (reads_added_mass)
+        bind and run after it."""
+        return False
 
     def carried_mass(self, p, on: Binding):
         """(vertex, node) bool arrays (nv,), (nn,): where the kick sees a mass other than the
@@ -434,6 +443,16 @@ def _load(ep):
     if cls.kind != ep.name:
         raise ValueError(f"{where} declares kind {cls.kind!r}; the entry point's name must be its kind")
     return cls
+
+
+def after_added_mass(effects: list) -> list:
+    """``effects`` in the order a simulation binds and runs them: as declared, but that an
+    effect which reads_added_mass comes after the last one that adds_mass (a dashpot declared
+    before the fluid whose added mass it moves the lines by; the flows run in this order)."""
+    last = max((i for i, e in enumerate(effects) if e.adds_mass()), default=-1)
+    head = effects[:last + 1]
+    return ([e for e in head if not e.reads_added_mass] + [e for e in head if e.reads_added_mass]
+            + effects[last + 1:])
 
 
 def carried_by(on: Binding, who: str, lines, nodes):

@@ -15,7 +15,7 @@ from .. import kernels  # noqa: F401  (package import; registers nothing)
 from . import checkpoint, linearised, measure
 from ..core import fast_modes as _fast
 from .checkpoint import fingerprint
-from .registry import ACCOUNTS, Binding, Effect, implied_effects
+from .registry import ACCOUNTS, Binding, Effect, after_added_mass, implied_effects
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
@@ -129,7 +129,7 @@ class Simulation:
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
-        self.effects += implied_effects(net, self.grids)
+        self.effects = after_added_mass(self.effects) + implied_effects(net, self.grids)
         on = Binding(net, self.model, self.state, tuple(self.effects))
         bound: list = []
         for e in self.effects:   # in order: an effect may share arrays of one bound before it (sliders, a fluid's)
