@@ -16,8 +16,9 @@ factor over time) plus linear (Airy) waves. What the medium does to a line split
   (t its tangent), the kick's forces are divided by it, and the flows above use it; where
   a_n and a_t differ, the fluid turning with the line adds forces of its own (both in
   kernels/added_mass.py).
-Drag runs once a kick, before it on one kick and after it on the next, so that two steps
-form a symmetric sequence (flow_fluid; p.turn remembers where it is).
+Drag runs as half flows on both sides of every kick, mirrored (flow_fluid; p.turn remembers
+which side is next), so that every step is a symmetric sequence: stable however stiff the drag
+against the step, up to the step's own limit.
 Lines are listed by row (p.lines); quantities per unit rest length are per row. Vertical is
 +z; the free surface, when there is one, is the plane z = p.surface at rest.
 """
@@ -87,7 +88,7 @@ class FluidParams(NamedTuple):
     decay: np.ndarray        # (2, nv) scratch of the linear law: exp(-c h l / m) across and along the line at each
                              # wet interior vertex for a flow of h = decay_h (drag_vertices)
     decay_h: np.ndarray      # (1,) the h of decay (nan: none yet)
-    turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side drag runs on
+    turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
     supplied: np.ndarray     # (1,) work a moving medium has done so far (drag and inertia force)
     buoy: np.ndarray         # (nn,) int64 each node's buoy row (a volume of its own in the medium), -1: none
@@ -997,19 +998,21 @@ def push_medium(p, model, state, h, still):
 @flow_kernel(FluidParams)
 @njit(**STEP)
 def flow_fluid(p, model, state, h):
-    """Update state.v, state.node_v, state.node_w by what the medium does over a kick of 2 h
-    beside the kick's loads: drag and the forces of position and time the kick does not
-    carry (the medium's inertia force at the lines' vertices; the nodes' upthrust and inertia
-    force), once a kick, before it on one kick and after it on the next (p.turn: bit 0 the
-    half, bit 1 the side), so that two steps form a symmetric sequence (second order) and a
-    step costs one drag flow instead of two half ones; p.dissipated and p.supplied by their
-    work (the medium's own kinetic energy through the added mass counted as the line's).
-    Before the kick, the medium is sampled: a new sample changes the added mass (the lines
-    turned, entered or left the water since the last kick) at the velocities of the drift
-    between: the entrained fluid's kinetic energy then changes by work Morison's M v' = f
-    leaves out of its forces, counted in p.supplied, so the energy balance still closes."""
+    """Update state.v, state.node_v, state.node_w by what the medium does over half a kick, h,
+    beside the kick's loads: drag and the forces of position and time the kick does not carry
+    (the medium's inertia force at the lines' vertices; the nodes' upthrust and inertia force),
+    on both sides of every kick, mirrored (before it drag then the forces, after it the forces
+    then drag; p.turn: the side), so that every step is a symmetric sequence (second order).
+    Run once a kick for the kick's length, alternately before and after it, a stiff drag (a
+    dashpot whose rate times the step is of order one, near the step's own limit) made the
+    pair of steps unstable, as a split of any exact flow does so placed. p.dissipated and
+    p.supplied follow their work (the medium's own kinetic energy through the added mass
+    counted as the line's). Before the kick, the medium is sampled: a new sample changes the
+    added mass (the lines turned, entered or left the water since the last kick) at the
+    velocities of the drift between: the entrained fluid's kinetic energy then changes by work
+    Morison's M v' = f leaves out of its forces, counted in p.supplied, so the energy balance
+    still closes."""
     after = p.turn[0] & 1
-    side = (p.turn[0] >> 1) & 1
     still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
     if after == 0:   # in a still medium, the lines' share of the change is the sample's own
         if CARRIES and has_added_mass(p):
@@ -1024,12 +1027,11 @@ def flow_fluid(p, model, state, h):
             sample_medium(p, model, state)
             if CARRIES and p.buoy_node.shape[0] > 0:
                 sample_buoys(p, state, state.clock[0])
-    if side == after:
-        if after == 1:
-            push_medium(p, model, state, 2.0 * h, still)
-        drag_vertices(p, model, state, 2.0 * h)
-        drag_nodes(p, model, state, 2.0 * h)
-        if after == 0:
-            push_medium(p, model, state, 2.0 * h, still)
-    p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
+    if after == 1:
+        push_medium(p, model, state, h, still)
+    drag_vertices(p, model, state, h)
+    drag_nodes(p, model, state, h)
+    if after == 0:
+        push_medium(p, model, state, h, still)
+    p.turn[0] = 1 - after
 

@@ -22,12 +22,14 @@ summed over the two ends. The same flow, with those w, is exact for those masses
 the kinetic energy of the line and the water it carries (the record shares the fluid's
 sampled arrays, cosnet/effects/carried.py; the variant without CARRIED compiles the scalar
 formulas alone).
-The dashpots run once a kick, for the kick's length: before it on one kick, taking the even
-elements then the odd, and after it on the next, the odd then the even (p.turn), so that two
-kicks form the symmetric sequence F_eo K D ... D K F_oe (the splitting's order 2, at half the
-cost of half flows on both sides of every kick). The interior elements' decay factors are made
-once for the kick's length (p.decay_h), and take no square root (the chord's length enters
-only squared).
+The dashpots run as half flows on both sides of every kick, mirrored: before it the even
+elements then the odd, after it the odd then the even (p.turn), so that every step is the
+symmetric sequence F_eo K F_oe D (order 2). Run once a kick for the kick's length, alternately
+before and after it, a dashpot stiff against the step (its rate times the step of order one)
+made the pair of steps unstable near the step's own limit (a split of an exact flow so placed
+is not bounded by the kick and drift's stability); mirrored halves are. The interior elements'
+decay factors are made once for the half kick's length (p.decay_h), and take no square root
+(the chord's length enters only squared).
 """
 
 import math
@@ -63,7 +65,7 @@ class InternalDampingParams(NamedTuple):
     gain: np.ndarray         # (ne,) (c - 1) / w of those, c = exp(-c w tau / l0) for tau = decay_h
     loss: np.ndarray         # (ne,) -(1 + c) / 2 of those
     decay_h: np.ndarray      # (1,) the flow length of gain and loss (nan: none yet)
-    turn: np.ndarray         # (1,) int64: bit 0: 0 before a kick, 1 after; bit 1: the side the dashpots run on
+    turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) kinetic energy taken so far (J)
     carried_vertex: np.ndarray  # (nv,) 1 at the vertices of damped lines a fluid adds mass to
     carried_node: np.ndarray    # (nn,) 1 where the kick moves a node by the fluid's mass matrix
@@ -259,21 +261,17 @@ def make_decays(p, model, tau):
 @njit(**STEP)
 def damp_stretching(p, model, state, h):
     """Update state.v (and the nodes at line ends: node_v, node_w) by the flow of every
-    element's axial dashpot over the kick's length 2 h, once a kick: before it (even elements,
-    then odd) on one kick, after it (odd, then even) on the next (p.turn: bit 0 the half, bit 1
-    the side), so that two kicks form a symmetric sequence; p.dissipated by the kinetic energy
-    taken (module docstring); p.gain, p.loss follow the kick's length. Elements of rate 0 are
-    left alone."""
+    element's axial dashpot over half a kick, h, on both sides of every kick: before it even
+    elements then odd, after it odd then even (p.turn: the side), so that every step is a
+    symmetric sequence; p.dissipated by the kinetic energy taken (module docstring); p.gain,
+    p.loss follow h. Elements of rate 0 are left alone."""
     after = p.turn[0] & 1
-    side = (p.turn[0] >> 1) & 1
-    p.turn[0] = 1 | (side << 1) if after == 0 else (1 - side) << 1
+    p.turn[0] = 1 - after
     if after == 0:
         for nd in p.driven:
             for k in range(3):
                 p.held[nd, k], p.held[nd, 3 + k] = state.node_v[nd, k], state.node_w[nd, k]
-    if after != side:
-        return
-    tau = 2.0 * h
+    tau = h
     if tau != p.decay_h[0]:
         make_decays(p, model, tau)
     lost = 0.0

@@ -235,9 +235,10 @@ def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_tw
 
 
 def test_a_rod_swinging_in_water_converges_at_order_two_after_an_odd_number_of_steps():
-    # drag runs once a kick, before it on one step and after it on the next: only pairs of
-    # steps are symmetric, yet the positions after 13335 steps, and 26670 and 53340 of half and
-    # a quarter the size, still converge at order 2 (differences in the ratio 4)
+    # drag runs in halves on both sides of every kick, and the medium is sampled once a kick
+    # (p.turn: which side is next): the positions after an odd number of steps, 13335, and
+    # 26670 and 53340 of half and a quarter the size, converge at order 2 (differences in the
+    # ratio 4)
     def tip(steps):
         net, _, end = rod(((0.0, 0.0, 0.0), (math.sin(0.8), 0.0, -math.cos(0.8))), 3000.0, 0.02, 6, pin=True)
         fluid = cosnet.Fluid(RHO, velocity=(0.0, 0.2, 0.0), drag=(1.2, 0.2), added_mass=(1.0, 0.0), buoyancy=True)
