@@ -30,8 +30,8 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CARRIES, FluidParams, arm_spin, calm_medium, end_arm, has_added_mass,
-                    held_mass, node_free, sample_rows, split)
+from .fluid import CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, node_free, sample_rows, split
+from .fluid_step import arm_spin, held_mass
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
 

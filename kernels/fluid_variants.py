@@ -3,7 +3,7 @@ whose kernels are compiled without the parts that cannot act (kernels/specialise
 options are kernels.fluid.OPTIONS). A variant's record class is a FluidParams named by its
 options' bits (FluidParams_01), found by that name wherever a record is unpickled."""
 
-from . import added_mass, fluid
+from . import added_mass, fluid, fluid_step
 from .compose import flow_kernel, inertia_kernel
 from .fluid import OPTIONS, FluidParams
 from .specialise import Variants
@@ -14,7 +14,7 @@ def _register(cls, kernels):
     inertia_kernel(cls)(kernels["add_fluid_mass"])
 
 
-VARIANTS = Variants(FluidParams, lambda: (fluid, added_mass), OPTIONS, _register, __name__)
+VARIANTS = Variants(FluidParams, lambda: (fluid, fluid_step, added_mass), OPTIONS, _register, __name__)
 
 
 def options_of(p) -> tuple:

@@ -398,7 +398,7 @@ class Fluid(Effect):
     def potential(self, p, on: Binding) -> float:
         """Buoyancy's potential, -rho g A times the integral of min(z, surface) over each line's
         elements and the buoys' upthrust potential, plus the kinetic energy of the entrained
-        fluid (kernels/fluid.entrained_energy: 1/2 v^T M_a v, M_a the added mass of the present
+        fluid (kernels/fluid_step.entrained_energy: 1/2 v^T M_a v, M_a the added mass of the present
         positions; see entrained)."""
         m, x = on.model, on.state.x
         e = 0.0
@@ -494,7 +494,7 @@ class Fluid(Effect):
         return float(p.supplied[0]) + self.entrained(p, on, held=False) - self.entrained(p, on, held=True)
 
     def start(self, sim):
-        """Sample the medium at the positions a run starts from (kernels/fluid.sample_fluid):
+        """Sample the medium at the positions a run starts from (kernels/fluid_step.sample_fluid):
         the added mass the first kick's account starts from."""
         p = self.params(sim)
         typed_call(VARIANTS.of(p).kernel("sample_fluid"), p, sim.model, sim.state)
