@@ -74,3 +74,13 @@ def resumed(build, path, first: int, then: int):
     sim_of(again).load_checkpoint(path)
     sim_of(again).run(steps=then)
     return unbroken, again
+
+
+def balance_drift(sim, until: float, steps: int) -> float:
+    """The largest |balance - its start| of ``sim`` run to ``until`` in runs of ``steps``
+    (sim.balance(): energy and every account, constant but for the scheme's error)."""
+    start, worst = sim.balance(), 0.0
+    while sim.time < until:
+        sim.run(steps=steps)
+        worst = max(worst, abs(sim.balance() - start))
+    return worst

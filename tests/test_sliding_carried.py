@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import cosnet
-from nets import resumed
+from nets import balance_drift, resumed
 
 RHO = 1025.0
 ADDED = (1.0, 0.5)   # across and along: unequal, so the fluid turns with the lines too
@@ -87,11 +87,7 @@ def test_a_net_in_water_with_an_eyelet_and_a_ring_keeps_energy_at_order_two():
     for factor in (0.8, 0.4):
         sim, nodes, rope = thrown(factor)
         sim.run(steps=0)   # the sliders catch their lines (a plastic impact, counted as dissipated)
-        start, worst = sim.balance(), 0.0
-        while sim.time < 0.3:
-            sim.run(steps=int(20 / factor))
-            worst = max(worst, abs(sim.balance() - start))
-        errors.append(worst)
+        errors.append(balance_drift(sim, 0.3, int(20 / factor)))
         energy = sim.energy()
         eyelet = nodes[1]
         assert abs(cosnet.slider_state(sim, eyelet)["s"] - 0.5) > 0.01   # the rope ran through it
