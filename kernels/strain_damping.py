@@ -71,6 +71,9 @@ class InternalDampingParams(NamedTuple):
     carried_node: np.ndarray    # (nn,) 1 where the kick moves a node by the fluid's mass matrix
     carried: np.ndarray         # (SAMPLE_ROWS, nv) the fluid's sample (kernels/fluid.py), shared; (0, 0): none
     carried_node_mass: np.ndarray  # (nn, 6) the fluid's node_mass, shared; (0, 6): none
+    carried_decay: np.ndarray   # (ne,) scratch: each element's decay c on a carried line as the flow before the
+                                # kick made it, which the flow after it takes again (the same positions and
+                                # masses: one exponential a kick); (0,) where no line is carried
 
 
 @njit(**INNER)
@@ -220,13 +223,13 @@ def damp_element(p, model, state, e, i):
 
 
 @njit(**INLINE)   # as damp_element
-def damp_carried_element(p, model, state, e, i, tau):
+def damp_carried_element(p, model, state, e, i, tau, after):
     """Update the velocities of interior vertices i, i+1 (element e) of a line that carries added
     mass by the flow of its dashpot over tau; return the kinetic energy taken (of the line and
     its water). On the chord d, with g = W d at each end: u = d (v_b - v_a) / |d|, w = d (g_a +
     g_b) / |d|^2, and the impulse J d / |d| moves b by (c - 1) (d (v_b - v_a)) g_b / (d (g_a + g_b)):
     only |d|^2 enters, but the decay c = exp(-c w tau / l0) is made here (w changes as the line
-    turns)."""
+    turns; after the kick, the one before it, p.carried_decay)."""
     x, v = state.x, state.v
     dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
     ga, gb = carried_push(p.carried, i, dx, dy, dz), carried_push(p.carried, i + 1, dx, dy, dz)
@@ -235,7 +238,11 @@ def damp_carried_element(p, model, state, e, i, tau):
     if not (wd > 0.0 and dd > 0.0):
         return 0.0
     ud = dx * (v[i + 1, 0] - v[i, 0]) + dy * (v[i + 1, 1] - v[i, 1]) + dz * (v[i + 1, 2] - v[i, 2])
-    c = math.exp(-p.rate[e] * tau * wd / (dd * model.element_rest_length[e]))
+    if after == 0:
+        c = math.exp(-p.rate[e] * tau * wd / (dd * model.element_rest_length[e]))
+        p.carried_decay[e] = c
+    else:
+        c = p.carried_decay[e]
     s = (c - 1.0) * ud / wd
     v[i, 0] -= s * ga[0]
     v[i, 1] -= s * ga[1]
@@ -284,7 +291,7 @@ def damp_stretching(p, model, state, h):
                 lost += damp_end_element(p, model, state, l, e0, vo[l], tau)
             if CARRIED and p.carried_vertex[vo[l]] != 0:
                 for e in range(e0 + 2 - odd, e1 - 1, 2):
-                    lost += damp_carried_element(p, model, state, e, vo[l] + e - e0, tau)
+                    lost += damp_carried_element(p, model, state, e, vo[l] + e - e0, tau, after)
             else:
                 for e in range(e0 + 2 - odd, e1 - 1, 2):   # an interior element of rate 0 has gain 0
                     lost += damp_element(p, model, state, e, vo[l] + e - e0)

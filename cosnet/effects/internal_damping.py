@@ -60,6 +60,8 @@ class InternalDamping(Effect):
                 or p.turn.shape != (1,)):
             return ("internal_damping: rate, weight, gain and loss need one entry per element, node_weight, "
                     "node_turn, is_driven and held one row per node")
+        if p.carried_vertex.any() and p.carried_decay.shape != (ne,):
+            return "internal_damping: carried_decay needs one entry per element where a line carries added mass"
         return carried_error(p, model, "internal_damping") or index_error("internal_damping.driven", p.driven, nn)
 
     def __init__(self, axial: float | None = None, *, ratio: float | None = None, lines=None):
@@ -101,7 +103,8 @@ class InternalDamping(Effect):
         return damping_record(InternalDampingParams(
             self.element_rates(on, pair), weight, turn, np.flatnonzero(driven).astype(np.int64),
             driven.astype(float), np.zeros((nn, 6)), pair, np.zeros(ne), np.zeros(ne), np.full(1, np.nan),
-            np.zeros(1, dtype=np.int64), np.zeros(1), **carried))
+            np.zeros(1, dtype=np.int64), np.zeros(1), **carried,
+            carried_decay=np.zeros(ne if carried["carried_vertex"].any() else 0)))
 
     def dissipated(self, sim) -> float:
         """Kinetic energy the dashpots have taken so far (J)."""
