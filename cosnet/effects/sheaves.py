@@ -20,6 +20,7 @@ class Sheaves(Effect):
     """The sheaves of a net (cosnet.core.sliding.Sheave each)."""
 
     record = SheaveParams
+    reads_added_mass = True    # its impulses move wet lines by the fluid's sampled masses
 
     @property
     def internal(self) -> bool:

@@ -21,6 +21,7 @@ class Sliders(Effect):
     """The rings and eyelets of a net (cosnet.core.sliding.Slider each)."""
 
     record = SlidingParams
+    reads_added_mass = True    # its impulses move wet lines by the fluid's sampled masses
     none_if_negative = ("corner",)   # no passage pending
 
     @property
