@@ -30,8 +30,9 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, node_free, sample_rows, split
-from .fluid_step import arm_spin, held_mass
+from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, node_free, sample_rows, split,
+                    still_medium)
+from .fluid_step import add_node_upthrust, arm_spin, held_mass, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
 
@@ -257,7 +258,8 @@ def divide_line(f, S, vmass, first, n, up):
 def add_fluid_mass(p, model, state, arg):
     """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
     given arg = (loads, h), the kick's loads and length: the upthrust (as sample_upthrust
-    found it) and the turning fluid's forces added (add_turning_forces), then all turned so
+    found it; in a still medium the nodes' too, with its torque in loads.node_tau:
+    add_node_upthrust) and the turning fluid's forces added (add_turning_forces), then all turned so
     that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line parts (the
     vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends). (Each
     line's interior in one pass: the upthrust alone where it carries no added mass, else
@@ -266,6 +268,8 @@ def add_fluid_mass(p, model, state, arg):
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
+    if still_medium(p) and lifts_nodes(p):
+        add_node_upthrust(p, model, state, loads)
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and p.added_n[j] == 0.0 and p.added_t[j] == 0.0:

@@ -72,10 +72,9 @@ def held_mass(p, model, nd, added):
 
 
 @njit(**INNER)
-def pushes_nodes(p):
-    """Whether the forces of position and time reach the nodes: upthrust on a line or a buoy,
-    or a medium that moves (its inertia force)."""
-    if not still_medium(p) or p.buoy_node.shape[0] > 0:
+def lifts_nodes(p):
+    """Whether the upthrust reaches the nodes: on a line's ends or on a buoy."""
+    if p.buoy_node.shape[0] > 0:
         return True
     for j in range(p.buoyancy.shape[0]):
         if p.buoyancy[j] != 0.0:
@@ -116,36 +115,45 @@ def arm_spin(state, nd, r):
 
 
 @njit(**INNER)
+def node_forces(p, model, state, nd):
+    """Return (force, the medium's inertia force's share of it, torque about the centre of
+    mass), each lab, of the forces of position and time on free node nd: the upthrust and the
+    inertia force on its wet line ends, and its buoy's at its centre of mass."""
+    fx = fy = fz = ix = iy = iz = tx = ty = tz = 0.0
+    for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        a = model.node_attach_list[s]
+        j, wet, r, tan, _, _, acc = node_end(p, model, state, a)
+        if j < 0:
+            continue
+        l = a // 2
+        lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
+        fb, fi = vertex_force(p, model, state, j, l, model.attach_vertex[a], lo, hi, tan, wet, acc)
+        gx, gy, gz = fb[0] + fi[0], fb[1] + fi[1], fb[2] + fi[2]
+        fx, fy, fz = fx + gx, fy + gy, fz + gz
+        ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
+        c = cross(r[0], r[1], r[2], gx, gy, gz)
+        tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
+    b = buoy_of(p, nd) if CARRIES else -1
+    if CARRIES and b >= 0:   # at the centre of mass: its upthrust, the medium's inertia force rho V f (1 + C_a) A
+        f = p.buoy_sample[b, 0]
+        mi = f * (p.medium[0] * p.buoy_volume[b] + p.buoy_added[b])
+        ix, iy, iz = ix + mi * p.buoy_sample[b, 4], iy + mi * p.buoy_sample[b, 5], iz + mi * p.buoy_sample[b, 6]
+        fx, fy = fx + mi * p.buoy_sample[b, 4], fy + mi * p.buoy_sample[b, 5]
+        fz += mi * p.buoy_sample[b, 6] + f * p.medium[0] * p.medium[1] * p.buoy_volume[b]
+    return (fx, fy, fz), (ix, iy, iz), (tx, ty, tz)
+
+
+@njit(**INNER)
 def push_nodes(p, model, state, h):
     """Update the free nodes' velocities and angular velocities by the impulse h of the forces
-    of position and time on their line ends (through the added mass; the torque about the
-    centre of mass); p.supplied by the inertia force's work. (Called where pushes_nodes.)"""
+    of position and time on them in a moving medium (node_forces; through the added mass; the
+    torque about the centre of mass); p.supplied by the inertia force's work."""
     added = has_added_mass(p)
     supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd):
             continue
-        fx = fy = fz = ix = iy = iz = tx = ty = tz = 0.0
-        for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            a = model.node_attach_list[s]
-            j, wet, r, tan, _, _, acc = node_end(p, model, state, a)
-            if j < 0:
-                continue
-            l = a // 2
-            lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
-            fb, fi = vertex_force(p, model, state, j, l, model.attach_vertex[a], lo, hi, tan, wet, acc)
-            gx, gy, gz = fb[0] + fi[0], fb[1] + fi[1], fb[2] + fi[2]
-            fx, fy, fz = fx + gx, fy + gy, fz + gz
-            ix, iy, iz = ix + fi[0], iy + fi[1], iz + fi[2]
-            c = cross(r[0], r[1], r[2], gx, gy, gz)
-            tx, ty, tz = tx + c[0], ty + c[1], tz + c[2]
-        b = buoy_of(p, nd) if CARRIES else -1
-        if CARRIES and b >= 0:   # at the centre of mass: its upthrust, the medium's inertia force rho V f (1 + C_a) A
-            f = p.buoy_sample[b, 0]
-            mi = f * (p.medium[0] * p.buoy_volume[b] + p.buoy_added[b])
-            ix, iy, iz = ix + mi * p.buoy_sample[b, 4], iy + mi * p.buoy_sample[b, 5], iz + mi * p.buoy_sample[b, 6]
-            fx, fy = fx + mi * p.buoy_sample[b, 4], fy + mi * p.buoy_sample[b, 5]
-            fz += mi * p.buoy_sample[b, 6] + f * p.medium[0] * p.medium[1] * p.buoy_volume[b]
+        (fx, fy, fz), (ix, iy, iz), (tx, ty, tz) = node_forces(p, model, state, nd)
         if fx == 0.0 and fy == 0.0 and fz == 0.0 and tx == 0.0 and ty == 0.0 and tz == 0.0:
             continue
         a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, added)
@@ -156,6 +164,20 @@ def push_nodes(p, model, state, h):
             vn[k] += dv[k]
         turn_node(model, state, nd, h * tx, h * ty, h * tz)
     p.supplied[0] += supplied
+
+
+@njit(**INNER)
+def add_node_upthrust(p, model, state, loads):
+    """Update loads.node_f and loads.node_tau (lab) at the free nodes by the forces on them in a
+    still medium: the upthrust on their wet line ends and buoys (node_forces; the inertia force
+    is nil there), a load of the kick as the lines' own upthrust is (kernels/added_mass.py),
+    divided by the node's mass with the rest."""
+    for nd in range(model.node_mass.shape[0]):
+        if node_free(p, model, nd):
+            f, _, t = node_forces(p, model, state, nd)
+            for k in range(3):
+                loads.node_f[nd, k] += f[k]
+                loads.node_tau[nd, k] += t[k]
 
 
 @njit(**CACHED, inline="always")
@@ -338,10 +360,11 @@ def sample_fluid_nodes(p, model, state):
 @njit(**CACHED, inline="always")
 def push_medium(p, model, state, h, still):
     """Update the velocities by the impulse h of the forces of position and time the kick does
-    not carry: the medium's inertia force at the lines' vertices, what reaches the nodes."""
+    not carry, in a moving medium: its inertia force at the lines' vertices, and the forces on
+    the nodes (in a still medium, the upthrust on the nodes is a load of the kick:
+    add_node_upthrust)."""
     if MOVING and not still:
         push_vertices(p, model, state, h)
-    if pushes_nodes(p):
         push_nodes(p, model, state, h)
 
 

@@ -332,7 +332,7 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
     from numba import njit, typeof
 
     import cosnet
-    from cosnet.kernels import added_mass, fluid, fluid_variants
+    from cosnet.kernels import added_mass, fluid, fluid_step, fluid_variants
     from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
     from cosnet.kernels.layout import empty_loads, record_type
     net = cosnet.Net()
@@ -350,7 +350,7 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
         njit(**{k: v for k, v in kernel.targetoptions.items() if k != "nopython"})(kernel.py_func).compile(
             (typeof(p), model, state, last))
     variant = fluid_variants.VARIANTS.of(p)
-    kernels = {**{n: f for m in (fluid, added_mass) for n, f in vars(m).items() if hasattr(f, "overloads")},
+    kernels = {**{n: f for m in (fluid, fluid_step, added_mass) for n, f in vars(m).items() if hasattr(f, "overloads")},
                **variant.family}
     rec = typeof(p)
     typed = {n for n, f in kernels.items() if any(rec in sig for sig in f.overloads)}
