@@ -174,10 +174,15 @@ def damp_end_element(p, model, state, l, e, i, tau):
     bx, by, bz = end_velocity(p, model, state, 2 * l + 1) if last else (v[i + 1, 0], v[i + 1, 1], v[i + 1, 2])
     ua, ub = tx * ax + ty * ay + tz * az, tx * bx + ty * by + tz * bz
     u = ub - ua
-    ga = (0.0, 0.0, 0.0, end_weight(p, model, state, 2 * l, tx, ty, tz)) if first else vertex_push(p, model, i, tx,
-                                                                                                    ty, tz)
-    gb = (0.0, 0.0, 0.0, end_weight(p, model, state, 2 * l + 1, tx, ty, tz)) if last else vertex_push(p, model, i + 1,
-                                                                                                       tx, ty, tz)
+    # each end's W t and t^T W t (an end on a node: its node moves, push_end)
+    if first:
+        ga = (0.0, 0.0, 0.0, end_weight(p, model, state, 2 * l, tx, ty, tz))
+    else:
+        ga = vertex_push(p, model, i, tx, ty, tz)
+    if last:
+        gb = (0.0, 0.0, 0.0, end_weight(p, model, state, 2 * l + 1, tx, ty, tz))
+    else:
+        gb = vertex_push(p, model, i + 1, tx, ty, tz)
     wa, wb = ga[3], gb[3]
     w = wa + wb
     if not w > 0.0:
