@@ -372,9 +372,9 @@ def push_medium(p, model, state, h, still):
 @njit(**STEP)
 def flow_fluid(p, model, state, h):
     """Update state.v, state.node_v, state.node_w by what the medium does over half a kick, h,
-    beside the kick's loads: drag and the forces of position and time the kick does not carry
-    (the medium's inertia force at the lines' vertices; the nodes' upthrust and inertia force),
-    on both sides of every kick, mirrored (before it drag then the forces, after it the forces
+    beside the kick's loads: drag and, in a moving medium, the forces of position and time the
+    kick does not carry (its inertia force at the lines' vertices, the forces on the nodes:
+    push_medium), on both sides of every kick, mirrored (before it drag then the forces, after it the forces
     then drag; p.turn: the side), so that every step is a symmetric sequence (second order).
     Run once a kick for the kick's length, alternately before and after it, a stiff drag (a
     dashpot whose rate times the step is of order one, near the step's own limit) made the
