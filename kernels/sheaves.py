@@ -311,10 +311,8 @@ def wrap_after_kick(p, model, state, arg):
                         ws = sx * ks[0] + sy * ks[1] + sz * ks[2] + mu * ns
                         rate = slip_rate(arg[0], v, nd, times(wv, sx, sy, sz), times(wn, sx, sy, sz))
                     else:
-                        ws = w
-                        f, fn = arg[0].f, arg[0].node_f
-                        rate = (inverse_mass(p, model, p.line[j], v) * (f[v, 0] * sx + f[v, 1] * sy + f[v, 2] * sz)
-                                - p.node_weight[nd] * (fn[nd, 0] * sx + fn[nd, 1] * sy + fn[nd, 2] * sz))
+                        ws, a, b = w, inverse_mass(p, model, p.line[j], v), p.node_weight[nd]
+                        rate = slip_rate(arg[0], v, nd, (a * sx, a * sy, a * sz), (b * sx, b * sy, b * sz))
                     jt, p.sliding[v] = friction_impulse(slip, ws, normal, h, p.damping[j], p.mu_s[j], p.mu_k[j],
                                                         p.sliding[v])
                     before = slip - h * rate

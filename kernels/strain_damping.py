@@ -42,7 +42,7 @@ from numba import njit
 from .backend import STEP
 from .compiler import INLINE, INNER
 from .compose import flow_kernel
-from .fluid import INVERSE_ROW, TANGENT_ROW
+from .fluid import INVERSE_ROW, TANGENT_ROW, split
 from .motion import place_line_end
 from .rotations import cross, quat_rotate, quat_rotate_inv
 from .sliding import carries, node_tensor, times
@@ -152,10 +152,8 @@ def vertex_push(p, model, i, tx, ty, tz):
 def carried_push(S, i, dx, dy, dz):
     """Return W d at interior vertex i of a line that carries added mass, W = w_n (1 - s s^T) +
     w_t s s^T with s, w_n, w_t the fluid's sample rows (S: p.carried)."""
-    sx, sy, sz = S[TANGENT_ROW, i], S[TANGENT_ROW + 1, i], S[TANGENT_ROW + 2, i]
-    wn, wt = S[INVERSE_ROW, i], S[INVERSE_ROW + 1, i]
-    c = (wt - wn) * (sx * dx + sy * dy + sz * dz)
-    return wn * dx + c * sx, wn * dy + c * sy, wn * dz + c * sz
+    return split(S[INVERSE_ROW, i], S[INVERSE_ROW + 1, i], dx, dy, dz, S[TANGENT_ROW, i], S[TANGENT_ROW + 1, i],
+                 S[TANGENT_ROW + 2, i])
 
 
 @njit(**INNER)

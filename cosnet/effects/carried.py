@@ -1,7 +1,7 @@
-"""The masses a constraint's impulses move a wet net by: where a fluid bound before adds mass
-to the lines or nodes a ring, eyelet or sheave holds, the kick divides by that mass, and the
-constraint's record shares the fluid's sampled arrays so that its impulses are the ones that
-mass takes (kernels/sliding.py, kernels/sheaves.py)."""
+"""The masses an effect's impulses move a wet net by: where a fluid bound before adds mass to
+the lines or nodes a ring, eyelet, sheave or dashpot acts on, the kick divides by that mass,
+and the effect's record shares the fluid's sampled arrays so that its impulses are the ones
+that mass takes (kernels/sliding.py, kernels/sheaves.py, kernels/strain_damping.py)."""
 
 from __future__ import annotations
 

@@ -65,10 +65,7 @@ class Sliders(Effect):
         problem = index_error("sliders.corner", p.corner[p.corner != -1], nv)
         if problem:
             return problem
-        problem = carried_error(p, model, "sliders")
-        if problem:
-            return problem
-        return None
+        return carried_error(p, model, "sliders")
 
     def __init__(self, sliders):
         self.sliders = list(sliders)
