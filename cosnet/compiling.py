@@ -237,7 +237,7 @@ def compile_kick(path, threads: int | None):
     from numba import types
 
     from .kernels import layout
-    from .kernels.compose import bind_slots
+    from .kernels.compose import bind_slots, step_kernels
     from .kernels.slots import pointers_type
     from .kernels.stepping import compile_orders, kick_loads
     from .output.record import kernels_compiled
@@ -256,7 +256,7 @@ def compile_kick(path, threads: int | None):
         kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
     slots = sim.step_records[3]
     bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel,
-               compile_orders(len(slots))[1])
+               compile_orders(step_kernels(sim.step_records[:3]))[1])
 
 
 @contextlib.contextmanager

@@ -259,6 +259,43 @@ def _describe(value):
             getattr(py, "cosnet_options", None))   # (kernels/specialise.py: its compile-time options)
 
 
+def code_weight(kernel) -> int:
+    """The bytes of Python bytecode in ``kernel`` (a njit function) and in every cosnet
+    function it reaches (through its names, its closure cells, the typers of the intrinsics
+    it calls), each counted once: known before compiling anything, and in the order of their
+    compile times (an obstacle's line contact against gravity: seventy times the bytecode,
+    twenty times the seconds), so that two processes sharing a queue take the long ones first."""
+    import types as pytypes
+
+    from numba.core.extending import _Intrinsic
+    seen: set = set()
+    total, stack = 0, [kernel]
+    while stack:
+        obj = stack.pop()
+        if isinstance(obj, numba.core.dispatcher.Dispatcher):
+            obj = obj.py_func
+        elif isinstance(obj, _Intrinsic):
+            obj = obj._defn
+        elif isinstance(obj, (tuple, list)):
+            stack.extend(obj)
+            continue
+        if not isinstance(obj, pytypes.FunctionType) or id(obj) in seen or not obj.__module__.startswith("cosnet"):
+            continue
+        seen.add(id(obj))
+        for cell in obj.__closure__ or ():
+            try:
+                stack.append(cell.cell_contents)
+            except ValueError:   # a cell not yet filled
+                pass
+        codes = [obj.__code__]
+        while codes:
+            code = codes.pop()
+            total += len(code.co_code)
+            codes.extend(c for c in code.co_consts if isinstance(c, pytypes.CodeType))
+            stack.extend(obj.__globals__[n] for n in code.co_names if n in obj.__globals__)
+    return total
+
+
 def in_cache(dispatcher, sig) -> bool:
     """Whether numba's cache on disk holds ``dispatcher`` compiled for the argument types
     ``sig`` (read from its index, which numba keeps private: an index absent or stale reads

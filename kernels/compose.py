@@ -195,6 +195,13 @@ def _source_stamp(kernel):
     return (st.st_mtime, st.st_size)
 
 
+def step_kernels(records) -> list:
+    """The slot kernels of a step of ``records`` (three tuples of effect records), a njit
+    function each, in slot order: CORE's, then a wrapper per effect hook (slot_wrapper)."""
+    layout = slot_layout([tuple(type(r) for r in group) for group in records])
+    return list(CORE) + [slot_wrapper(kernel, k) for k, _, _, kernel in layout]
+
+
 def empty_slots(records) -> np.ndarray:
     """The slots of a step of ``records`` (three tuples of effect records), unbound: a step
     called with them raises rather than calling anything."""

@@ -208,6 +208,36 @@ position = { rate = [0.0, 0.0, -0.1] }
     assert log.kernels == []
 
 
+def test_the_queue_two_processes_share_takes_the_longest_kernels_first():
+    """The run and the second process compile a step's slot kernels in one order, each every
+    kernel once, the drift's first for the run (frame 0 needs it) and last for the other; the
+    rest by their bytecode, the longest first: a line-obstacle contact with friction (6.6 s
+    to compile here) before the kick's own kernels and gravity (0.4 s), so that neither ends
+    waiting for the other to finish a long kernel taken last."""
+    import cosnet
+    from cosnet.kernels.compiler import code_weight
+    from cosnet.kernels.compose import step_kernels
+    from cosnet.kernels.stepping import compile_orders, drift_positions_at, start_loads_at
+    net = cosnet.Net()
+    a, b = net.add_node((0.0, 0.0, 1.0)), net.add_node((1.0, 0.0, 1.0))
+    rubber = cosnet.Material(E=1e7, poisson=0.3, density=1000.0)
+    net.add_line(a, b, material=rubber, section=cosnet.Circle(0.01), elements=4)
+    drum = cosnet.Obstacle("capsule", start=(0.5, -0.1, 0.0), end=(0.5, 0.1, 0.0), radius=0.1, k=1e6, gamma=24.0,
+                           mu_s=0.3, mu_k=0.3)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), drum])
+    kernels = step_kernels(sim.step_records[:3])
+    run, other = compile_orders(kernels)
+    drift = kernels.index(drift_positions_at)
+    assert sorted(run) == sorted(other) == list(range(len(kernels)))
+    assert run[0] == other[-1] == drift and run[1:] == other[:-1]
+    weights = [code_weight(kernels[r]) for r in other[:-1]]
+    assert weights == sorted(weights, reverse=True)
+    names = [getattr(kernels[r], "slot_name", "") for r in other]
+    contact = next(i for i, n in enumerate(names) if n.endswith("add_line_obstacle"))
+    gravity = next(i for i, n in enumerate(names) if n.endswith("add_gravity"))
+    assert contact < other.index(kernels.index(start_loads_at)) and contact < gravity
+
+
 def test_the_process_compiling_alongside_ends_with_the_block(tmp_path, monkeypatch):
     """The second process is started only for a step not cached yet, and is gone when the
     block ends, finished or not."""

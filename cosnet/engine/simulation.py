@@ -19,7 +19,7 @@ from .registry import ACCOUNTS, Binding, Effect, after_added_mass, implied_effec
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
-from ..kernels.compose import bind_slots, empty_slots
+from ..kernels.compose import bind_slots, empty_slots, step_kernels
 from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders,
@@ -295,7 +295,7 @@ class Simulation:
         model, state, loads, _, _, _, backend = self.step_signature()
         slots = self.step_records[3]
         bind_slots(slots, self.step_records[:3], model, state, loads, backend, self.advance_kernel,
-                   compile_orders(len(slots))[0])
+                   compile_orders(step_kernels(self.step_records[:3]))[0])
         self._slots_process = os.getpid()
         return self.step_records
 
