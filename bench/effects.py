@@ -64,7 +64,7 @@ def bare_run(net, dt, steps):
     entry point a Simulation calls, without its Python around it)."""
     sim = cosnet.Simulation(net, dt=dt, threads=1)
     step = sim._stepper()
-    args = (sim.model, sim.state, sim.loads, sim.step_records, dt, steps, sim.backend)
+    args = (sim.model, sim.state, sim.loads, sim.step_table, dt, steps, sim.backend)
     return lambda: step(*args)
 
 

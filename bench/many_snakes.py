@@ -201,7 +201,7 @@ def profile(count):
 
     sim = cn_snakes(count, 1)
     sim.run(steps=10)
-    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_records, sim.backend
+    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_table, sim.backend
     k = max(20, int(2e6 / (count * ELEMENTS)))
     # typed as the step types the records (typed_call): through numba's own dispatch the loads
     # would call the step's slot kernels with other types, which their keys refuse

@@ -97,11 +97,11 @@ def profile(n):
     net.add_line(a, b, material=STEEL, section=cosnet.Circle(0.01), elements=n)
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=1)
     sim.run(steps=100)
-    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_records, sim.backend
+    m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_table, sim.backend
     h = 0.0   # zero-length drifts/kicks: the same work, the state stays put
     k = max(200, int(2e6 / n))
     stages = {
-        "whole step (advance_verlet)": lambda: advance_verlet(m, s, l, sim.step_records, sim.dt, k, be),
+        "whole step (advance_verlet)": lambda: advance_verlet(m, s, l, sim.step_table, sim.dt, k, be),
         "evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
         "  internal loads": lambda: loop_internal(m, s, l, k),
         "  effects (gravity)": lambda: loop_effects(m, s, l, eff, k),

@@ -238,7 +238,7 @@ def compile_kick(path, threads: int | None):
 
     from .kernels import layout
     from .kernels.compose import bind_slots, step_kernels
-    from .kernels.slots import pointers_type
+    from .kernels.slots import pin_record, pointers_type
     from .kernels.stepping import compile_orders, kick_loads
     from .output.record import kernels_compiled
     from .scene.loader import load_scene
@@ -247,16 +247,17 @@ def compile_kick(path, threads: int | None):
     layout.TYPING_ONLY[0] = False
     if kernels_compiled(sim):
         return
-    model, state, loads, records, _, _, backend = sim.step_signature()
-    # the step first: it types its kernels' calls without compiling them (compose), the parent
-    # reaches it last, or at frame 0 where drives need it (their reactions evaluate the loads
-    # through it), and the kernels after it are a queue the parent shares at the end
+    model, state, loads, table, _, _, backend = sim.step_signature()
+    # the step first (compiled once for every combination of effects: at once where cached),
+    # the parent reaches it last, or at frame 0 where drives need it (their reactions evaluate
+    # the loads through it), and the kernels after it are a queue the parent shares at the end
     sim.advance_kernel.compile(sim.step_signature())
     if sim.stepper == "pefrl":   # its kick is a kernel of its own (the Verlet step inlines it)
-        kick_loads.compile((pointers_type(model, state, loads, records, backend), types.float64))
-    slots = sim.step_records[3]
-    bind_slots(slots, sim.step_records[:3], model, state, loads, backend, sim.advance_kernel,
-               compile_orders(step_kernels(sim.step_records[:3]))[1])
+        kick_loads.compile((pointers_type(model, state, loads, table, backend), types.float64))
+    for sig in sim._pins.signatures():   # the records' pins: small, and the parent's first step needs them
+        pin_record.compile(sig)
+    bind_slots(sim.step_table, sim.step_groups, model, state, loads, backend, sim.advance_kernel,
+               compile_orders(step_kernels(sim.step_groups))[1])
 
 
 @contextlib.contextmanager

@@ -1,12 +1,12 @@
-"""Compile-time composition of effect kernels.
+"""Composition of effect kernels into a step.
 
 An effect is a ``NamedTuple`` of parameters (its declaration) registered with one ``@njit``
-kernel. A simulation passes the tuples of its declared effects to the step; ``apply_loads`` and
-``apply_flows`` unroll them at compile time into a straight sequence of kernel calls, so the
-step that runs calls exactly the declared effects: no flags, no loops over absent ones.
-The calls go through addresses (the step records' slots, ``bind_slots``, kernels/slots.py):
-each kernel is compiled once in a library of its own and every combination of effects calls
-it there, so a new combination compiles its step and none of the kernels again.
+kernel per hook of the step it acts at. A simulation's step calls, at each hook, the kernel of
+every declared effect that has one, in order, and nothing for an absent effect: no flags. The
+calls go through addresses (the slots of the step's table, ``bind_slots``, kernels/slots.py),
+each with a pointer to its effect's record (``Pins``): each kernel is compiled once in a
+library of its own, and the step, which never sees the records, once for every combination:
+a new combination compiles the kernels of its new kinds alone.
 
 Load kernels:  kernel(effect, model, state, loads)  -> add to loads (forces/torques)
 Flow kernels:  kernel(effect, model, state, h)      -> exact velocity flows (e.g. damping)
@@ -40,7 +40,8 @@ from numba.extending import intrinsic
 
 from .backend import STEP
 from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
-from .slots import call_slot, core_type, deref, load_table, slot_argtypes, slot_key
+from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
+                    core_type, deref, load_table, pinned, slot_argtypes, slot_key)
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
@@ -112,6 +113,7 @@ def constraint_kernels(declaration, after_drift, after_kick):
 HOOKS = (("load", LOAD_KERNELS, 0, True), ("flow", FLOW_KERNELS, 1, True),
          ("account", ACCOUNTS, 0, False), ("inertia", INERTIAS, 1, False),
          ("drift constraint", DRIFT_CONSTRAINTS, 2, True), ("kick constraint", KICK_CONSTRAINTS, 2, True))
+N_HOOKS = len(HOOKS)
 # The slot kernels every step calls (internal loads, the velocity and position updates), in
 # the slots of their registration, before the effects' (kernels/slots.py).
 CORE: list = []
@@ -148,18 +150,26 @@ def slot_wrapper(kernel, hook):
     what, f = HOOKS[hook][0], kernel.py_func
     name = f"{what}:{f.__module__}.{f.__qualname__}"
     registered, kernel = kernel, _inline_twin(kernel)
+    # the step calls it with order = the hook it runs (run_hook): a kernel found in another
+    # hook's rows raises instead of running there; pinned checks the record's type
     if what == "load":
         def call(core, record, h, order):
+            if order != hook:
+                raise RuntimeError("kernel slot not bound to the kernel of its hook")
             model, state, loads, _ = deref(core)
-            kernel(deref(record), model, state, loads)
+            kernel(pinned(record), model, state, loads)
     elif what in ("inertia", "kick constraint"):
         def call(core, record, h, order):
+            if order != hook:
+                raise RuntimeError("kernel slot not bound to the kernel of its hook")
             model, state, loads, _ = deref(core)
-            kernel(deref(record), model, state, (loads, h))
+            kernel(pinned(record), model, state, (loads, h))
     else:
         def call(core, record, h, order):
+            if order != hook:
+                raise RuntimeError("kernel slot not bound to the kernel of its hook")
             model, state, _, _ = deref(core)
-            kernel(deref(record), model, state, h)
+            kernel(pinned(record), model, state, h)
     held = _WRAPPERS[(registered, hook)] = stable_cache_key(njit(**STEP)(call))
     held.slot_name = name   # the wrappers share one function name: their keys name their kernel
     stamp = _source_stamp(kernel)
@@ -202,29 +212,45 @@ def step_kernels(records) -> list:
     return list(CORE) + [slot_wrapper(kernel, k) for k, _, _, kernel in layout]
 
 
-def empty_slots(records) -> np.ndarray:
-    """The slots of a step of ``records`` (three tuples of effect records), unbound: a step
-    called with them raises rather than calling anything."""
-    n = len(CORE) + len(slot_layout([tuple(type(r) for r in group) for group in records]))
-    return np.zeros((n, 3), np.int64)
+def empty_table(records) -> tuple:
+    """The table of a step of ``records`` (three tuples of effect records): (slots, hook rows),
+    slots (n, SLOT_COLUMNS) int64 unbound (a step called with them raises rather than calling
+    anything) but for each effect row's hook, hook rows (len(HOOKS) + 1,) the first row of
+    each hook's effects (they follow CORE's, hook by hook), then the end."""
+    layout = slot_layout([tuple(type(r) for r in group) for group in records])
+    slots = np.zeros((len(CORE) + len(layout), SLOT_COLUMNS), np.int64)
+    slots[:len(CORE), SLOT_HOOK] = -1
+    slots[len(CORE):, SLOT_HOOK] = [k for k, _, _, _ in layout]
+    hooks = np.searchsorted(slots[len(CORE):, SLOT_HOOK], np.arange(len(HOOKS) + 1)) + len(CORE)
+    return slots, hooks.astype(np.int64)
 
 
-def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None) -> None:
-    """Update ``slots`` (empty_slots) given the step records and the numba types of the model,
-    state, loads and backend: compile (or load from the cache) every slot kernel the step
-    calls, under the compiler flags of ``flags_of`` (the step: a kernel leaving fast-math, the
-    error model or reference counting unset takes its caller's), and write its address here;
-    ``rows``: those slots alone, in that order (a second process compiling alongside)."""
-    from numba.core import compiler
-    from numba.core.targetconfig import ConfigStack
-    flags = compiler.Flags()
-    flags_of.targetdescr.options.parse_as_flags(flags, flags_of.targetoptions)
+def step_calls(records, model, state, loads, backend) -> list:
+    """[(slot kernel, its argument types)] of a step of ``records`` (three tuples of effect
+    records) given the numba types of the model, state, loads and backend, in slot order."""
     core = core_type(model, state, loads, backend)
     groups = numba.typeof(tuple(records)).types
     calls = [(kernel, slot_argtypes(core)) for kernel in CORE]
     calls += [(slot_wrapper(kernel, k), slot_argtypes(core, groups[g].types[i]))
               for k, g, i, kernel in slot_layout(_classes(g.types for g in groups))]
-    if slots.shape != (len(calls), 3):
+    return calls
+
+
+def bind_slots(table, records, model, state, loads, backend, flags_of, rows=None) -> None:
+    """Update the slots of ``table`` (empty_table) given the step's effect records and the
+    numba types of the model, state, loads and backend: compile (or load from the cache) every
+    slot kernel the step calls, under the compiler flags of ``flags_of`` (the step: a kernel
+    leaving fast-math, the error model or reference counting unset takes its caller's), and
+    write its address here; ``rows``: those slots alone, in that order (a second process
+    compiling alongside). The records' own addresses are written where they are pinned
+    (Pins)."""
+    from numba.core import compiler
+    from numba.core.targetconfig import ConfigStack
+    flags = compiler.Flags()
+    flags_of.targetdescr.options.parse_as_flags(flags, flags_of.targetoptions)
+    slots = table[0]
+    calls = step_calls(records, model, state, loads, backend)
+    if slots.shape != (len(calls), SLOT_COLUMNS):
         raise ValueError(f"slots of shape {slots.shape} for a step of {len(calls)} kernels")
     pending = deque(range(len(calls)) if rows is None else rows)
     put_off = set()
@@ -242,8 +268,50 @@ def bind_slots(slots, records, model, state, loads, backend, flags_of, rows=None
         cres = kernel.overloads[argtypes]
         if cres.signature.return_type != types.none:   # the step calls it as returning nothing
             raise TypeError(f"slot kernel {kernel.py_func.__qualname__} must return nothing")
-        slots[row] = (cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name),
-                      slot_key(kernel, argtypes), os.getpid())
+        address = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+        slots[row, SLOT_ADDRESS:SLOT_PROCESS + 1] = (address, slot_key(kernel, argtypes), os.getpid())
+
+
+class Pins:
+    """The effect records of a step pinned where its slot kernels read them (slots.pin_record):
+    a buffer per record, its address in the slots of every hook of its effect. Pinned anew at
+    every call of the step (``__call__``): a buffer holds the addresses of its record's arrays,
+    which a copied simulation does not share."""
+
+    def __init__(self, records):
+        from .slots import record_size
+        layout = slot_layout([tuple(type(r) for r in group) for group in records])
+        self.records, self.rows = [], []
+        for row, (_, g, i, _) in enumerate(layout):
+            record = records[g][i]
+            k = next((n for n, r in enumerate(self.records) if r is record), None)
+            if k is None:
+                self.records.append(record)
+                self.rows.append([])
+                k = len(self.records) - 1
+            self.rows[k].append(len(CORE) + row)
+        self.types = [numba.typeof(r) for r in self.records]
+        self.buffers = [np.zeros(record_size(t), np.uint8) for t in self.types]
+        self.entries = None
+
+    def signatures(self) -> list:
+        """The argument types pin_record is compiled for, one per record."""
+        buffer = numba.typeof(np.zeros(1, np.uint8))
+        return [(t, buffer) for t in self.types]
+
+    def __call__(self, table) -> None:
+        """Update the buffers given the records, and their addresses in table's slots."""
+        if self.entries is None:
+            from .slots import pin_record
+            entries = []
+            for sig in self.signatures():
+                pin_record.compile(sig)
+                entries.append(pin_record.overloads[sig].entry_point)
+            self.entries = entries
+        slots = table[0]
+        for entry, record, buffer, rows in zip(self.entries, self.records, self.buffers, self.rows):
+            entry(record, buffer)
+            slots[rows, SLOT_RECORD] = buffer.ctypes.data
 
 
 def _slot_signature(args):
@@ -289,51 +357,65 @@ def core_kernel(kernel):
     return call
 
 
-def _chain(hook):
-    """Return an intrinsic f(ptrs, h) emitting, into its caller, one call of the hook's kernel
-    of every effect of its group that has one, in order, each through its slot (ptrs:
-    slots.step_pointers' result; h the time the hook's kernels take)."""
-    what, _, g, _ = HOOKS[hook]
-
-    @intrinsic
-    def apply(typingctx, ptrs, h):
-        core, effects = _pointed(ptrs, f"apply {what}")
-        layout = slot_layout(_classes(t.types for t in effects.types[:3]))
-        calls = []
-        for row, (k, gg, i, kernel) in enumerate(layout):
-            if k == hook:
-                wrapper = slot_wrapper(kernel, hook)
-                argtypes = slot_argtypes(core, effects.types[gg].types[i])
-                sig = _slot_signature(argtypes)
-                calls.append((len(CORE) + row, i, sig, slot_key(wrapper, argtypes)))
-
-        def codegen(context, builder, signature, args):
-            if not calls:
-                return context.get_dummy_value()
-            p_core, p_effects = cgutils.unpack_tuple(builder, args[0])
-            table = load_table(context, builder, effects, p_effects, len(CORE) + len(layout))
-            step = context.cast(builder, args[1], h, types.float64)
-            zero = context.get_constant(types.int64, 0)
-            for row, i, sig, key in calls:
-                record = cgutils.gep_inbounds(builder, p_effects, 0, g, i)
-                call_slot(context, builder, table, row, key, sig, (p_core, record, step, zero), what)
-            return context.get_dummy_value()
-        return types.none(ptrs, h), codegen
-    return apply
+@intrinsic
+def core_rows(typingctx):
+    """Return the number of CORE slots (a constant of the step)."""
+    def codegen(context, builder, signature, args):
+        return context.get_constant(types.int64, len(CORE))
+    return types.int64(), codegen
 
 
-# apply_loads(ptrs, 0): add the loads of every load effect
-apply_loads = _chain(0)
-# apply_flows(ptrs, h): the velocity flow of every flow effect for time h
-apply_flows = _chain(1)
-# apply_accounts(ptrs, h / 2): the work of every load effect that keeps one
-apply_accounts = _chain(2)
-# apply_inertias(ptrs, h): the loads as the masses of the effects that add some see them
-apply_inertias = _chain(3)
-# apply_drift_constraints(ptrs, h): every prescribed pose after a drift of h
-apply_drift_constraints = _chain(4)
-# apply_kick_constraints(ptrs, h): every prescribed velocity after a kick of h
-apply_kick_constraints = _chain(5)
+@njit(**STEP, inline="always")
+def run_hook(ptrs, h, hook):
+    """Call the kernel of hook ``hook`` (an index of HOOKS) of every effect that has one, in
+    order, each through its slot with its pinned record, for time h (ptrs:
+    slots.step_pointers' result). The rows of each hook are a range of the table (empty_table)."""
+    slots, hooks = deref(ptrs[1])
+    if hooks.shape[0] != N_HOOKS + 1:
+        raise RuntimeError("kernel slots missing: compose.bind_slots")
+    lo, hi = hooks[hook], hooks[hook + 1]
+    if lo < core_rows() or hi < lo or hi > slots.shape[0] or slots.shape[1] != SLOT_COLUMNS:
+        raise RuntimeError("kernel slots missing: compose.bind_slots")
+    for row in range(lo, hi):
+        if slots[row, SLOT_HOOK] != hook:
+            raise RuntimeError("kernel slot not bound to the kernel of its hook")
+        call_effect(ptrs[0], slots[row, SLOT_ADDRESS], slots[row, SLOT_RECORD], h, hook)
+
+
+@njit(**STEP, inline="always")
+def apply_loads(ptrs, h):
+    """Add the loads of every load effect."""
+    run_hook(ptrs, h, 0)
+
+
+@njit(**STEP, inline="always")
+def apply_flows(ptrs, h):
+    """The velocity flow of every flow effect for time h."""
+    run_hook(ptrs, h, 1)
+
+
+@njit(**STEP, inline="always")
+def apply_accounts(ptrs, h):
+    """The work of every load effect that keeps one (h: half the kick)."""
+    run_hook(ptrs, h, 2)
+
+
+@njit(**STEP, inline="always")
+def apply_inertias(ptrs, h):
+    """The loads as the masses of the effects that add some see them."""
+    run_hook(ptrs, h, 3)
+
+
+@njit(**STEP, inline="always")
+def apply_drift_constraints(ptrs, h):
+    """Every prescribed pose after a drift of h."""
+    run_hook(ptrs, h, 4)
+
+
+@njit(**STEP, inline="always")
+def apply_kick_constraints(ptrs, h):
+    """Every prescribed velocity after a kick of h."""
+    run_hook(ptrs, h, 5)
 
 
 class UnresolvedRecord:
@@ -354,9 +436,10 @@ def _tolerant_loads(data, **kw):
 
 
 def _tolerate_unresolved_records():
-    """Let numba read a cache index that names records it cannot import. The step's index
-    holds one signature per combination of effects, each naming its records' classes: one
-    unimportable class made every later compilation of the step fail on loading the index.
+    """Let numba read a cache index that names records it cannot import. The index of a
+    kernel typed by effect records (slots.pin_record's, a slot wrapper's) holds one signature
+    per record type, each naming its class: one unimportable class made every later
+    compilation of that kernel fail on loading the index.
     Such an entry now names UnresolvedRecord instead, matches no signature and is skipped."""
     if getattr(caching.pickle, "tolerant", False):
         return

@@ -75,8 +75,8 @@ def stability_interval(name: str) -> float:
 
 
 # The step's own kernels: slot kernels (kernels/slots.py), each compiled once in a library of
-# its own and called through its slot. A step, compiled anew for every combination of effects,
-# holds the loop and the calls alone, and LLVM optimises none of these again for it.
+# its own and called through its slot. The step, compiled once for every combination of
+# effects, holds the loop and the calls alone, and LLVM optimises none of these again for it.
 @njit(**STEP)
 def start_loads_at(core, record, h, order):
     """Update loads given the state: the node balances zeroed, the internal loads (3.2)/(3.3)."""
@@ -168,10 +168,10 @@ def drift(ptrs, h, order):
 @njit(**ENTRY)
 def advance_verlet(model, state, loads, effects, h, steps, backend):
     """Update state by ``steps`` position-Verlet steps D(h/2) K(h) D(h/2) of size h;
-    effects = (load, flow, constraint) tuples of effect parameter records and their kernels'
-    slots (compose.bind_slots). For no steps, update loads given the state instead
-    (evaluate_loads_at; Simulation.evaluate_loads): the step's own entry, where one of its own
-    would compile the unboxing of every record again."""
+    effects = the step's table (compose.empty_table): the slots of its kernels
+    (compose.bind_slots) and the effects' records pinned (compose.Pins). For no steps, update
+    loads given the state instead (evaluate_loads_at; Simulation.evaluate_loads): the step's
+    own entry, where one of its own would compile the unboxing of every record again."""
     if not slots_bound_here(effects):
         raise RuntimeError("advance_verlet: kernels not bound in this process (compose.bind_slots)")
     ptrs = step_pointers(model, state, loads, effects, backend)

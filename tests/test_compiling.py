@@ -225,7 +225,7 @@ def test_the_queue_two_processes_share_takes_the_longest_kernels_first():
     drum = cosnet.Obstacle("capsule", start=(0.5, -0.1, 0.0), end=(0.5, 0.1, 0.0), radius=0.1, k=1e6, gamma=24.0,
                            mu_s=0.3, mu_k=0.3)
     sim = cosnet.Simulation(net, [cosnet.Gravity(), drum])
-    kernels = step_kernels(sim.step_records[:3])
+    kernels = step_kernels(sim.step_groups)
     run, other = compile_orders(kernels)
     drift = kernels.index(drift_positions_at)
     assert sorted(run) == sorted(other) == list(range(len(kernels)))
@@ -472,7 +472,7 @@ def test_joints_compile_only_what_the_nets_joints_have():
         net.add_line(a, b, material=cosnet.Material(E=1e8, G=4e7, density=400.0), section=cosnet.Circle(0.01),
                      elements=4, start_joint=joint)
         sim = cosnet.Simulation(net, [cosnet.Gravity()])
-        p = next(r for group in sim.step_records[:3] for r in group if hasattr(r, "dofs"))
+        p = next(r for group in sim.step_groups for r in group if hasattr(r, "dofs"))
         reached.append(_reached(LOAD_KERNELS[type(p)], typeof(p), record_type(sim.model), record_type(sim.state),
                                 typeof(empty_loads(sim.model))))
     free_universal, ball = reached
@@ -503,7 +503,7 @@ def test_rings_compile_the_fluid_s_masses_only_where_a_fluid_adds_some():
                             section=cosnet.Circle(0.01), elements=4)
         net.add_ring(line, s=0.5, mass=0.1)
         sim = cosnet.Simulation(net, effects)
-        p = next(r for r in sim.step_records[2] if isinstance(r, SlidingParams))
+        p = next(r for r in sim.step_groups[2] if isinstance(r, SlidingParams))
         assert type(p) is not SlidingParams and pickle.loads(pickle.dumps(p)).__class__ is type(p)
         reached.append(_reached(DRIFT_CONSTRAINTS[type(p)], typeof(p), record_type(sim.model),
                                 record_type(sim.state), typeof(0.5)))

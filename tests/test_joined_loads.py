@@ -33,8 +33,9 @@ def test_a_run_of_node_loads_is_one_record_whatever_its_length():
     six = cosnet.Simulation(net, effects=[cosnet.Gravity(), *_loads(net), *_loads(net)])
     assert [len(s.load_records) for s in (three, six)] == [2, 2]
     assert three.load_records[1].nodes.shape == (3,) and six.load_records[1].nodes.shape == (6,)
-    # the same step serves both: adding a load changes numbers, not the compiled code
-    assert numba.typeof(three.step_records) == numba.typeof(six.step_records)
+    # the same kernels serve both (their records typed alike): adding a load changes numbers,
+    # not the compiled code
+    assert numba.typeof(three.step_groups) == numba.typeof(six.step_groups)
     # separated by another effect, runs stay apart (the loads add up in the declared order)
     split = cosnet.Simulation(net, effects=[_loads(net)[0], cosnet.Gravity(), *_loads(net)[1:]])
     assert [type(p).__name__ for p in split.load_records] == ["NodeLoadParams", "GravityParams", "NodeLoadParams"]

@@ -217,9 +217,10 @@ def test_examples_of_the_page_load(tmp_path):
         load_scene(tmp_path / "t.toml")
 
 
-def test_a_step_cache_naming_an_uninstalled_effect_still_loads(on_path):
-    """The step's cache index names each compiled effect record: after the package of one is
-    gone, the index still loads (its entry is skipped) and other steps run."""
+def test_a_kernel_cache_naming_an_uninstalled_effect_still_loads(on_path):
+    """The cache index of a kernel typed by effect records (a record's pin, a slot wrapper)
+    names each record compiled for: after the package of one is gone, the index still loads
+    (its entry is skipped) and other scenes run."""
     import pickle
     from numba.core import caching, types as nt
     from cosnet.kernels.compose import UnresolvedRecord

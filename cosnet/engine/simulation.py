@@ -19,7 +19,7 @@ from .registry import ACCOUNTS, Binding, Effect, after_added_mass, implied_effec
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, Serial
-from ..kernels.compose import bind_slots, empty_slots, step_kernels
+from ..kernels.compose import Pins, bind_slots, empty_table, step_kernels
 from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders,
@@ -102,10 +102,12 @@ class Simulation:
     kernel_effects: list   # the effect class of each kernel record
     load_records: tuple
     flow_records: tuple
-    step_records: tuple    # (load, flow, constraint) records and their kernels' slots, as the stepper takes them
+    step_groups: tuple     # (load, flow, constraint) records, in the order the step calls their kernels
+    step_table: tuple      # (slots, hook rows): the step's kernels and the effects' pinned records (compose)
     advance_kernel: Any
     backend: Any
     _compiled_step: Any    # (the records it was typed for, the stepper's compiled entry)
+    _pins: Any             # the effects' records where their kernels read them (compose.Pins)
 
     def __init__(self, net: Net, effects=(), stepper: str = "verlet", dt: float | str | None = None,
                  force_dt: bool = False, safety: float = 0.9, threads: int | None = None,
@@ -140,8 +142,9 @@ class Simulation:
         self.load_records = tuple(p for stage, p, _ in kernel_records if stage == "load")
         self.flow_records = tuple(p for stage, p, _ in kernel_records if stage == "flow")
         constraints = tuple(p for stage, p, _ in kernel_records if stage == "constraint")
-        groups = (self.load_records, self.flow_records, constraints)
-        self.step_records = groups + (empty_slots(groups),)
+        self.step_groups = (self.load_records, self.flow_records, constraints)
+        self.step_table = empty_table(self.step_groups)
+        self._pins = Pins(self.step_groups)
         self._slots_process = None
         self.advance_kernel = STEPPERS[stepper]
         self._compiled_step = None
@@ -273,7 +276,7 @@ class Simulation:
             n = min(steps, CHUNK_STEPS)
             if self.threads > 1:
                 numba.set_num_threads(self.threads)
-            self._stepper()(self.model, self.state, self.loads, self.step_records, self.dt, n, self.backend)
+            self._stepper()(self.model, self.state, self.loads, self.step_table, self.dt, n, self.backend)
             self.steps += n
             steps -= n
             self.watch.after_chunk()
@@ -281,37 +284,46 @@ class Simulation:
 
     def step_signature(self) -> tuple:
         """The numba types the stepper is compiled for, here: the records typed by
-        kernels.layout.record_type (one compiled step whatever the nets' sizes)."""
+        kernels.layout.record_type and the step's table (one compiled step whatever the nets'
+        sizes and whatever their effects)."""
         return (record_type(self.model), record_type(self.state), record_type(self.loads),
-                numba.typeof(self.step_records), numba.types.float64, numba.types.int64, numba.typeof(self.backend))
+                numba.typeof(self.step_table), numba.types.float64, numba.types.int64, numba.typeof(self.backend))
 
     def bind_kernels(self):
         """Compile (or load) the kernels the step calls (its own and the effects') and write
-        their addresses in this process into the step records' slots (kernels.compose.bind_slots);
-        returns the step records. Done once per process: a step called with slots bound
+        their addresses in this process into the step table's slots (kernels.compose.bind_slots);
+        returns the step table. Done once per process: a step called with slots bound
         elsewhere raises."""
         if TYPING_ONLY[0] or self._slots_process == os.getpid():
-            return self.step_records
+            return self.step_table
         model, state, loads, _, _, _, backend = self.step_signature()
-        slots = self.step_records[3]
-        bind_slots(slots, self.step_records[:3], model, state, loads, backend, self.advance_kernel,
-                   compile_orders(step_kernels(self.step_records[:3]))[0])
+        bind_slots(self.step_table, self.step_groups, model, state, loads, backend, self.advance_kernel,
+                   compile_orders(step_kernels(self.step_groups))[0])
         self._slots_process = os.getpid()
-        return self.step_records
+        return self.step_table
+
+    def step_arguments(self, dt: float, steps: int) -> tuple:
+        """The arguments of the compiled stepper (``_stepper()``) for ``steps`` steps of dt, its
+        kernels bound and the effects' records pinned: what a benchmark timing the step alone
+        calls it with."""
+        self._stepper()
+        return (self.model, self.state, self.loads, self.step_table, dt, steps, self.backend)
 
     def evaluate_loads(self):
         """Update self.loads given the state, and return them: the internal loads (3.2)/(3.3),
         every load effect's, then the node balances (4.3)/(4.4), as a kick evaluates them (the
         stepper run for no steps). The line ends are where the state last put them."""
-        self._stepper()(self.model, self.state, self.loads, self.step_records, 0.0, 0, self.backend)
+        self._stepper()(self.model, self.state, self.loads, self.step_table, 0.0, 0, self.backend)
         return self.loads
 
     def _stepper(self):
         """The stepper compiled (or loaded from the cache) for step_signature, called directly:
         numba's own dispatch would type the records by their flags alone. Kept while the
-        records are the same objects (their arrays, flags included, the same)."""
+        records are the same objects (their arrays, flags included, the same). The effects'
+        records are pinned anew at each call (compose.Pins)."""
         self.bind_kernels()   # first: compiling the kernels in an order shared with compile_kick
-        key = (self.model, self.state, self.loads, self.step_records, self.backend)
+        self._pins(self.step_table)
+        key = (self.model, self.state, self.loads, self.step_table, self.backend)
         held = self._compiled_step
         if held is None or any(a is not b for a, b in zip(key, held[0])):
             sig = self.step_signature()

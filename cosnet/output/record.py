@@ -28,6 +28,7 @@ accounts of sim.dissipated(), driver_work(), actuation_work(), load_work() and s
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -216,13 +217,19 @@ def advance_to(sim, t: float, progress=None):
 
 
 def kernels_compiled(sim) -> bool:
-    """Whether the stepper's compiled code for this simulation is at hand (in memory, or in
-    numba's cache on disk) or will be compiled at the first step; True when unknown."""
-    disp = sim.advance_kernel
+    """Whether the compiled code of this simulation's step is at hand (in memory, or in
+    numba's cache on disk) or will be compiled at the first step: the stepper, every kernel it
+    calls through its slots and the pins of the effects' records (the stepper, one for every
+    combination of effects, is cached after any scene's first run); True when unknown."""
+    from ..kernels.compose import step_calls
+    from ..kernels.slots import pin_record
     try:
-        if disp.signatures:
+        model, state, loads, _, _, _, backend = signature = sim.step_signature()
+        if sim.advance_kernel.signatures and sim._slots_process == os.getpid():
             return True
-        return in_cache(disp, sim.step_signature())
+        needed = [(sim.advance_kernel, signature)] + step_calls(sim.step_groups, model, state, loads, backend)
+        needed += [(pin_record, sig) for sig in sim._pins.signatures()]
+        return all(sig in kernel.overloads or in_cache(kernel, sig) for kernel, sig in needed)
     except Exception:   # another numba: no way to tell, say nothing
         return True
 
