@@ -365,11 +365,13 @@ def core_rows(typingctx):
     return types.int64(), codegen
 
 
-@njit(**STEP, inline="always")
+@njit(**STEP)
 def run_hook(ptrs, h, hook):
     """Call the kernel of hook ``hook`` (an index of HOOKS) of every effect that has one, in
     order, each through its slot with its pinned record, for time h (ptrs:
-    slots.step_pointers' result). The rows of each hook are a range of the table (empty_table)."""
+    slots.step_pointers' result). The rows of each hook are a range of the table (empty_table).
+    A function of its own, called, not inlined: a step calls it a dozen times, and a copy at
+    each call doubled the step's compilation, for a call per hook a step saves nothing."""
     slots, hooks = deref(ptrs[1])
     if hooks.shape[0] != N_HOOKS + 1:
         raise RuntimeError("kernel slots missing: compose.bind_slots")
