@@ -384,44 +384,24 @@ def run_hook(ptrs, h, hook):
         call_effect(ptrs[0], slots[row, SLOT_ADDRESS], slots[row, SLOT_RECORD], h, hook)
 
 
-@njit(**STEP, inline="always")
-def apply_loads(ptrs, h):
-    """Add the loads of every load effect."""
-    run_hook(ptrs, h, 0)
+def _at_hook(hook, doc):
+    """The step's call of run_hook at hook ``hook``: f(ptrs, h), inlined where called."""
+    def apply(ptrs, h):
+        run_hook(ptrs, h, hook)
+    apply.__doc__ = doc
+    return njit(**STEP, inline="always")(apply)
 
 
-@njit(**STEP, inline="always")
-def apply_flows(ptrs, h):
-    """The velocity flow of every flow effect for time h."""
-    run_hook(ptrs, h, 1)
-
-
-@njit(**STEP, inline="always")
-def apply_accounts(ptrs, h):
-    """The work of every load effect that keeps one (h: half the kick)."""
-    run_hook(ptrs, h, 2)
-
-
-@njit(**STEP, inline="always")
-def apply_inertias(ptrs, h):
-    """The loads as the masses of the effects that add some see them."""
-    run_hook(ptrs, h, 3)
-
-
-@njit(**STEP, inline="always")
-def apply_drift_constraints(ptrs, h):
-    """Every prescribed pose after a drift of h."""
-    run_hook(ptrs, h, 4)
-
-
-@njit(**STEP, inline="always")
-def apply_kick_constraints(ptrs, h):
-    """Every prescribed velocity after a kick of h."""
-    run_hook(ptrs, h, 5)
+apply_loads = _at_hook(0, "Add the loads of every load effect.")
+apply_flows = _at_hook(1, "The velocity flow of every flow effect for time h.")
+apply_accounts = _at_hook(2, "The work of every load effect that keeps one (h: half the kick).")
+apply_inertias = _at_hook(3, "The loads as the masses of the effects that add some see them.")
+apply_drift_constraints = _at_hook(4, "Every prescribed pose after a drift of h.")
+apply_kick_constraints = _at_hook(5, "Every prescribed velocity after a kick of h.")
 
 
 class UnresolvedRecord:
-    """Stands, in a step's cache index read back, for an effect record whose module this
+    """Stands, in a kernel's cache index read back, for an effect record whose module this
     process cannot import (a package since uninstalled, a script's own class)."""
 
 

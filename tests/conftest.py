@@ -1,7 +1,7 @@
 """Test processes share one compilation cache.
 
-The suite is mostly compilation (each combination of effects, stepper and backend compiles
-its own step), so it runs on every core (pytest-xdist, ``-n auto``), and every worker
+The suite is mostly compilation (each effect kind its kernels, each stepper and backend its
+step), so it runs on every core (pytest-xdist, ``-n auto``), and every worker
 compiles into and loads from the usual cache (a directory per kernel source under
 NUMBA_CACHE_DIR, else under numba's user cache: kernels/compiler.py): a step one worker
 compiled, the others load. Saving into one cache from several processes at once is safe
