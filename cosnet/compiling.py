@@ -101,8 +101,11 @@ class CompileLog(event.Listener):
     def _compile(self, ev):
         now = time.perf_counter()
         if ev.is_start:
-            py = ev.data["dispatcher"].py_func
-            name = f"{py.__module__}.{py.__qualname__}"
+            dispatcher = ev.data["dispatcher"]
+            py = dispatcher.py_func
+            # an effect's slot wrappers share one function (compose.slot_wrapper): each is named
+            # by its hook and kernel, so that its time and its plan are that kernel's
+            name = getattr(dispatcher, "slot_name", None) or f"{py.__module__}.{py.__qualname__}"
             root = self._stack[0][0].name if self._stack else name
             self._stack.append([Kernel(name, root=root), now, 0.0])
             self._tell(name)
