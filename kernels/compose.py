@@ -381,6 +381,8 @@ def run_hook(ptrs, h, hook):
     for row in range(lo, hi):
         if slots[row, SLOT_HOOK] != hook:
             raise RuntimeError("kernel slot not bound to the kernel of its hook")
+        if slots[row, SLOT_RECORD] == 0:
+            raise RuntimeError("kernel slot without its record: compose.Pins")
         call_effect(ptrs[0], slots[row, SLOT_ADDRESS], slots[row, SLOT_RECORD], h, hook)
 
 

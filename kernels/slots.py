@@ -25,8 +25,8 @@ process running it (``slots_bound_here``).
 
 import hashlib
 
-from numba import njit
 from llvmlite import ir
+from numba import njit
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 

@@ -109,7 +109,8 @@ def test_a_slot_holding_another_kernel_raises_instead_of_calling_it():
 
 def test_a_kernel_given_another_effect_s_record_raises_instead_of_reading_it():
     """Each effect's record is pinned with the tag of its type, which its kernels check: a
-    kernel pointed at the record of another kind of effect raises."""
+    kernel pointed at the record of another kind of effect raises, and one given no record
+    at all is not called."""
     sim, step = _stepped(lambda net: [cosnet.NodeLoad(net.nodes[0], force=(0.0, 0.0, 1.0)), cosnet.Damping(0.5)])
     slots = sim.step_table[0]
     load_row, flow_row = len(CORE), len(CORE) + 1
@@ -117,6 +118,10 @@ def test_a_kernel_given_another_effect_s_record_raises_instead_of_reading_it():
     crossed[load_row, SLOT_RECORD] = slots[flow_row, SLOT_RECORD]
     with pytest.raises(RuntimeError, match="record other than"):
         _call(sim, step, crossed)
+    unpinned = slots.copy()
+    unpinned[load_row, SLOT_RECORD] = 0
+    with pytest.raises(RuntimeError, match="without its record"):
+        _call(sim, step, unpinned)
 
 
 def test_slots_bound_in_another_process_are_bound_again_before_a_run():
