@@ -302,13 +302,6 @@ class Simulation:
         self._slots_process = os.getpid()
         return self.step_table
 
-    def step_arguments(self, dt: float, steps: int) -> tuple:
-        """The arguments of the compiled stepper (``_stepper()``) for ``steps`` steps of dt, its
-        kernels bound and the effects' records pinned: what a benchmark timing the step alone
-        calls it with."""
-        self._stepper()
-        return (self.model, self.state, self.loads, self.step_table, dt, steps, self.backend)
-
     def evaluate_loads(self):
         """Update self.loads given the state, and return them: the internal loads (3.2)/(3.3),
         every load effect's, then the node balances (4.3)/(4.4), as a kick evaluates them (the
