@@ -16,8 +16,10 @@ from numba import njit
 import cosnet
 from cosnet.kernels.compose import apply_loads
 from cosnet.kernels.elastic import compute_internal_loads
+from cosnet.kernels.layout import typed_call
 from cosnet.kernels.motion import (drift_bodies, drift_state, gather_node_loads_on, kick_bodies,
                                    kick_state, place_line_ends)
+from cosnet.kernels.slots import step_pointers
 from cosnet.kernels.stepping import advance_verlet
 from harness import table
 
@@ -31,9 +33,10 @@ def loop_internal(model, state, loads, k):
 
 
 @njit
-def loop_effects(model, state, loads, eff, k):
-    for _ in range(k):
-        apply_loads(eff, model, state, loads)
+def loop_effects(model, state, loads, table, backend, k):
+    ptrs = step_pointers(model, state, loads, table, backend)
+    for _ in range(k):   # every load effect's kernel, through its slot (the step's load hook)
+        apply_loads(ptrs, 0.0)
 
 
 @njit
@@ -98,19 +101,22 @@ def profile(n):
     sim = cosnet.Simulation(net, effects=[cosnet.Gravity()], threads=1)
     sim.run(steps=100)
     m, s, l, eff, be = sim.model, sim.state, sim.loads, sim.step_table, sim.backend
+    step = sim._stepper()   # the compiled step, its kernels bound and its records pinned
     h = 0.0   # zero-length drifts/kicks: the same work, the state stays put
     k = max(200, int(2e6 / n))
+    # each loop typed as the step types the records (typed_call): through numba's own dispatch
+    # a one-row array would type otherwise, and the step's slots refuse kernels of other types
     stages = {
-        "whole step (advance_verlet)": lambda: advance_verlet(m, s, l, sim.step_table, sim.dt, k, be),
-        "evaluate_loads (all loads)": lambda: loop_evaluate(m, s, l, eff, be, k),
-        "  internal loads": lambda: loop_internal(m, s, l, k),
-        "  effects (gravity)": lambda: loop_effects(m, s, l, eff, k),
-        "  gather node loads": lambda: loop_gather(m, s, l, be, k),
-        "kick_state": lambda: loop_kick_state(m, s, l, h, be, k),
-        "  kick bodies": lambda: loop_kick_bodies(m, s, l, h, k),
-        "drift_state": lambda: loop_drift_state(m, s, h, be, k),
-        "  drift bodies": lambda: loop_drift_bodies(m, s, h, k),
-        "  place line ends": lambda: loop_place(m, s, k),
+        "whole step (advance_verlet)": lambda: step(m, s, l, eff, sim.dt, k, be),
+        "evaluate_loads (all loads)": lambda: typed_call(loop_evaluate, m, s, l, eff, be, k),
+        "  internal loads": lambda: typed_call(loop_internal, m, s, l, k),
+        "  effects (gravity)": lambda: typed_call(loop_effects, m, s, l, eff, be, k),
+        "  gather node loads": lambda: typed_call(loop_gather, m, s, l, be, k),
+        "kick_state": lambda: typed_call(loop_kick_state, m, s, l, h, be, k),
+        "  kick bodies": lambda: typed_call(loop_kick_bodies, m, s, l, h, k),
+        "drift_state": lambda: typed_call(loop_drift_state, m, s, h, be, k),
+        "  drift bodies": lambda: typed_call(loop_drift_bodies, m, s, h, k),
+        "  place line ends": lambda: typed_call(loop_place, m, s, k),
     }
     call = best(lambda: sim.run(steps=1), 50)
     out = {name: 1e9 * best(fn) / k for name, fn in stages.items()}
