@@ -41,7 +41,7 @@ from numba.extending import intrinsic
 from .backend import STEP
 from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
 from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
-                    core_type, deref, load_table, pinned, slot_argtypes, slot_key)
+                    core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key)
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
@@ -205,10 +205,15 @@ def _source_stamp(kernel):
     return (st.st_mtime, st.st_size)
 
 
+def records_layout(records):
+    """slot_layout of a step's effect records (three tuples of records)."""
+    return slot_layout([tuple(type(r) for r in group) for group in records])
+
+
 def step_kernels(records) -> list:
     """The slot kernels of a step of ``records`` (three tuples of effect records), a njit
     function each, in slot order: CORE's, then a wrapper per effect hook (slot_wrapper)."""
-    layout = slot_layout([tuple(type(r) for r in group) for group in records])
+    layout = records_layout(records)
     return list(CORE) + [slot_wrapper(kernel, k) for k, _, _, kernel in layout]
 
 
@@ -217,7 +222,7 @@ def empty_table(records) -> tuple:
     slots (n, SLOT_COLUMNS) int64 unbound (a step called with them raises rather than calling
     anything) but for each effect row's hook, hook rows (len(HOOKS) + 1,) the first row of
     each hook's effects (they follow CORE's, hook by hook), then the end."""
-    layout = slot_layout([tuple(type(r) for r in group) for group in records])
+    layout = records_layout(records)
     slots = np.zeros((len(CORE) + len(layout), SLOT_COLUMNS), np.int64)
     slots[:len(CORE), SLOT_HOOK] = -1
     slots[len(CORE):, SLOT_HOOK] = [k for k, _, _, _ in layout]
@@ -279,17 +284,11 @@ class Pins:
     which a copied simulation does not share."""
 
     def __init__(self, records):
-        from .slots import record_size
-        layout = slot_layout([tuple(type(r) for r in group) for group in records])
-        self.records, self.rows = [], []
-        for row, (_, g, i, _) in enumerate(layout):
-            record = records[g][i]
-            k = next((n for n, r in enumerate(self.records) if r is record), None)
-            if k is None:
-                self.records.append(record)
-                self.rows.append([])
-                k = len(self.records) - 1
-            self.rows[k].append(len(CORE) + row)
+        rows: dict = {}   # (group, index) of a record -> its slots (a record per declared effect)
+        for row, (_, g, i, _) in enumerate(records_layout(records)):
+            rows.setdefault((g, i), []).append(len(CORE) + row)
+        self.records = [records[g][i] for g, i in rows]
+        self.rows = list(rows.values())
         self.types = [numba.typeof(r) for r in self.records]
         self.buffers = [np.zeros(record_size(t), np.uint8) for t in self.types]
         self.entries = None
@@ -302,7 +301,6 @@ class Pins:
     def __call__(self, table) -> None:
         """Update the buffers given the records, and their addresses in table's slots."""
         if self.entries is None:
-            from .slots import pin_record
             entries = []
             for sig in self.signatures():
                 pin_record.compile(sig)
