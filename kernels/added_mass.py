@@ -7,7 +7,7 @@ equations for the line and this fluid,
 
     d/dt ((m + M) u) - dT/dx = f,   so   (m + M) v' = f - M' u + sum_k dT_k/dx,
 
-hold two forces beside the kick's f / (m + M) (``add_fluid_mass``) that Morison's equation
+hold two forces beside the kick's f / (m + M) (``kick_fluid``) that Morison's equation
 leaves out (``add_turning_forces``):
 - -M' u, the entrained momentum turning with the line, M' = w l (a_t - a_n) (t' t^T + t t'^T),
   t' = (1 - t t^T)(v_b - v_a) / |c| (a, b the vertices of the chord);
@@ -30,20 +30,15 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, node_free, sample_rows, split,
-                    still_medium)
+from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, kick_drag_vertices, node_free,
+                    sample_rows, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
 
-TURNING_ROWS = 9   # rows of p.turning: the forces G (3, the last kick's until the next), the velocities V they
-                   # are taken at (3), q (3)
-
-
-@njit(**CACHED, inline="always")
-def turns(p, j):
-    """Whether row j's added mass differs across and along its line (its fluid turns with it)."""
-    return p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0
+TURNING_ROWS = 12  # rows of p.turning: the forces G (3, the last kick's until the next), the velocities V they
+                   # are taken at (3), q (3), the drag's change of the velocity at the interior vertices (3, the
+                   # last kick's: fluid.kick_drag_vertices)
 
 
 @njit(**CACHED, inline="always")
@@ -58,9 +53,9 @@ def turning_span(p, model, j):
 
 @njit(**CACHED, inline="always")
 def turning_rows(p):
-    """The rows of p.turning as three column tuples: G, V, Q."""
+    """The rows of p.turning as four column tuples: G, V, Q, D."""
     T = p.turning
-    return (T[0], T[1], T[2]), (T[3], T[4], T[5]), (T[6], T[7], T[8])
+    return (T[0], T[1], T[2]), (T[3], T[4], T[5]), (T[6], T[7], T[8]), (T[9], T[10], T[11])
 
 
 @njit(**INNER)
@@ -143,17 +138,18 @@ def end_sums(p, model, state, G, nd):
 
 
 @njit(**PASS)
-def predict_line(V, v, S, f, G, first, n, h, up):
+def predict_line(V, v, S, f, G, D, first, n, h, up):
     """Update the velocity columns V at the n vertices first.. to v after a kick of h with the
     force columns f + G and up times the sampled upthrust (row 13), through the sampled
-    inverse masses."""
+    inverse masses, and half the drag's change D: the kick's midpoint, where the drag's flow
+    runs between its halves (fluid.kick_drag_vertices)."""
     for k in range(n):
         i = first + uint(k)
         d = split(S[14][i], S[15][i], f[0][i] + G[0][i], f[1][i] + G[1][i], f[2][i] + G[2][i] + up * S[13][i],
                   S[7][i], S[8][i], S[9][i])
-        V[0][i] = v[0][i] + h * d[0]
-        V[1][i] = v[1][i] + h * d[1]
-        V[2][i] = v[2][i] + h * d[2]
+        V[0][i] = v[0][i] + h * d[0] + 0.5 * D[0][i]
+        V[1][i] = v[1][i] + h * d[1] + 0.5 * D[1][i]
+        V[2][i] = v[2][i] + h * d[2] + 0.5 * D[2][i]
 
 
 @njit(**PASS)
@@ -181,12 +177,12 @@ def add_turning_forces(p, model, state, loads, h):
     """Update loads.f (nv, 3) at the interior vertices, loads.node_f and loads.node_tau at the
     free nodes by the turning fluid's forces at the kick's midpoint velocities (module
     docstring), and the interior vertices' loads with the upthrust to what the kick divides
-    by their masses (add_line_forces; add_fluid_mass the rest); p.supplied by their work
+    by their masses (add_line_forces; kick_fluid the rest); p.supplied by their work
     over the kick of h, which with the resampled entrained energy (flow_fluid) is what the
     line and its fluid exchange with the medium: nothing in still water, to the step's
     order. (One kernel of its own: the records passed to each of several cost more
     compiling than their arithmetic.)"""
-    G, V, Q = turning_rows(p)
+    G, V, Q, D = turning_rows(p)
     S, v, f = sample_rows(p), columns(state.v), columns(loads.f)
     calm = calm_medium(p)
     # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
@@ -204,7 +200,7 @@ def add_turning_forces(p, model, state, loads, h):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        predict_line(V, v, S, f, G, uint(lo + 1), hi - lo - 2, 0.5 * h, 1.0 if p.buoyancy[j] != 0.0 else 0.0)
+        predict_line(V, v, S, f, G, D, uint(lo + 1), hi - lo - 2, 0.5 * h, 1.0 if p.buoyancy[j] != 0.0 else 0.0)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
             c = end_spin(model, state, a)
@@ -253,17 +249,36 @@ def divide_line(f, S, vmass, first, n, up):
                                           S[7][i], S[8][i], S[9][i])
 
 
+@njit(**INNER)
+def divide_node_loads(p, model, loads):
+    """Update loads.node_f at the free nodes the medium adds mass to, m A^-1 f (A the node's
+    mass matrix with its added mass: fluid_step.node_mass_matrix), so that the kick's f / m is
+    A^-1 f."""
+    for nd in range(model.node_mass.shape[0]):
+        if not node_free(p, model, nd):
+            continue
+        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
+        m = model.node_mass[nd]
+        if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
+            continue
+        fn = loads.node_f[nd]
+        g = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0], fn[1], fn[2])
+        fn[0], fn[1], fn[2] = m * g[0], m * g[1], m * g[2]
+
+
 @inertia_kernel(FluidParams)
 @njit(**STEP)
-def add_fluid_mass(p, model, state, arg):
+def kick_fluid(p, model, state, arg):
     """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
     given arg = (loads, h), the kick's loads and length: the upthrust (as sample_upthrust
     found it; in a still medium the nodes' too, with its torque in loads.node_tau:
-    add_node_upthrust) and the turning fluid's forces added (add_turning_forces), then all turned so
-    that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line parts (the
-    vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends). (Each
-    line's interior in one pass: the upthrust alone where it carries no added mass, else
-    with the division, in add_line_forces where its fluid turns.)"""
+    add_node_upthrust) and the turning fluid's forces added (add_turning_forces), then all
+    turned so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
+    parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends:
+    divide_node_loads). (Each line's interior in one pass: the upthrust alone where it
+    carries no added mass, else with the division, in add_line_forces where its fluid turns.)
+    Then state.v at the interior vertices by the drag's flow between the kick's halves, with
+    these loads (fluid.kick_drag_vertices)."""
     loads, h = arg
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
@@ -275,26 +290,16 @@ def add_fluid_mass(p, model, state, arg):
         if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and p.added_n[j] == 0.0 and p.added_t[j] == 0.0:
             add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
                          model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
-    if not CARRIES:
-        return
-    if p.turning.shape[1] > 0:
-        add_turning_forces(p, model, state, loads, h)
-    for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0) or turns(p, j):
-            continue
-        divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
-                    model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
-                    1.0 if p.buoyancy[j] != 0.0 else 0.0)
-    if not has_added_mass(p):
-        return
-    for nd in range(model.node_mass.shape[0]):
-        if not node_free(p, model, nd):
-            continue
-        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
-        m = model.node_mass[nd]
-        if a00 == m and a11 == m and a22 == m and a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
-            continue
-        fn = loads.node_f[nd]
-        g = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0], fn[1], fn[2])
-        fn[0], fn[1], fn[2] = m * g[0], m * g[1], m * g[2]
+    if CARRIES:
+        if p.turning.shape[1] > 0:
+            add_turning_forces(p, model, state, loads, h)
+        for j in range(p.lines.shape[0]):
+            l = p.lines[j]
+            if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0) or turns(p, j):
+                continue
+            divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
+                        model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
+                        1.0 if p.buoyancy[j] != 0.0 else 0.0)
+        if has_added_mass(p):
+            divide_node_loads(p, model, loads)
+    kick_drag_vertices(p, model, state, loads, h)

@@ -17,7 +17,9 @@ Account kernels (optional, beside a load kernel): kernel(effect, model, state, h
 Inertia kernels (optional, beside a flow kernel): kernel(effect, model, state, (loads, h)),
   run after the loads of a kick of h are evaluated and their work accounted, just before the
   kick divides them by the masses: an effect that adds mass (a fluid's added mass) turns f
-  into m M^-1 f (and adds the forces of that mass turning)
+  into m M^-1 f (and adds the forces of that mass turning); a velocity flow may run there
+  between the kick's halves, v -> F(v + h/2 a) - h/2 a, a = f / m (a fluid's drag at the
+  lines' vertices: one flow a kick where halves on its sides take two)
 Constraint kernels, a pair (kinematic effects: prescribed motion), run after every stage:
   after a drift of h:  kernel(effect, model, state, h)          -> set the prescribed pose
                        at the stage's end time state.clock[0], and its velocity
@@ -395,7 +397,7 @@ def _at_hook(hook, doc):
 apply_loads = _at_hook(0, "Add the loads of every load effect.")
 apply_flows = _at_hook(1, "The velocity flow of every flow effect for time h.")
 apply_accounts = _at_hook(2, "The work of every load effect that keeps one (h: half the kick).")
-apply_inertias = _at_hook(3, "The loads as the masses of the effects that add some see them.")
+apply_inertias = _at_hook(3, "The loads as the masses of the effects that add some see them; flows in the kick.")
 apply_drift_constraints = _at_hook(4, "Every prescribed pose after a drift of h.")
 apply_kick_constraints = _at_hook(5, "Every prescribed velocity after a kick of h.")
 

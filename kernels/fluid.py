@@ -16,11 +16,13 @@ factor over time) plus linear (Airy) waves. What the medium does to a line split
   (t its tangent), the kick's forces are divided by it, and the flows above use it; where
   a_n and a_t differ, the fluid turning with the line adds forces of its own (both in
   kernels/added_mass.py).
-Drag runs as half flows on both sides of every kick, mirrored (kernels/fluid_step.flow_fluid;
-p.turn remembers which side is next), so that every step is a symmetric sequence: stable however
-stiff the drag against the step, up to the step's own limit. This module holds the record, the
-medium and the passes over the lines' vertices; the free nodes' part and the kick's sequence
-are kernels/fluid_step.py's.
+At a line's interior vertices the drag runs once a kick, inside it, between its two halves
+(K/2 F K/2: kick_drag_vertices, after the added mass has turned the kick's loads); at the
+nodes and for a moving medium's impulses, as half flows on both sides of every kick, mirrored
+(kernels/fluid_step.flow_fluid; p.turn remembers which side is next). Either way every step is
+a symmetric sequence (second order), stable however stiff the drag against the step, up to
+the step's own limit. This module holds the record, the medium and the passes over the lines'
+vertices; the free nodes' part and the kick's sequence are kernels/fluid_step.py's.
 Lines are listed by row (p.lines); quantities per unit rest length are per row. Vertical is
 +z; the free surface, when there is one, is the plane z = p.surface at rest.
 """
@@ -87,7 +89,7 @@ class FluidParams(NamedTuple):
     wet_inverse: np.ndarray  # (2, nv) 1 / (m + l a_n), 1 / (m + l a_t) of each interior vertex of a line in the
                              # medium: its inverse masses across and along the line where it is wet
     decay: np.ndarray        # (2, nv) scratch of the linear law: exp(-c h l / m) across and along the line at each
-                             # wet interior vertex for a flow of h = decay_h (drag_vertices)
+                             # wet interior vertex for a flow of h = decay_h (kick_drag_vertices)
     decay_h: np.ndarray      # (1,) the h of decay (nan: none yet)
     turn: np.ndarray         # (1,) int64: 0 before a kick, 1 after
     dissipated: np.ndarray   # (1,) energy drag has taken so far, in the frame of the medium
@@ -100,8 +102,9 @@ class FluidParams(NamedTuple):
     buoy_added: np.ndarray   # (b,) its added mass when submerged, C_a rho V
     buoy_sample: np.ndarray  # (b, 7) as the kick's first half flow found it: the submerged fraction f, U, A
     medium: np.ndarray       # (2,) rho and g
-    turning: np.ndarray      # (9, nv) kernels/added_mass.py: the forces of the entrained fluid as the lines
-                             # turn (the last kick's), and scratch; (9, 0) when they do not act
+    turning: np.ndarray      # (12, nv) kernels/added_mass.py: the forces of the entrained fluid as the lines
+                             # turn and the drag's change of the velocity (the last kick's), and scratch;
+                             # (12, 0) when they do not act
     node_mass: np.ndarray    # (nn, 6) scratch: each free node's mass matrix with the added mass of its wet
                              # line ends and buoy as the kick's sample holds it (a00 a01 a02 a11 a12 a22;
                              # sample_node_masses), where the medium adds mass
@@ -472,7 +475,7 @@ def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
 def push_vertices(p, model, state, h):
     """Update state.v of the interior vertices by the impulse h of the medium's inertia force
     (as sample_inertia found it), through the added mass; p.supplied by its work. (The
-    upthrust is a load of the kick: add_fluid_mass. Contiguous columns, unsigned indices:
+    upthrust is a load of the kick: added_mass.kick_fluid. Contiguous columns, unsigned indices:
     vectorised as drag_vertices.)"""
     v, S = columns(state.v), sample_rows(p)
     nl = model.line_vertex_offsets.shape[0] - 1
@@ -503,16 +506,16 @@ def push_line(v, S, first, n, h):
 
 
 @njit(**CACHED, inline="always")
-def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay):
-    """Update the velocity columns v (3-tuple) at vertex i by the exact flow of drag (see
-    drag_vertices) given the sample rows S, the Voronoi lengths and vertex masses and, for the
-    linear law, the decay factors of a wet vertex over the flow (p.decay: across, along);
-    return the energy it dissipated and the work the medium supplied (``calm``: the medium
-    at rest everywhere, its velocity rows not read)."""
+def drag_flow(vx, vy, vz, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay):
+    """Return (the velocity, the energy dissipated, the work the medium supplied) of vertex i
+    after the exact flow of drag (see kick_drag_vertices) from the velocity (vx, vy, vz), given
+    the sample rows S, the Voronoi lengths and vertex masses and, for the linear law, the decay
+    factors of a wet vertex over the flow (p.decay: across, along) (``calm``: the medium at
+    rest everywhere, its velocity rows not read)."""
     wl = S[0][i] * vlen[i]                             # 0 where the vertex is dry
     tx, ty, tz = S[7][i], S[8][i], S[9][i]
     Ux, Uy, Uz = (0.0, 0.0, 0.0) if calm else (S[1][i], S[2][i], S[3][i])
-    ux, uy, uz = v[0][i] - Ux, v[1][i] - Uy, v[2][i] - Uz
+    ux, uy, uz = vx - Ux, vy - Uy, vz - Uz
     ut = ux * tx + uy * ty + uz * tz
     nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
     sn = math.sqrt(nx * nx + ny * ny + nz * nz)
@@ -526,30 +529,54 @@ def drag_vertex(v, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay):
         d = 1.0 / (at_ * an_)
         rt, rn = an_ * d, at_ * d
         jt, jn = -ct * rt, -cn * rn
-    v[0][i] = Ux + rt * ut * tx + rn * nx
-    v[1][i] = Uy + rt * ut * ty + rn * ny
-    v[2][i] = Uz + rt * ut * tz + rn * nz
-    return (-0.5 * (1.0 + rt) * jt * ut * ut - 0.5 * (1.0 + rn) * jn * sn * sn,
+    return ((Ux + rt * ut * tx + rn * nx, Uy + rt * ut * ty + rn * ny, Uz + rt * ut * tz + rn * nz),
+            -0.5 * (1.0 + rt) * jt * ut * ut - 0.5 * (1.0 + rn) * jn * sn * sn,
             jt * ut * (tx * Ux + ty * Uy + tz * Uz) + jn * (nx * Ux + ny * Uy + nz * Uz))
 
 
+@njit(**CACHED, inline="always")
+def kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay, keep):
+    """Update the velocity columns v (3-tuple) at vertex i by half the kick's impulse (hh times
+    the inverse mass im times the load columns f, as the kick takes them), the exact flow of
+    drag (drag_flow), and that half impulse taken back, which the kick then gives with the
+    other half: K/2 F K/2. D at i by the flow's change of the velocity where ``keep``. Return
+    the energy dissipated and the work supplied."""
+    s = hh * im[i]
+    ax, ay, az = s * f[0][i], s * f[1][i], s * f[2][i]
+    wx, wy, wz = v[0][i] + ax, v[1][i] + ay, v[2][i] + az
+    u, d, g = drag_flow(wx, wy, wz, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay)
+    if keep:
+        D[0][i], D[1][i], D[2][i] = u[0] - wx, u[1] - wy, u[2] - wz
+    v[0][i], v[1][i], v[2][i] = u[0] - ax, u[1] - ay, u[2] - az
+    return d, g
+
+
 @njit(**PASS)
-def drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay):
-    """Update the velocity columns v at the n vertices first.. by the exact flow of drag
-    (drag_vertex; a loop per law, and for Morison's a calm medium's of its own: three rows
+def kick_drag_line(v, f, im, hh, D, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay, keep):
+    """Update the velocity columns v at the n vertices first.. by the kick's drag
+    (kick_drag_vertex; a loop per law, and for Morison's a calm medium's of its own: three rows
     fewer to read, no work supplied); return the energy dissipated and the work supplied."""
     dissipated = supplied = 0.0
-    if linear:
+    if keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, False, decay)
+            d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, linear, calm,
+                                    decay, True)
+            dissipated += d
+            supplied += g
+    elif linear:
+        for k in range(n):
+            d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, False,
+                                    decay, False)
             dissipated += d
             supplied += g
     elif calm:
         for k in range(n):
-            dissipated += drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, True, decay)[0]
+            dissipated += kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, False,
+                                           True, decay, False)[0]
     else:
         for k in range(n):
-            d, g = drag_vertex(v, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, False, decay)
+            d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, False,
+                                    decay, False)
             dissipated += d
             supplied += g
     return dissipated, supplied
@@ -568,16 +595,28 @@ def sample_rows(p):
     return S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7], S[8], S[9], S[10], S[11], S[12], S[13], S[14], S[15]
 
 
+@njit(**CACHED, inline="always")
+def turns(p, j):
+    """Whether row j's added mass differs across and along its line (its fluid turns with it:
+    kernels/added_mass.py)."""
+    return p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0
+
+
 @njit(**INNER)
-def drag_vertices(p, model, state, h):
-    """Update state.v of the interior vertices by the exact flow of drag for time h (the
-    tangential and normal parts of the relative velocity u each keep their direction, their
-    size s becoming s r with r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the
-    linear one, m with the added mass of that direction); p.dissipated and p.supplied by its
-    work. (A loop per law over contiguous columns with unsigned indices, branch-free, which
-    LLVM vectorises; see layout.columns.)"""
-    v, S = columns(state.v), sample_rows(p)
-    vlen, vmass = model.voronoi_rest_length, model.vertex_mass
+def kick_drag_vertices(p, model, state, loads, h):
+    """Update state.v of the interior vertices by the exact flow of drag for the kick's length
+    h, between the kick's two halves (K/2 F K/2: kick_drag_vertex; the kick that follows gives
+    the whole impulse of loads.f, as the added mass left it): the tangential and normal parts
+    of the relative velocity u each keep their direction, their size s becoming s r with
+    r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the linear one, m with the
+    added mass of that direction. p.dissipated and p.supplied by its work; rows 9-11 of
+    p.turning, where the line's fluid turns, by the flow's change of the velocity (the next
+    kick's prediction of its midpoint: added_mass.predict_line). One flow a kick at its middle
+    where two halves on its sides took two passes; the step stays a symmetric sequence
+    (second order) and stable however stiff the drag. (A loop per law over contiguous columns
+    with unsigned indices, branch-free, which LLVM vectorises; see layout.columns.)"""
+    v, f, S = columns(state.v), columns(loads.f), sample_rows(p)
+    vlen, vmass, im = model.voronoi_rest_length, model.vertex_mass, model.vertex_inv_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     if p.law == LINEAR and p.decay_h[0] != h:
         # the linear law's decay of a wet vertex's relative velocity over the flow, exp(-c h l / m)
@@ -591,6 +630,7 @@ def drag_vertices(p, model, state, h):
                     p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
         p.decay_h[0] = h
     decay = (p.decay[0], p.decay[1])
+    D = (p.turning[9], p.turning[10], p.turning[11])
     calm = calm_medium(p)
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
@@ -600,7 +640,8 @@ def drag_vertices(p, model, state, h):
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         first, n = uint(lo + 1), hi - lo - 2
         kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR
-        d, g = drag_line(v, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay)
+        d, g = kick_drag_line(v, f, im, 0.5 * h, D, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay,
+                              turns(p, j))
         dissipated += d
         supplied += g
     p.dissipated[0] += dissipated

@@ -3,7 +3,8 @@
 kernels/fluid.py holds the fluid's record, the medium and the passes over the lines' vertices;
 here: the free nodes at the lines' ends and the buoys (their added mass, the forces of position
 and time, drag by one linearly implicit step), the entrained fluid's kinetic energy, and
-flow_fluid, which runs the lines' passes and the nodes' in halves on both sides of every kick."""
+flow_fluid, which runs the nodes' drag and the moving medium's impulses in halves on both sides of every kick
+(the lines' interior vertices take their drag inside the kick: fluid.kick_drag_vertices)."""
 
 import math
 
@@ -12,7 +13,7 @@ from numba import njit
 from .backend import ENTRY, STEP
 from .compiler import CACHED, INNER
 from .compose import flow_kernel
-from .fluid import (CARRIES, MORISON, MOVING, FluidParams, add_split, buoy_of, carrying_span, drag_vertices,
+from .fluid import (CARRIES, MORISON, MOVING, FluidParams, add_split, buoy_of, carrying_span,
                     end_arm, ends_entrained, entrained_line, has_added_mass, node_free, push_vertices,
                     sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force)
 from .layout import columns, uint
@@ -372,19 +373,20 @@ def push_medium(p, model, state, h, still):
 @njit(**STEP)
 def flow_fluid(p, model, state, h):
     """Update state.v, state.node_v, state.node_w by what the medium does over half a kick, h,
-    beside the kick's loads: drag and, in a moving medium, the forces of position and time the
-    kick does not carry (its inertia force at the lines' vertices, the forces on the nodes:
-    push_medium), on both sides of every kick, mirrored (before it drag then the forces, after it the forces
-    then drag; p.turn: the side), so that every step is a symmetric sequence (second order).
-    Run once a kick for the kick's length, alternately before and after it, a stiff drag (a
-    dashpot whose rate times the step is of order one, near the step's own limit) made the
-    pair of steps unstable, as a split of any exact flow does so placed. p.dissipated and
-    p.supplied follow their work (the medium's own kinetic energy through the added mass
-    counted as the line's). Before the kick, the medium is sampled: a new sample changes the
-    added mass (the lines turned, entered or left the water since the last kick) at the
-    velocities of the drift between: the entrained fluid's kinetic energy then changes by work
-    Morison's M v' = f leaves out of its forces, counted in p.supplied, so the energy balance
-    still closes."""
+    beside the kick's loads: the drag on the free nodes and, in a moving medium, the forces of
+    position and time the kick does not carry (its inertia force at the lines' vertices, the
+    forces on the nodes: push_medium), on both sides of every kick, mirrored (before it drag
+    then the forces, after it the forces then drag; p.turn: the side), so that every step is
+    a symmetric sequence (second order). (The lines' interior vertices take their drag inside
+    the kick, between its halves: fluid.kick_drag_vertices. Run once a kick for the kick's
+    length, alternately before and after it, a stiff drag, a dashpot whose rate times the
+    step is of order one, near the step's own limit, made the pair of steps unstable, as a
+    split of any exact flow does so placed.) p.dissipated and p.supplied follow their work
+    (the medium's own kinetic energy through the added mass counted as the line's). Before
+    the kick, the medium is sampled: a new sample changes the added mass (the lines turned,
+    entered or left the water since the last kick) at the velocities of the drift between:
+    the entrained fluid's kinetic energy then changes by work Morison's M v' = f leaves out
+    of its forces, counted in p.supplied, so the energy balance still closes."""
     after = p.turn[0] & 1
     still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
     if after == 0:   # in a still medium, the lines' share of the change is the sample's own
@@ -402,7 +404,6 @@ def flow_fluid(p, model, state, h):
                 sample_buoys(p, state, state.clock[0])
     if after == 1:
         push_medium(p, model, state, h, still)
-    drag_vertices(p, model, state, h)
     drag_nodes(p, model, state, h)
     if after == 0:
         push_medium(p, model, state, h, still)

@@ -11,7 +11,7 @@ from .specialise import Variants
 
 def _register(cls, kernels):
     flow_kernel(cls)(kernels["flow_fluid"])
-    inertia_kernel(cls)(kernels["add_fluid_mass"])
+    inertia_kernel(cls)(kernels["kick_fluid"])
 
 
 VARIANTS = Variants(FluidParams, lambda: (fluid, fluid_step, added_mass), OPTIONS, _register, __name__)

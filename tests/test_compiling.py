@@ -384,7 +384,7 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
                **variant.family}
     rec = typeof(p)
     typed = {n for n, f in kernels.items() if any(rec in sig for sig in f.overloads)}
-    assert {"sample_medium", "drag_vertices", "drag_nodes"} <= typed
+    assert {"sample_medium", "kick_drag_vertices", "drag_nodes"} <= typed
     assert not typed & {"sample_buoys", "push_vertices", "sample_node_masses", "node_mass_matrix", "entrained_energy",
                         "nodes_entrained", "buoys_entrained", "add_turning_forces"}, typed
 
