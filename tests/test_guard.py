@@ -180,6 +180,14 @@ def test_checkpoint_names_dt_stepper_effects_and_size_differences(tmp_path):
         cosnet.Simulation(net, effects=[cosnet.Damping(0.1)], dt=0.5 * sim.dt, force_dt=True).load_checkpoint(path)
     with pytest.raises(ValueError, match=r"effects \(Damping\(translational=0.2/s"):
         cosnet.Simulation(net, effects=[cosnet.Damping(0.2)], dt=sim.dt, force_dt=True).load_checkpoint(path)
+    # a parameter its description leaves out (the fluid's added mass): said as its record's arrays
+    wet = [cosnet.Fluid(1000.0, drag=(1.0, 0.1), added_mass=(1.0, 0.0))]
+    (tmp_path / "wet").mkdir()
+    wet_path = checkpoint_of(tmp_path / "wet", net, effects=wet)
+    drier = [cosnet.Fluid(1000.0, drag=(1.0, 0.1), added_mass=(0.5, 0.0))]
+    with pytest.raises(ValueError, match=r"effects \(Fluid\(density=1000.*\): its record's arrays differ\)"):
+        cosnet.Simulation(net, effects=drier, dt=cosnet.Simulation(net, effects=wet).dt,
+                          force_dt=True).load_checkpoint(wet_path)
     with pytest.raises(ValueError, match=r"effects \(1 in the checkpoint, 2 here\)"):
         other = cosnet.Simulation(net, effects=[cosnet.Damping(0.1), cosnet.Gravity()], dt=sim.dt, force_dt=True)
         other.load_checkpoint(path)

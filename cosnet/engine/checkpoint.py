@@ -95,6 +95,13 @@ def _named(kind: str, names: list) -> str:
     return shown + (f" and {len(names) - 3} more" if len(names) > 3 else "")
 
 
+def _effect_change(now: str, was: str) -> str:
+    """An effect whose hash differs, as a phrase: its description then and now, or, where they
+    read the same, that its record's arrays differ (a parameter the description leaves out, or
+    a checkpoint written by a version that laid the record out otherwise)."""
+    return f"{now} was {was}" if now != was else f"{now}: its record's arrays differ"
+
+
 def differences(sim, saved) -> list[str]:
     """What differs between ``sim`` and the fingerprint, dt and stepper in ``saved`` (a
     mapping of arrays as written by save), each as a short phrase; empty if nothing."""
@@ -123,8 +130,9 @@ def differences(sim, saved) -> list[str]:
     else:
         changed = np.flatnonzero(old != new)
         if changed.size:
-            out.append("effects (" + ", ".join(f"{sim.effects[i].describe()} was "
-                                               f"{saved['fp_effect_names'][i]}" for i in changed[:3]) + ")")
+            names = saved["fp_effect_names"]
+            out.append("effects (" + ", ".join(_effect_change(sim.effects[i].describe(), str(names[i]))
+                                               for i in changed[:3]) + ")")
     if str(saved["stepper"]) != sim.stepper:
         out.append(f"stepper ({saved['stepper']} in the checkpoint, {sim.stepper} here)")
     if float(saved["dt"]) != sim.dt:
