@@ -30,8 +30,8 @@ def wire(n):
                                   lambda: cosnet.Fluid(SEA, surface=0.0, resistance=(1e5, 5e4))],
                          ids=["dashpots", "stokes"])
 def test_a_stiff_flow_at_the_stable_step_only_takes_energy(flow):
-    fluid = isinstance(flow(), cosnet.Fluid)
-    sim = cosnet.Simulation(wire(300), [cosnet.Gravity(), flow()], fast_modes="rotary")
+    effect = flow()
+    sim = cosnet.Simulation(wire(300), [cosnet.Gravity(), effect], fast_modes="rotary")
     energies = [sim.energy()]
     for k in range(10):
         sim.run(until=0.05 * (k + 1))
@@ -39,7 +39,7 @@ def test_a_stiff_flow_at_the_stable_step_only_takes_energy(flow):
     assert np.all(np.isfinite(sim.state.v)) and np.all(np.isfinite(energies))
     assert np.all(np.diff(energies) < 0.0)     # gravity and dissipative flows alone: falling at every sample
     drop = energies[0] - energies[-1]
-    if fluid:
+    if isinstance(effect, cosnet.Fluid):
         # the drag's flow runs inside the kick, between its halves: the kick's work and the
         # drift's see the same velocities, and what the wire lost is what the drag took
         # (measured 6e-11 apart; halves of the flow on the kick's sides counted 1.6 times the loss)
