@@ -12,6 +12,8 @@ import numba
 from llvmlite import binding as llvm
 from numba.core import codegen
 
+from . import typing_memo  # noqa: F401  (numba's typing remembers what it found)
+
 
 def _use_own_copies():
     """Make every compiled library call its own copies of the functions it links in.
@@ -42,34 +44,6 @@ def _use_own_copies():
 
 
 _use_own_copies()
-
-
-def _quick_option_values():
-    """Make numba's compile options (TargetConfig) cheap to compare and hash. Typing looks up
-    every overload in a cache keyed by the options in force; each lookup built a dict of all
-    ~40 options through their properties, twice (hash, then equality), tens of thousands of
-    times per step compiled: about a twentieth of a cold start. The same dict is now the
-    class's defaults updated with the options set; equal values, equal hashes."""
-    from numba.core import targetconfig
-    cls = getattr(targetconfig, "TargetConfig", None)
-    values = getattr(cls, "values", None)
-    if values is None or getattr(values, "quick", False):
-        return
-
-    def quick_values(self):
-        kind = type(self)
-        defaults = kind.__dict__.get("_defaults")
-        if defaults is None:
-            defaults = {k: o.default for k, o in kind.options.items()}
-            kind._defaults = defaults
-        out = dict(defaults)
-        out.update(self._values)
-        return out
-    quick_values.quick = True
-    cls.values = quick_values
-
-
-_quick_option_values()
 
 
 def _vectorise_remainders():

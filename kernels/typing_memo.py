@@ -1,0 +1,108 @@
+"""Numba's typing made to remember, within a process, what it has already worked out: the
+options in force, the signature of a builtin operation for given argument types, the IR of a
+function inlined at many call sites. Typing, not machine code, is most of a cold start (the
+default bridge: 9 of its 15 s of compilation), and numba redoes these for every call site of
+every kernel. Each adjustment leaves the compiled code as numba makes it (the tests compare
+runs bit for bit) and falls back to numba's own where numba is built otherwise."""
+
+import copy
+
+from numba.core import targetconfig
+
+
+def _quick_option_values():
+    """Make numba's compile options (TargetConfig) cheap to compare and hash. Typing looks up
+    every overload in a cache keyed by the options in force; each lookup built a dict of all
+    ~40 options through their properties, twice (hash, then equality), tens of thousands of
+    times per step compiled: about a twentieth of a cold start. The same dict is now the
+    class's defaults updated with the options set; equal values, equal hashes."""
+    cls = getattr(targetconfig, "TargetConfig", None)
+    values = getattr(cls, "values", None)
+    if values is None or getattr(values, "quick", False):
+        return
+
+    def quick_values(self):
+        kind = type(self)
+        defaults = kind.__dict__.get("_defaults")
+        if defaults is None:
+            defaults = {k: o.default for k, o in kind.options.items()}
+            kind._defaults = defaults
+        out = dict(defaults)
+        out.update(self._values)
+        return out
+    quick_values.quick = True
+    cls.values = quick_values
+
+
+def _remember_builtin_signatures():
+    """Make the typing of a builtin function (an operator, a math or numpy function) for given
+    argument types happen once per process. Numba tries the function's templates in turn at
+    every call site, recording why each that does not match fails: ``a * b`` on two floats
+    walks dozens of them, and a step's kernels hold thousands of such sites (the bridge's
+    cold start: 7,000 lookups for 300 distinct signatures, a tenth of its compilation). The
+    key holds the options in force (a copy: numba's inliner changes them in place), as
+    numba's own cache of overload implementations does, so a kernel compiled without
+    fast-math never takes an implementation compiled with it. Failures are not remembered:
+    they raise, and numba tries again as before."""
+    from numba.core.types import functions
+    cls = getattr(functions, "Function", None)
+    resolve = getattr(getattr(functions, "BaseFunction", None), "get_call_type", None)
+    if cls is None or resolve is None or getattr(resolve, "remembers", False):
+        return
+    found: dict = {}
+
+    def get_call_type(self, context, args, kws):
+        if type(self) is not cls:   # a bound method, a dispatcher: numba's own path
+            return resolve(self, context, args, kws)
+        flags = targetconfig.ConfigStack.top_or_none()
+        try:
+            key = (self, context, args, tuple(sorted(kws.items())), flags)
+            sig = found.get(key)
+        except TypeError:   # an unhashable argument type
+            return resolve(self, context, args, kws)
+        if sig is None:
+            sig = resolve(self, context, args, kws)
+            if sig is not None:
+                found[key[:-1] + (None if flags is None else flags.copy(),)] = sig
+        return sig
+    get_call_type.remembers = True
+    functions.BaseFunction.get_call_type = get_call_type
+
+
+def _reuse_inlined_bodies():
+    """Make the IR of a function inlined by numba (``inline="always"``: the loop bodies and
+    small helpers of the kernels) built once per process and options, not once per call
+    site. Numba runs the untyped half of its pipeline on the inlined function at every site
+    (``uint`` alone is inlined 78 times into the mooring case's kernels: 3.5 of its 45 s of
+    compilation went to these passes). The inliner copies the IR before changing it, so one
+    copy serves every site; each site's copy takes a fresh identity, as numba's gives it, so
+    the inlined variables' names stay distinct."""
+    from numba.core import inline_closurecall
+    cls = getattr(inline_closurecall, "InlineWorker", None)
+    inline = getattr(cls, "inline_function", None)
+    if inline is None or not hasattr(cls, "inline_ir") or getattr(inline, "reused", False):
+        return
+    bodies: dict = {}
+
+    def inline_function(self, caller_ir, block, i, function, arg_typs=None):
+        if self.flags is None:
+            return inline(self, caller_ir, block, i, function, arg_typs=arg_typs)
+        self.flags.enable_ssa = False   # as numba's run of the passes leaves the caller's options
+        try:
+            key = (function, tuple(sorted((self.locals or {}).items())), self.flags)
+            body = bodies.get(key)
+        except TypeError:
+            return inline(self, caller_ir, block, i, function, arg_typs=arg_typs)
+        if body is None:
+            body = self.run_untyped_passes(function)
+            bodies[key[:-1] + (self.flags.copy(),)] = body
+        site = copy.copy(body)
+        site.func_id = body.func_id.derive()
+        return self.inline_ir(caller_ir, block, i, site, function.__code__.co_freevars, arg_typs=arg_typs)
+    inline_function.reused = True
+    cls.inline_function = inline_function
+
+
+_quick_option_values()
+_remember_builtin_signatures()
+_reuse_inlined_bodies()
