@@ -1,11 +1,14 @@
 """Numba's typing made to remember, within a process, what it has already worked out: the
 options in force, the signature of a builtin operation for given argument types, the IR of a
-function inlined at many call sites. Typing, not machine code, is most of a cold start (the
-default bridge: 9 of its 15 s of compilation), and numba redoes these for every call site of
-every kernel. Each adjustment leaves the compiled code as numba makes it (the tests compare
-runs bit for bit) and falls back to numba's own where numba is built otherwise."""
+function inlined at many call sites. Numba's own Python (typing, lowering) is about half of
+a cold start's compiling (bench/startup.py's "numba + LLVM"), and numba redoes these at every
+call site of every kernel. Each adjustment leaves the compiled code as numba makes it (a test
+compares runs bit for bit) and falls back to numba's own where numba is built otherwise.
+COSNET_TYPING_MEMO=0 in the environment leaves numba's typing as it is (a test compares the two).
+"""
 
 import copy
+import os
 
 from numba.core import targetconfig
 
@@ -104,5 +107,6 @@ def _reuse_inlined_bodies():
 
 
 _quick_option_values()
-_remember_builtin_signatures()
-_reuse_inlined_bodies()
+if os.environ.get("COSNET_TYPING_MEMO", "1") != "0":
+    _remember_builtin_signatures()
+    _reuse_inlined_bodies()

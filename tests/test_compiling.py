@@ -6,12 +6,13 @@ process compiling a step's kick alongside compiles the kick the step calls, and 
 block."""
 
 import os
+import subprocess
 import sys
 import time
 
 import pytest
 
-from procs import started, wait_until
+from procs import spawn, started, wait_until
 
 KERNEL = """
 from numba import njit
@@ -545,3 +546,51 @@ def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():
                 if options.get("error_model") == "python":
                     python_model.append(f"{info.name}.{name}")
     assert not unset and not python_model, unset + python_model
+
+
+# Runs a wire in water (drag, added mass turning with it, upthrust) for 300 steps and prints
+# a digest of its state arrays, after whether numba's typing remembers (kernels/typing_memo.py).
+WET_WIRE = r"""
+import hashlib
+import cosnet
+from numba.core.types.functions import BaseFunction
+remembers = getattr(BaseFunction.get_call_type, "remembers", False)
+net = cosnet.Net()
+a = net.add_node((0.0, 0.0, -2.0), fixed=True)
+b = net.add_node((3.0, 0.0, -1.0), mass=5.0, inertia=(0.1, 0.1, 0.1))
+net.add_line(a, b, material=cosnet.Material(E=1e9, poisson=0.3, density=7850.0),
+             section=cosnet.Circle(0.02), elements=12)
+fluid = cosnet.Fluid(1025.0, velocity=(0.4, 0.1, 0.0), drag=(1.2, 0.008), added_mass=(1.0, 0.2),
+                     buoyancy=True, surface=0.0)
+sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], threads=1)
+sim.run(steps=300)
+digest = hashlib.sha256()
+for name, array in sim.state._asdict().items():
+    digest.update(name.encode())
+    digest.update(array.tobytes())
+print(remembers, digest.hexdigest(), flush=True)
+"""
+
+
+def test_remembered_typing_compiles_the_same_code(tmp_path):
+    """kernels/typing_memo.py changes how long numba types, not what it compiles: a wire in
+    water compiled cold with numba's typing as it is and with the memo runs to the same state,
+    bit for bit (each process with an empty cache of its own, so each compiles everything)."""
+    procs = []
+    for memo in ("0", "1"):
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / f"cache{memo}"), COSNET_TYPING_MEMO=memo)
+        procs.append(spawn([sys.executable, "-c", WET_WIRE], env=env, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True))
+    out = []
+    try:
+        for proc in procs:
+            stdout, stderr = proc.communicate(timeout=600)
+            assert proc.returncode == 0, stderr[-2000:]
+            out.append(stdout.split()[-2:])
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    assert [remembers for remembers, _ in out] == ["False", "True"]
+    assert len(out[0][1]) == 64 and out[0][1] == out[1][1]
