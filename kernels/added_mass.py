@@ -37,8 +37,8 @@ from .layout import columns, uint
 from .rotations import cross, solve_sym3
 
 TURNING_ROWS = 12  # rows of p.turning: the forces G (3, the last kick's until the next), the velocities V they
-                   # are taken at (3), q (3), the drag's change of the velocity at the interior vertices (3, the
-                   # last kick's: fluid.kick_drag_vertices)
+                   # are taken at (3), q (3), the last kick's whole change of the velocity at the interior vertices
+                   # (3: add_line_forces, or with the drag's flow fluid.kick_drag_vertices)
 
 
 @njit(**CACHED, inline="always")
@@ -138,37 +138,51 @@ def end_sums(p, model, state, G, nd):
 
 
 @njit(**PASS)
-def predict_line(V, v, S, f, G, D, first, n, h, up):
-    """Update the velocity columns V at the n vertices first.. to v after a kick of h with the
-    force columns f + G and up times the sampled upthrust (row 13), through the sampled
-    inverse masses, and half the drag's change D: the kick's midpoint, where the drag's flow
-    runs between its halves (fluid.kick_drag_vertices)."""
+def predict_line(V, v, D, first, n):
+    """Update the velocity columns V at the n vertices first.. to v and half the last kick's
+    whole change of the velocity D: the kick's midpoint (the drag's flow runs there, between
+    the kick's halves: fluid.kick_drag_vertices), to O(h^2), the change of a kick differing
+    from the last one's by O(h^2)."""
     for k in range(n):
         i = first + uint(k)
-        d = split(S[14][i], S[15][i], f[0][i] + G[0][i], f[1][i] + G[1][i], f[2][i] + G[2][i] + up * S[13][i],
-                  S[7][i], S[8][i], S[9][i])
-        V[0][i] = v[0][i] + h * d[0] + 0.5 * D[0][i]
-        V[1][i] = v[1][i] + h * d[1] + 0.5 * D[1][i]
-        V[2][i] = v[2][i] + h * d[2] + 0.5 * D[2][i]
+        V[0][i] = v[0][i] + 0.5 * D[0][i]
+        V[1][i] = v[1][i] + 0.5 * D[1][i]
+        V[2][i] = v[2][i] + 0.5 * D[2][i]
+
+
+@njit(**CACHED, inline="always")
+def line_force(f, G, Q, V, S, vmass, i, up):
+    """Update G at interior vertex i by q of the vertex before (whose chord ends here) less q
+    of the vertex after (whose chord starts here), and the force columns f there to what the
+    kick divides by the vertex mass: m M^-1 (f + G + up times the sampled upthrust), as
+    divide_line; return the power of G at V and the kick's change of the velocity per its
+    length, M^-1 (f + G + ...)."""
+    gx = G[0][i] + Q[0][i - uint(1)] - Q[0][i + uint(1)]
+    gy = G[1][i] + Q[1][i - uint(1)] - Q[1][i + uint(1)]
+    gz = G[2][i] + Q[2][i - uint(1)] - Q[2][i + uint(1)]
+    G[0][i], G[1][i], G[2][i] = gx, gy, gz
+    a = split(S[14][i], S[15][i], f[0][i] + gx, f[1][i] + gy, f[2][i] + gz + up * S[13][i], S[7][i], S[8][i], S[9][i])
+    m = vmass[i]
+    f[0][i], f[1][i], f[2][i] = m * a[0], m * a[1], m * a[2]
+    return gx * V[0][i] + gy * V[1][i] + gz * V[2][i], a
 
 
 @njit(**PASS)
-def add_line_forces(f, G, Q, V, S, vmass, first, n, up):
-    """Update G at the n interior vertices first.. by q of the vertex before (whose chord ends
-    here) less q of the vertex after (whose chord starts here), and the force columns f there
-    to what the kick divides by the vertex mass: m M^-1 (f + G + up times the sampled
-    upthrust), as divide_line (one pass instead of two); return the power of G at V."""
+def add_line_forces(f, G, Q, V, S, vmass, D, h, first, n, up, change):
+    """Update G and the force columns f at the n interior vertices first.. (line_force: one
+    pass where divide_line and a pass of its own took two) and, where ``change`` (no drag's
+    flow to write it: fluid.kick_drag_vertices), D by the kick's change of the velocity over
+    h; return the power of G at V."""
     power = 0.0
-    for k in range(n):
-        i = first + uint(k)
-        gx = G[0][i] + Q[0][i - uint(1)] - Q[0][i + uint(1)]
-        gy = G[1][i] + Q[1][i - uint(1)] - Q[1][i + uint(1)]
-        gz = G[2][i] + Q[2][i - uint(1)] - Q[2][i + uint(1)]
-        G[0][i], G[1][i], G[2][i] = gx, gy, gz
-        power += gx * V[0][i] + gy * V[1][i] + gz * V[2][i]
-        m = vmass[i]
-        f[0][i], f[1][i], f[2][i] = split(m * S[14][i], m * S[15][i], f[0][i] + gx, f[1][i] + gy,
-                                          f[2][i] + gz + up * S[13][i], S[7][i], S[8][i], S[9][i])
+    if change:
+        for k in range(n):
+            i = first + uint(k)
+            w, a = line_force(f, G, Q, V, S, vmass, i, up)
+            power += w
+            D[0][i], D[1][i], D[2][i] = h * a[0], h * a[1], h * a[2]
+    else:
+        for k in range(n):
+            power += line_force(f, G, Q, V, S, vmass, first + uint(k), up)[0]
     return power
 
 
@@ -200,7 +214,7 @@ def add_turning_forces(p, model, state, loads, h):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        predict_line(V, v, S, f, G, D, uint(lo + 1), hi - lo - 2, 0.5 * h, 1.0 if p.buoyancy[j] != 0.0 else 0.0)
+        predict_line(V, v, D, uint(lo + 1), hi - lo - 2)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
             c = end_spin(model, state, a)
@@ -215,8 +229,8 @@ def add_turning_forces(p, model, state, loads, h):
             continue
         line_turning(G, Q, V, S, p.chord_inverse, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j],
                      calm)
-        work += add_line_forces(f, G, Q, V, S, model.vertex_mass, uint(lo + 1), hi - lo - 2,
-                                1.0 if p.buoyancy[j] != 0.0 else 0.0)
+        work += add_line_forces(f, G, Q, V, S, model.vertex_mass, D, h, uint(lo + 1), hi - lo - 2,
+                                1.0 if p.buoyancy[j] != 0.0 else 0.0, p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0)
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             if node_free(p, model, model.attach_node[a]):
                 work += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]

@@ -103,7 +103,7 @@ class FluidParams(NamedTuple):
     buoy_sample: np.ndarray  # (b, 7) as the kick's first half flow found it: the submerged fraction f, U, A
     medium: np.ndarray       # (2,) rho and g
     turning: np.ndarray      # (12, nv) kernels/added_mass.py: the forces of the entrained fluid as the lines
-                             # turn and the drag's change of the velocity (the last kick's), and scratch;
+                             # turn and the velocity's change over the last kick, and scratch;
                              # (12, 0) when they do not act
     node_mass: np.ndarray    # (nn, 6) scratch: each free node's mass matrix with the added mass of its wet
                              # line ends and buoy as the kick's sample holds it (a00 a01 a02 a11 a12 a22;
@@ -539,14 +539,14 @@ def kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, i, kn, kt, an, at, linear,
     """Update the velocity columns v (3-tuple) at vertex i by half the kick's impulse (hh times
     the inverse mass im times the load columns f, as the kick takes them), the exact flow of
     drag (drag_flow), and that half impulse taken back, which the kick then gives with the
-    other half: K/2 F K/2. D at i by the flow's change of the velocity where ``keep``. Return
-    the energy dissipated and the work supplied."""
+    other half: K/2 F K/2. D at i by the kick's whole change of the velocity where ``keep``.
+    Return the energy dissipated and the work supplied."""
     s = hh * im[i]
     ax, ay, az = s * f[0][i], s * f[1][i], s * f[2][i]
     wx, wy, wz = v[0][i] + ax, v[1][i] + ay, v[2][i] + az
     u, d, g = drag_flow(wx, wy, wz, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay)
     if keep:
-        D[0][i], D[1][i], D[2][i] = u[0] - wx, u[1] - wy, u[2] - wz
+        D[0][i], D[1][i], D[2][i] = u[0] - v[0][i] + ax, u[1] - v[1][i] + ay, u[2] - v[2][i] + az
     v[0][i], v[1][i], v[2][i] = u[0] - ax, u[1] - ay, u[2] - az
     return d, g
 
@@ -610,8 +610,8 @@ def kick_drag_vertices(p, model, state, loads, h):
     of the relative velocity u each keep their direction, their size s becoming s r with
     r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the linear one, m with the
     added mass of that direction. p.dissipated and p.supplied by its work; rows 9-11 of
-    p.turning, where the line's fluid turns, by the flow's change of the velocity (the next
-    kick's prediction of its midpoint: added_mass.predict_line). One flow a kick at its middle
+    p.turning, where the line's fluid turns, by the kick's whole change of the velocity (the
+    next kick's prediction of its midpoint: added_mass.predict_line). One flow a kick at its middle
     where two halves on its sides took two passes; the step stays a symmetric sequence
     (second order) and stable however stiff the drag. (A loop per law over contiguous columns
     with unsigned indices, branch-free, which LLVM vectorises; see layout.columns.)"""
