@@ -32,7 +32,7 @@ from .compiler import CACHED, INNER
 from .compose import inertia_kernel
 from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, kick_drag_vertices, node_free,
                     sample_rows, split, still_medium, turns)
-from .fluid_step import add_node_upthrust, arm_spin, held_mass, lifts_nodes
+from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
 
@@ -291,8 +291,9 @@ def kick_fluid(p, model, state, arg):
     parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends:
     divide_node_loads). (Each line's interior in one pass: the upthrust alone where it
     carries no added mass, else with the division, in add_line_forces where its fluid turns.)
-    Then state.v at the interior vertices by the drag's flow between the kick's halves, with
-    these loads (fluid.kick_drag_vertices)."""
+    Then state.v at the interior vertices and state.node_v at the free point junctions by the
+    drag's flow between the kick's halves, with these loads (fluid.kick_drag_vertices,
+    fluid_step.kick_drag_nodes)."""
     loads, h = arg
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
@@ -317,3 +318,4 @@ def kick_fluid(p, model, state, arg):
         if has_added_mass(p):
             divide_node_loads(p, model, loads)
     kick_drag_vertices(p, model, state, loads, h)
+    kick_drag_nodes(p, model, state, loads.node_f, h)

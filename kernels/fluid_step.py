@@ -215,78 +215,122 @@ def add_arm(c, cn, dc, r, t):
             c[6] + dc * rt[2] * t[0] - cn * r[1], c[7] + dc * rt[2] * t[1] + cn * r[0], c[8] + dc * rt[2] * t[2])
 
 
+@njit(**CACHED, inline="always")
+def point_junction(model, nd):
+    """Whether every line end of node nd is at its centre of mass (the drag on them puts no
+    moment on it)."""
+    for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        o = model.attach_offset[model.node_attach_list[s]]
+        if o[0] != 0.0 or o[1] != 0.0 or o[2] != 0.0:
+            return False
+    return True
+
+
+@njit(**INNER)
+def drag_node(p, model, state, nd, h, added):
+    """Update free node nd's velocity by one linearly implicit step of the drag on its wet
+    line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
+    step's start, M the mass with the added mass (``added``); a buoy's own drag
+    1/2 rho C_d A f |u| at its centre added to D), and its angular velocity by the drag's
+    torque about the centre of mass at v'; return (the energy dissipated, the work the medium
+    supplied). (One pass over the node's line ends: the torque and the medium's work at v'
+    are linear in v', and their coefficients are summed with the drag's.)"""
+    vn = state.node_v[nd]
+    d = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    b0 = b1 = b2 = 0.0   # sum D_a (U_a - w x r_a)
+    # the torque at v' is e - C v' (C = sum [r_a]x D_a, e = sum r_a x D_a (U_a - w x r_a)); the
+    # medium's work over the flow h (s - g.v') (g = sum D_a U_a, s = sum U_a . D_a (U_a - w x r_a))
+    c = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    e0 = e1 = e2 = g0 = g1 = g2 = s = 0.0
+    touched = False
+    for k in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[k])
+        if not wet:
+            continue
+        arm = r[0] != 0.0 or r[1] != 0.0 or r[2] != 0.0   # (a point junction's ends: no arm, no moment)
+        spin = arm_spin(state, nd, r) if arm else (0.0, 0.0, 0.0)
+        gx, gy, gz = um[0] - spin[0], um[1] - spin[1], um[2] - spin[2]   # U - w x r
+        cn, dc = end_drag(p, j, tan, lv, vn[0] - gx, vn[1] - gy, vn[2] - gz)
+        if cn == 0.0 and dc == 0.0:
+            continue
+        touched = True
+        d = add_split(d, cn, dc, tan)
+        f = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
+        b0, b1, b2 = b0 + f[0], b1 + f[1], b2 + f[2]
+        du = split(cn, cn + dc, um[0], um[1], um[2], tan[0], tan[1], tan[2])
+        g0, g1, g2 = g0 + du[0], g1 + du[1], g2 + du[2]
+        s += um[0] * f[0] + um[1] * f[1] + um[2] * f[2]
+        if arm:
+            rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
+            e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
+            c = add_arm(c, cn, dc, r, tan)
+    cb = buoy_drag(p, nd, vn) if CARRIES else 0.0
+    if CARRIES and cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
+        touched = True
+        d = add_split(d, cb, 0.0, (0.0, 0.0, 1.0))
+        bs = p.buoy_sample[buoy_of(p, nd)]
+        b0, b1, b2 = b0 + cb * bs[1], b1 + cb * bs[2], b2 + cb * bs[3]
+        g0, g1, g2 = g0 + cb * bs[1], g1 + cb * bs[2], g2 + cb * bs[3]
+        s += cb * (bs[1] * bs[1] + bs[2] * bs[2] + bs[3] * bs[3])
+    if not touched:
+        return 0.0, 0.0
+    a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, added)
+    r0 = a00 * vn[0] + a01 * vn[1] + a02 * vn[2] + h * b0
+    r1 = a01 * vn[0] + a11 * vn[1] + a12 * vn[2] + h * b1
+    r2 = a02 * vn[0] + a12 * vn[1] + a22 * vn[2] + h * b2
+    v1 = solve_sym3(a00 + h * d[0], a01 + h * d[1], a02 + h * d[2], a11 + h * d[3], a12 + h * d[4],
+                    a22 + h * d[5], r0, r1, r2)
+    tx = e0 - (c[0] * v1[0] + c[1] * v1[1] + c[2] * v1[2])
+    ty = e1 - (c[3] * v1[0] + c[4] * v1[1] + c[5] * v1[2])
+    tz = e2 - (c[6] * v1[0] + c[7] * v1[1] + c[8] * v1[2])
+    given = h * (s - (g0 * v1[0] + g1 * v1[1] + g2 * v1[2]))
+    dx, dy, dz = v1[0] - vn[0], v1[1] - vn[1], v1[2] - vn[2]
+    mx = a00 * dx + a01 * dy + a02 * dz
+    my = a01 * dx + a11 * dy + a12 * dz
+    mz = a02 * dx + a12 * dy + a22 * dz
+    gained = 0.5 * (mx * (v1[0] + vn[0]) + my * (v1[1] + vn[1]) + mz * (v1[2] + vn[2]))
+    vn[0], vn[1], vn[2] = v1[0], v1[1], v1[2]
+    gained += turn_node(model, state, nd, h * tx, h * ty, h * tz)
+    return given - gained, given   # what the medium gave and the motion did not gain
+
+
 @njit(**INNER)
 def drag_nodes(p, model, state, h):
-    """Update the free nodes' velocities by one linearly implicit step of the drag on their
-    wet line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
-    step's start, M the mass with the added mass; a buoy's own drag 1/2 rho C_d A f |u| at
-    its centre added to D), and their angular velocities by the drag's torque about the centre
-    of mass at v'; p.dissipated and p.supplied by its work. (One pass over a node's line ends:
-    the torque and the medium's work at v' are linear in v', and their coefficients are summed
-    with the drag's.)"""
+    """Update the velocities of the free nodes whose line ends have arms (drag_node; the
+    point junctions take theirs inside the kick: kick_drag_nodes), p.dissipated and
+    p.supplied by its work."""
     added = has_added_mass(p)
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
-        if not node_free(p, model, nd):
+        if node_free(p, model, nd) and not point_junction(model, nd):
+            d, g = drag_node(p, model, state, nd, h, added)
+            dissipated += d
+            supplied += g
+    p.dissipated[0] += dissipated
+    p.supplied[0] += supplied
+
+
+@njit(**INNER)
+def kick_drag_nodes(p, model, state, node_f, h):
+    """Update the velocities of the free point junctions by the drag's step (drag_node) for
+    the kick's length h between the kick's two halves, as the lines' interior vertices take
+    theirs (fluid.kick_drag_vertices: K/2 F K/2, the half kick of the loads node_f, which the
+    kick then gives whole, taken back after the flow): one evaluation a step where half
+    flows on both sides of the kick took two. (Where a line end has an arm, the drag's
+    moment turns the node, and its half kick would need the node's rotation's: drag_nodes.)
+    p.dissipated and p.supplied by its work."""
+    added = has_added_mass(p)
+    dissipated = supplied = 0.0
+    for nd in range(model.node_mass.shape[0]):
+        if not node_free(p, model, nd) or not point_junction(model, nd):
             continue
-        vn = state.node_v[nd]
-        d = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        b0 = b1 = b2 = 0.0   # sum D_a (U_a - w x r_a)
-        # the torque at v' is e - C v' (C = sum [r_a]x D_a, e = sum r_a x D_a (U_a - w x r_a)); the
-        # medium's work over the flow h (s - g.v') (g = sum D_a U_a, s = sum U_a . D_a (U_a - w x r_a))
-        c = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        e0 = e1 = e2 = g0 = g1 = g2 = s = 0.0
-        touched = False
-        for k in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
-            j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[k])
-            if not wet:
-                continue
-            arm = r[0] != 0.0 or r[1] != 0.0 or r[2] != 0.0   # (a point junction's ends: no arm, no moment)
-            spin = arm_spin(state, nd, r) if arm else (0.0, 0.0, 0.0)
-            gx, gy, gz = um[0] - spin[0], um[1] - spin[1], um[2] - spin[2]   # U - w x r
-            cn, dc = end_drag(p, j, tan, lv, vn[0] - gx, vn[1] - gy, vn[2] - gz)
-            if cn == 0.0 and dc == 0.0:
-                continue
-            touched = True
-            d = add_split(d, cn, dc, tan)
-            f = split(cn, cn + dc, gx, gy, gz, tan[0], tan[1], tan[2])
-            b0, b1, b2 = b0 + f[0], b1 + f[1], b2 + f[2]
-            du = split(cn, cn + dc, um[0], um[1], um[2], tan[0], tan[1], tan[2])
-            g0, g1, g2 = g0 + du[0], g1 + du[1], g2 + du[2]
-            s += um[0] * f[0] + um[1] * f[1] + um[2] * f[2]
-            if arm:
-                rf = cross(r[0], r[1], r[2], f[0], f[1], f[2])
-                e0, e1, e2 = e0 + rf[0], e1 + rf[1], e2 + rf[2]
-                c = add_arm(c, cn, dc, r, tan)
-        cb = buoy_drag(p, nd, vn) if CARRIES else 0.0
-        if CARRIES and cb > 0.0:    # the buoy's own drag at its centre, the same in every direction
-            touched = True
-            d = add_split(d, cb, 0.0, (0.0, 0.0, 1.0))
-            bs = p.buoy_sample[buoy_of(p, nd)]
-            b0, b1, b2 = b0 + cb * bs[1], b1 + cb * bs[2], b2 + cb * bs[3]
-            g0, g1, g2 = g0 + cb * bs[1], g1 + cb * bs[2], g2 + cb * bs[3]
-            s += cb * (bs[1] * bs[1] + bs[2] * bs[2] + bs[3] * bs[3])
-        if not touched:
-            continue
-        a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, added)
-        r0 = a00 * vn[0] + a01 * vn[1] + a02 * vn[2] + h * b0
-        r1 = a01 * vn[0] + a11 * vn[1] + a12 * vn[2] + h * b1
-        r2 = a02 * vn[0] + a12 * vn[1] + a22 * vn[2] + h * b2
-        v1 = solve_sym3(a00 + h * d[0], a01 + h * d[1], a02 + h * d[2], a11 + h * d[3], a12 + h * d[4],
-                        a22 + h * d[5], r0, r1, r2)
-        tx = e0 - (c[0] * v1[0] + c[1] * v1[1] + c[2] * v1[2])
-        ty = e1 - (c[3] * v1[0] + c[4] * v1[1] + c[5] * v1[2])
-        tz = e2 - (c[6] * v1[0] + c[7] * v1[1] + c[8] * v1[2])
-        given = h * (s - (g0 * v1[0] + g1 * v1[1] + g2 * v1[2]))
-        dx, dy, dz = v1[0] - vn[0], v1[1] - vn[1], v1[2] - vn[2]
-        mx = a00 * dx + a01 * dy + a02 * dz
-        my = a01 * dx + a11 * dy + a12 * dz
-        mz = a02 * dx + a12 * dy + a22 * dz
-        gained = 0.5 * (mx * (v1[0] + vn[0]) + my * (v1[1] + vn[1]) + mz * (v1[2] + vn[2]))
-        vn[0], vn[1], vn[2] = v1[0], v1[1], v1[2]
-        gained += turn_node(model, state, nd, h * tx, h * ty, h * tz)
-        supplied += given
-        dissipated += given - gained   # what the medium gave and the motion did not gain
+        vn, s = state.node_v[nd], 0.5 * h * model.node_inv_mass[nd]
+        ax, ay, az = s * node_f[nd, 0], s * node_f[nd, 1], s * node_f[nd, 2]
+        vn[0], vn[1], vn[2] = vn[0] + ax, vn[1] + ay, vn[2] + az
+        d, g = drag_node(p, model, state, nd, h, added)
+        vn[0], vn[1], vn[2] = vn[0] - ax, vn[1] - ay, vn[2] - az
+        dissipated += d
+        supplied += g
     p.dissipated[0] += dissipated
     p.supplied[0] += supplied
 
@@ -373,15 +417,17 @@ def push_medium(p, model, state, h, still):
 @njit(**STEP)
 def flow_fluid(p, model, state, h):
     """Update state.v, state.node_v, state.node_w by what the medium does over half a kick, h,
-    beside the kick's loads: the drag on the free nodes and, in a moving medium, the forces of
+    beside the kick's loads: the drag on the free nodes whose line ends have arms (drag_nodes;
+    a point junction's is inside the kick) and, in a moving medium, the forces of
     position and time the kick does not carry (its inertia force at the lines' vertices, the
     forces on the nodes: push_medium), on both sides of every kick, mirrored (before it drag
     then the forces, after it the forces then drag; p.turn: the side), so that every step is
-    a symmetric sequence (second order). (The lines' interior vertices take their drag inside
-    the kick, between its halves: fluid.kick_drag_vertices. Run once a kick for the kick's
-    length, alternately before and after it, a stiff drag, a dashpot whose rate times the
-    step is of order one, near the step's own limit, made the pair of steps unstable, as a
-    split of any exact flow does so placed.) p.dissipated and p.supplied follow their work
+    a symmetric sequence (second order). (The lines' interior vertices and the point
+    junctions take their drag inside the kick, between its halves: fluid.kick_drag_vertices,
+    kick_drag_nodes. Run once a kick for the kick's length, alternately before and after
+    it, a stiff drag, a dashpot whose rate times the step is of order one, near the step's
+    own limit, made the pair of steps unstable, as a split of any exact flow does so
+    placed.) p.dissipated and p.supplied follow their work
     (the medium's own kinetic energy through the added mass counted as the line's). Before
     the kick, the medium is sampled: a new sample changes the added mass (the lines turned,
     entered or left the water since the last kick) at the velocities of the drift between:
