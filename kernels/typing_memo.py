@@ -42,7 +42,7 @@ def _remember_builtin_signatures():
     argument types happen once per process. Numba tries the function's templates in turn at
     every call site, recording why each that does not match fails: ``a * b`` on two floats
     walks dozens of them, and a step's kernels hold thousands of such sites (the bridge's
-    cold start: 7,000 lookups for 300 distinct signatures, a tenth of its compilation). The
+    cold start: 7,200 lookups for 375 distinct signatures, a tenth of its compilation). The
     key holds the options in force (a copy: numba's inliner changes them in place), as
     numba's own cache of overload implementations does, so a kernel compiled without
     fast-math never takes an implementation compiled with it. Failures are not remembered:
