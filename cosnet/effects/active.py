@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
@@ -140,6 +139,7 @@ class _Travelling(Effect):
     def _spline(self, values, frac):
         """A at the fractions ``frac`` of the rest length: the natural cubic spline through
         ``values`` at the points, zero outside them."""
+        from scipy.interpolate import CubicSpline   # (here: importing it costs every start of cosnet 0.2 s)
         inside = (frac >= self.points[0] - 1e-12) & (frac <= self.points[-1] + 1e-12)
         amp = CubicSpline(self.points, values, bc_type="natural", axis=0)(np.clip(frac, self.points[0],
                                                                                  self.points[-1]))

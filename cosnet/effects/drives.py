@@ -11,7 +11,6 @@ loads do not move it, and the force and torque its driver supplies are reported.
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ..core import samples
 from ..core import checks
@@ -151,6 +150,7 @@ class Path:
             want = f"{t.size} x {k}" if k > 1 else f"{t.size}"
             raise ValueError(f"{who}: values must be {want} finite numbers (one per time), got shape "
                              f"{v.shape}")
+        from scipy.interpolate import CubicSpline   # (here: importing it costs every start of cosnet 0.2 s)
         spline = CubicSpline(t, v.reshape(t.size, k), bc_type="clamped", axis=0)
         return rate, amp, wave, t, np.ascontiguousarray(np.transpose(spline.c, (1, 0, 2)))
 
