@@ -38,6 +38,7 @@ from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
 from .layout import columns, uint
 from .rotations import quat_rotate
+from .waves import add_elevation, add_kinematics, component, sample_depths, sin_cos, stretched, wave_depth, wave_phase
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
@@ -129,22 +130,22 @@ def time_factor(p, t):
 
 
 @njit(**CACHED, inline="always")
-def depth_factors(k, zs, d):
-    """Return cosh(k (zs + d)) / sinh(k d) and sinh(k (zs + d)) / sinh(k d), written with
-    exponentials that neither overflow in deep water nor lose the finite-depth term."""
-    e = math.exp(k * zs)
-    if math.isinf(d):
-        return e, e
-    r = math.exp(-k * (zs + 2.0 * d))
-    s = 1.0 - math.exp(-2.0 * k * d)
-    return (e + r) / s, (e - r) / s
+def current_factor(p, z):
+    """Return the current's factor over height at height z (its profile table, its power law)."""
+    f = 1.0
+    if p.profile_z.shape[0] > 0:
+        f = interp_table(z, p.profile_z, p.profile_f)
+    if p.power[0] != 0.0:
+        above = z - p.power[2]
+        f *= (above / p.power[1]) ** p.power[0] if above > 0.0 else 0.0
+    return f
 
 
 @njit(**INNER, inline="always")
 def medium_at(p, x, y, z, t):
     """Return (wet, U, A): whether point (x, y, z) is in the medium at time t (below the
     free surface, waves included), and the medium's velocity U and acceleration A there
-    (3-tuples; zero where it is dry)."""
+    (3-tuples; zero where it is dry). (The values sample_moving takes at a line's vertices.)"""
     if not MOVING:   # the variant of a still medium: the current, under the still surface
         if z - p.surface > 0.0:
             return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
@@ -154,40 +155,53 @@ def medium_at(p, x, y, z, t):
     zeta = z - p.surface
     eta = 0.0
     for c in range(nw):
-        th = p.wave_k[c] * (x * p.wave_cos[c] + y * p.wave_sin[c]) - p.wave_w[c] * t + p.wave_phase[c]
-        eta += p.wave_a[c] * math.cos(th)
+        th = p.wave_k[c] * (x * p.wave_cos[c] + y * p.wave_sin[c]) + wave_phase(p.wave_w[c], p.wave_phase[c], t)
+        eta += p.wave_a[c] * sin_cos(th)[1]
     if zeta > eta:
         return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-    f = 1.0
-    if p.profile_z.shape[0] > 0:
-        f = interp_table(z, p.profile_z, p.profile_f)
-    if p.power[0] != 0.0:
-        above = z - p.power[2]
-        f *= (above / p.power[1]) ** p.power[0] if above > 0.0 else 0.0
+    f = current_factor(p, z)
     ft, dft = time_factor(p, t)
     c0, c1, c2 = p.current[0] * f, p.current[1] * f, p.current[2] * f
     ux, uy, uz = c0 * ft, c1 * ft, c2 * ft
     ax, ay, az = c0 * dft, c1 * dft, c2 * dft
     if nw > 0:
-        d = p.depth
-        zs = zeta
-        if p.stretch == 1:   # Wheeler: the wet column [-d, eta] mapped onto [-d, 0]
-            zs = zeta - eta if math.isinf(d) else d * (zeta - eta) / (d + eta)
-        elif zs > 0.0:       # plain: kinematics above the still surface as at it
-            zs = 0.0
+        zs = stretched(zeta, eta, p.depth, p.stretch)
         for c in range(nw):
-            k, w, a = p.wave_k[c], p.wave_w[c], p.wave_a[c]
-            th = k * (x * p.wave_cos[c] + y * p.wave_sin[c]) - w * t + p.wave_phase[c]
-            ch, sh = depth_factors(k, zs, d)
-            ct, st = math.cos(th), math.sin(th)
-            uh, ah = a * w * ch * ct, a * w * w * ch * st
-            ux += uh * p.wave_cos[c]
-            uy += uh * p.wave_sin[c]
-            uz += a * w * sh * st
-            ax += ah * p.wave_cos[c]
-            ay += ah * p.wave_sin[c]
-            az -= a * w * w * sh * ct
+            k = p.wave_k[c]
+            th = k * (x * p.wave_cos[c] + y * p.wave_sin[c]) + wave_phase(p.wave_w[c], p.wave_phase[c], t)
+            e2, inv_s = wave_depth(k, p.depth)
+            du = component(p.wave_a[c], p.wave_w[c], k, p.wave_cos[c], p.wave_sin[c], th, zs, e2, inv_s)
+            ux, uy, uz = ux + du[0], uy + du[1], uz + du[2]
+            ax, ay, az = ax + du[3], ay + du[4], az + du[5]
     return True, (ux, uy, uz), (ax, ay, az)
+
+
+@njit(**INNER)
+def sample_moving(p, c, S, lo, hi, t):
+    """Update rows 0-6 of the sample (S) at the vertices lo..hi-1 of a line in a moving medium
+    given their positions (c: the columns) and the time t: medium_at's values, taken in passes
+    over the vertices that run in vector lanes (kernels/waves.py), a component at a time, with
+    rows 10 and 11 as their scratch (left 0: sample_inertia writes them after)."""
+    n, first = hi - lo, uint(lo)
+    eta, zs = S[10], S[11]
+    for i in range(lo, hi):
+        eta[i] = 0.0
+    for w in range(p.wave_a.shape[0]):
+        k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
+        add_elevation(c[0], c[1], eta, first, n, p.wave_a[w], k * p.wave_cos[w], k * p.wave_sin[w], phi)
+    sample_depths(c[2], eta, S[0], zs, first, n, p.surface, p.depth, p.stretch)
+    ft, dft = time_factor(p, t)
+    for i in range(lo, hi):
+        f = current_factor(p, c[2][i]) * S[0][i]
+        S[1][i], S[2][i], S[3][i] = p.current[0] * f * ft, p.current[1] * f * ft, p.current[2] * f * ft
+        S[4][i], S[5][i], S[6][i] = p.current[0] * f * dft, p.current[1] * f * dft, p.current[2] * f * dft
+    for w in range(p.wave_a.shape[0]):
+        k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
+        e2, inv_s = wave_depth(k, p.depth)
+        add_kinematics(c[0], c[1], zs, S[0], (S[1], S[2], S[3]), (S[4], S[5], S[6]), first, n, p.wave_a[w],
+                       p.wave_w[w], k, p.wave_cos[w], p.wave_sin[w], phi, e2, inv_s)
+    for i in range(lo, hi):
+        eta[i], zs[i] = 0.0, 0.0
 
 
 @njit(**CACHED, inline="always")
@@ -414,11 +428,7 @@ def sample_medium(p, model, state):
                 de += ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         else:
             sample_chords(c, S, p.chord_inverse, uint(lo), hi - lo - 2)
-            for i in range(lo, hi):
-                wet, um, acc = medium_at(p, c[0][i], c[1][i], c[2][i], t)
-                S[0][i] = 1.0 if wet else 0.0
-                S[1][i], S[2][i], S[3][i] = um[0], um[1], um[2]
-                S[4][i], S[5][i], S[6][i] = acc[0], acc[1], acc[2]
+            sample_moving(p, c, S, lo, hi, t)
             sample_masses(S, dry, wet0, wet1, uint(lo + 1), hi - lo - 2)
         if p.buoyancy[j] != 0.0:
             sample_upthrust(c[2], S, model.element_rest_length, uint(lo), uint(model.line_element_offsets[l]),

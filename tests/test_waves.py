@@ -1,0 +1,105 @@
+"""Airy waves (kernels/waves.py): the elementary functions the vectorised passes take, held to
+the C library's, and the medium a line's vertices and a buoy sample, held to linear wave
+theory evaluated with numpy, over finite and deep water, stretched and not."""
+
+import math
+
+import numpy as np
+import pytest
+
+import cosnet
+from cosnet.kernels import waves
+
+RHO, G = 1025.0, 9.81
+
+
+def test_the_vectorisable_sine_cosine_and_exponential_are_the_libraries_to_two_ulps():
+    rng = np.random.default_rng(7)
+    xs = np.concatenate([rng.uniform(-10.0, 10.0, 4000), rng.uniform(-waves.REDUCED_RANGE, waves.REDUCED_RANGE, 4000),
+                         np.arange(-40, 41) * math.pi / 4])
+    for x in xs:
+        s, c = waves.sin_cos(x)
+        for got, want in ((s, math.sin(x)), (c, math.cos(x))):
+            # two ulps of the value, or of the reduction's residue where the value is near a zero
+            assert abs(got - want) <= 2.0 * max(np.spacing(abs(want)), 1e-30 * max(1.0, abs(x))), x
+    for x in np.concatenate([rng.uniform(-720.0, 0.0, 4000), rng.uniform(-1.0, 0.0, 4000), [0.0, -708.0]]):
+        want = math.exp(max(x, waves.EXP_FLOOR))
+        assert abs(waves.exp_nonpositive(x) - want) <= np.spacing(want), x
+    for t in (0.0, 1.0, 1e3, 1e6):   # a component's phase stays within [-pi, pi], the same angle
+        a = waves.wave_phase(0.785, 0.3, t)
+        assert abs(a) <= math.pi + 1e-12
+        assert math.cos(a) == pytest.approx(math.cos(0.3 - 0.785 * t), abs=1e-9 * max(1.0, t))
+
+
+def airy(x, y, z, t, amps, periods, headings, depth, stretch):
+    """(wet, U, A) of linear waves at the points (x, y, z) under a still surface at z = 0, as
+    the theory gives them (numpy's hyperbolic functions)."""
+    k = np.array([cosnet.wave_number(2 * math.pi / T, depth, G) for T in periods])
+    w = 2 * math.pi / np.asarray(periods)
+    h = np.radians(headings)
+    th = k[:, None] * (np.cos(h)[:, None] * x + np.sin(h)[:, None] * y) - w[:, None] * t
+    eta = np.sum(np.asarray(amps)[:, None] * np.cos(th), axis=0)
+    wet = z <= eta
+    if stretch:
+        zs = depth * (z - eta) / (depth + eta) if math.isfinite(depth) else z - eta
+    else:
+        zs = np.minimum(z, 0.0)
+    kz = k[:, None] * zs
+    if math.isfinite(depth):
+        ch = np.cosh(k[:, None] * depth + kz) / np.sinh(k * depth)[:, None]
+        sh = np.sinh(k[:, None] * depth + kz) / np.sinh(k * depth)[:, None]
+    else:
+        ch = sh = np.exp(kz)
+    a = np.asarray(amps)[:, None]
+    uh, ah = a * w[:, None] * ch * np.cos(th), a * w[:, None] ** 2 * ch * np.sin(th)
+    U = np.stack([np.sum(uh * np.cos(h)[:, None], 0), np.sum(uh * np.sin(h)[:, None], 0),
+                  np.sum(a * w[:, None] * sh * np.sin(th), 0)])
+    A = np.stack([np.sum(ah * np.cos(h)[:, None], 0), np.sum(ah * np.sin(h)[:, None], 0),
+                  -np.sum(a * w[:, None] ** 2 * sh * np.cos(th), 0)])
+    return wet, U * wet, A * wet
+
+
+@pytest.mark.parametrize("depth, stretching", [(30.0, "wheeler"), (30.0, "none"), (None, "wheeler")],
+                         ids=["finite-wheeler", "finite-plain", "deep-wheeler"])
+def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, stretching):
+    # a line from 12 m down up through the surface to 1.5 m above it, across two components
+    # of other headings, sampled late in a run (the phase's reduction over time), and a buoy
+    # on its own node (the medium at a point: kernels/fluid.medium_at)
+    mat = cosnet.Material(E=1e9, G=4e8, density=2000.0)
+    net = cosnet.Net()
+    a, b = net.add_node((-40.0, -3.0, -12.0)), net.add_node((25.0, 7.0, 1.5))
+    buoy = net.add_node((3.0, 1.0, -2.5))
+    net.add_line(a, b, material=mat, section=cosnet.Circle(0.02), elements=300)
+    net.add_line(a, buoy, material=mat, section=cosnet.Circle(0.02), elements=2)
+    amps, periods, headings = [1.1, 0.4], [9.0, 4.5], [20.0, -65.0]
+    fluid = cosnet.Fluid(RHO, drag=(1.2, 0.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0, depth=depth,
+                         wave_amplitudes=amps, wave_periods=periods, wave_headings=headings,
+                         stretching=stretching, buoys=[buoy], buoy_volumes=[0.01])
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    t = 123456.7
+    sim.state.clock[0] = t
+    fluid.start(sim)
+    p, x = fluid.params(sim), sim.state.x
+    wet, U, A = airy(x[:, 0], x[:, 1], x[:, 2], t, amps, periods, headings, math.inf if depth is None else depth,
+                     stretching == "wheeler")
+    lo, hi = sim.model.line_vertex_offsets[0], sim.model.line_vertex_offsets[1]
+    assert 0 < np.sum(wet[lo:hi]) < hi - lo   # the line crosses the waved surface
+    S = p.sample
+    np.testing.assert_array_equal(S[0, lo:hi], wet[lo:hi])
+    # both round w t, about 8.6e4 rad here, to its ulp: each component's phase may differ by two
+    atol = 2 * len(amps) * np.spacing(2 * math.pi / min(periods) * t) * max(np.abs(U).max(), np.abs(A).max())
+    np.testing.assert_allclose(S[1:4, lo:hi], U[:, lo:hi], rtol=0, atol=atol)
+    np.testing.assert_allclose(S[4:7, lo:hi], A[:, lo:hi], rtol=0, atol=atol)
+    # the medium's inertia force on the interior vertices, from the sampled acceleration (the
+    # passes' scratch rows are the force's)
+    tan, wl = S[7:10, lo + 1:hi - 1], S[0, lo + 1:hi - 1] * sim.model.voronoi_rest_length[lo + 1:hi - 1]
+    along = np.sum(S[4:7, lo + 1:hi - 1] * tan, axis=0) * tan
+    force = wl * (p.inertia_n[0] * (S[4:7, lo + 1:hi - 1] - along) + p.inertia_t[0] * along)
+    np.testing.assert_allclose(S[10:13, lo + 1:hi - 1], force, rtol=1e-12, atol=1e-12 * np.abs(force).max())
+    assert not np.any(S[10:13, [lo, hi - 1]])
+    nb = sim.node_position(buoy)
+    wb, Ub, Ab = airy(nb[0:1], nb[1:2], nb[2:3], t, amps, periods, headings, math.inf if depth is None else depth,
+                      stretching == "wheeler")
+    assert wb[0]
+    np.testing.assert_allclose(p.buoy_sample[0, 1:4], Ub[:, 0], rtol=0, atol=atol)
+    np.testing.assert_allclose(p.buoy_sample[0, 4:7], Ab[:, 0], rtol=0, atol=atol)
