@@ -190,11 +190,14 @@ def sample_moving(p, c, S, lo, hi, t):
         k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
         add_elevation(c[0], c[1], eta, first, n, p.wave_a[w], k * p.wave_cos[w], k * p.wave_sin[w], phi)
     sample_depths(c[2], eta, S[0], zs, first, n, p.surface, p.depth, p.stretch)
+    shaped = p.profile_z.shape[0] > 0 or p.power[0] != 0.0
+    if shaped:   # the elevation is taken: its row holds the current's factor over height
+        for i in range(lo, hi):
+            eta[i] = current_factor(p, c[2][i])
     ft, dft = time_factor(p, t)
-    for i in range(lo, hi):
-        f = current_factor(p, c[2][i]) * S[0][i]
-        S[1][i], S[2][i], S[3][i] = p.current[0] * f * ft, p.current[1] * f * ft, p.current[2] * f * ft
-        S[4][i], S[5][i], S[6][i] = p.current[0] * f * dft, p.current[1] * f * dft, p.current[2] * f * dft
+    c0, c1, c2 = p.current[0], p.current[1], p.current[2]
+    sample_current(S[0], eta, (S[1], S[2], S[3]), (S[4], S[5], S[6]), first, n, shaped,
+                   c0 * ft, c1 * ft, c2 * ft, c0 * dft, c1 * dft, c2 * dft)
     for w in range(p.wave_a.shape[0]):
         k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
         e2, inv_s = wave_depth(k, p.depth)
@@ -202,6 +205,18 @@ def sample_moving(p, c, S, lo, hi, t):
                        p.wave_w[w], k, p.wave_cos[w], p.wave_sin[w], phi, e2, inv_s)
     for i in range(lo, hi):
         eta[i], zs[i] = 0.0, 0.0
+
+
+@njit(**PASS)
+def sample_current(wet, f, U, A, lo, n, shaped, u0, u1, u2, a0, a1, a2):
+    """Update U and A (three columns each) at the n vertices lo.. by the current's velocity
+    (u0, u1, u2) and acceleration (a0, a1, a2) where they are wet, times its factor over
+    height f there if ``shaped``."""
+    for k in range(n):
+        i = lo + uint(k)
+        w = wet[i] * f[i] if shaped else wet[i]
+        U[0][i], U[1][i], U[2][i] = u0 * w, u1 * w, u2 * w
+        A[0][i], A[1][i], A[2][i] = a0 * w, a1 * w, a2 * w
 
 
 @njit(**CACHED, inline="always")

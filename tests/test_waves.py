@@ -59,12 +59,26 @@ def airy(x, y, z, t, amps, periods, headings, depth, stretch):
     return wet, U * wet, A * wet
 
 
-@pytest.mark.parametrize("depth, stretching", [(30.0, "wheeler"), (30.0, "none"), (None, "wheeler")],
-                         ids=["finite-wheeler", "finite-plain", "deep-wheeler"])
-def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, stretching):
+PROFILE = dict(profile_heights=[-30.0, -5.0, 0.0, 5.0], profile_factors=[0.2, 0.8, 1.0, 1.0])
+POWER = dict(power_law=0.3, reference_height=10.0, ground=-40.0)
+
+
+def current_factor(z, shape):
+    """The current's factor over height at heights z (numpy)."""
+    if "profile_heights" in shape:
+        return np.interp(z, shape["profile_heights"], shape["profile_factors"])
+    if "power_law" in shape:
+        return (np.maximum(z - shape["ground"], 0.0) / shape["reference_height"]) ** shape["power_law"]
+    return np.zeros_like(z)
+
+
+@pytest.mark.parametrize("depth, stretching, shape", [(30.0, "wheeler", PROFILE), (30.0, "none", {}),
+                                                      (None, "wheeler", POWER)],
+                         ids=["finite-wheeler-profile", "finite-plain", "deep-wheeler-power-law"])
+def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, stretching, shape):
     # a line from 12 m down up through the surface to 1.5 m above it, across two components
-    # of other headings, sampled late in a run (the phase's reduction over time), and a buoy
-    # on its own node (the medium at a point: kernels/fluid.medium_at)
+    # of other headings, sampled late in a run (the phase's reduction over time), in a current
+    # shaped over height, and a buoy on its own node (the medium at a point: kernels/fluid.medium_at)
     mat = cosnet.Material(E=1e9, G=4e8, density=2000.0)
     net = cosnet.Net()
     a, b = net.add_node((-40.0, -3.0, -12.0)), net.add_node((25.0, 7.0, 1.5))
@@ -72,8 +86,9 @@ def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, s
     net.add_line(a, b, material=mat, section=cosnet.Circle(0.02), elements=300)
     net.add_line(a, buoy, material=mat, section=cosnet.Circle(0.02), elements=2)
     amps, periods, headings = [1.1, 0.4], [9.0, 4.5], [20.0, -65.0]
-    fluid = cosnet.Fluid(RHO, drag=(1.2, 0.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0, depth=depth,
-                         wave_amplitudes=amps, wave_periods=periods, wave_headings=headings,
+    current = np.array([0.3, -0.1, 0.05]) if shape else np.zeros(3)
+    fluid = cosnet.Fluid(RHO, current, **shape, drag=(1.2, 0.0), added_mass=(1.0, 0.0), buoyancy=True, surface=0.0,
+                         depth=depth, wave_amplitudes=amps, wave_periods=periods, wave_headings=headings,
                          stretching=stretching, buoys=[buoy], buoy_volumes=[0.01])
     sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
     t = 123456.7
@@ -82,6 +97,7 @@ def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, s
     p, x = fluid.params(sim), sim.state.x
     wet, U, A = airy(x[:, 0], x[:, 1], x[:, 2], t, amps, periods, headings, math.inf if depth is None else depth,
                      stretching == "wheeler")
+    U += current[:, None] * (current_factor(x[:, 2], shape) * wet)
     lo, hi = sim.model.line_vertex_offsets[0], sim.model.line_vertex_offsets[1]
     assert 0 < np.sum(wet[lo:hi]) < hi - lo   # the line crosses the waved surface
     S = p.sample
@@ -101,5 +117,6 @@ def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, s
     wb, Ub, Ab = airy(nb[0:1], nb[1:2], nb[2:3], t, amps, periods, headings, math.inf if depth is None else depth,
                       stretching == "wheeler")
     assert wb[0]
+    Ub += current[:, None] * current_factor(nb[2:3], shape)
     np.testing.assert_allclose(p.buoy_sample[0, 1:4], Ub[:, 0], rtol=0, atol=atol)
     np.testing.assert_allclose(p.buoy_sample[0, 4:7], Ab[:, 0], rtol=0, atol=atol)
