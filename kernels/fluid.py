@@ -53,7 +53,9 @@ INVERSE_ROW = 14         # along the line (two), which the rings' impulses read 
 MOVING = True        # the medium may move: waves, a profile over height, a factor over time
 CARRIES = True       # some line carries an added mass (and its fluid may turn: added_mass.py), or some
                      # node has a buoy (a volume of its own, with or without an added mass)
-OPTIONS = ("MOVING", "CARRIES")
+WAVES = True         # the moving medium has waves (their passes, kernels/waves.py, cost a second of compiling
+                     # that a current or a wind varying over height or time has no use for)
+OPTIONS = ("MOVING", "CARRIES", "WAVES")
 
 
 class FluidParams(NamedTuple):
@@ -151,7 +153,7 @@ def medium_at(p, x, y, z, t):
             return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         c0, c1, c2 = p.current[0], p.current[1], p.current[2]
         return True, (c0, c1, c2), (c0 * 0.0, c1 * 0.0, c2 * 0.0)   # as below: the time factor's rate 0
-    nw = p.wave_a.shape[0]
+    nw = p.wave_a.shape[0] if WAVES else 0
     zeta = z - p.surface
     eta = 0.0
     for c in range(nw):
@@ -164,7 +166,7 @@ def medium_at(p, x, y, z, t):
     c0, c1, c2 = p.current[0] * f, p.current[1] * f, p.current[2] * f
     ux, uy, uz = c0 * ft, c1 * ft, c2 * ft
     ax, ay, az = c0 * dft, c1 * dft, c2 * dft
-    if nw > 0:
+    if WAVES and nw > 0:
         zs = stretched(zeta, eta, p.depth, p.stretch)
         for c in range(nw):
             k = p.wave_k[c]
@@ -176,7 +178,7 @@ def medium_at(p, x, y, z, t):
     return True, (ux, uy, uz), (ax, ay, az)
 
 
-@njit(**INNER)
+@njit(**INNER, inline="always")
 def sample_moving(p, c, S, lo, hi, t):
     """Update rows 0-6 of the sample (S) at the vertices lo..hi-1 of a line in a moving medium
     given their positions (c: the columns) and the time t: medium_at's values, taken in passes
@@ -184,12 +186,15 @@ def sample_moving(p, c, S, lo, hi, t):
     rows 10 and 11 as their scratch (left 0: sample_inertia writes them after)."""
     n, first = hi - lo, uint(lo)
     eta, zs = S[10], S[11]
-    for i in range(lo, hi):
-        eta[i] = 0.0
-    for w in range(p.wave_a.shape[0]):
-        k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
-        add_elevation(c[0], c[1], eta, first, n, p.wave_a[w], k * p.wave_cos[w], k * p.wave_sin[w], phi)
-    sample_depths(c[2], eta, S[0], zs, first, n, p.surface, p.depth, p.stretch)
+    if WAVES:
+        for i in range(lo, hi):
+            eta[i] = 0.0
+        for w in range(p.wave_a.shape[0]):
+            k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
+            add_elevation(c[0], c[1], eta, first, n, p.wave_a[w], k * p.wave_cos[w], k * p.wave_sin[w], phi)
+        sample_depths(c[2], eta, S[0], zs, first, n, p.surface, p.depth, p.stretch)
+    else:
+        sample_still(c[2], S, first, n, p.surface, 0.0, 0.0, 0.0)   # (the wetness; the rest is written below)
     shaped = p.profile_z.shape[0] > 0 or p.power[0] != 0.0
     if shaped:   # the elevation is taken: its row holds the current's factor over height
         for i in range(lo, hi):
@@ -198,11 +203,12 @@ def sample_moving(p, c, S, lo, hi, t):
     c0, c1, c2 = p.current[0], p.current[1], p.current[2]
     sample_current(S[0], eta, (S[1], S[2], S[3]), (S[4], S[5], S[6]), first, n, shaped,
                    c0 * ft, c1 * ft, c2 * ft, c0 * dft, c1 * dft, c2 * dft)
-    for w in range(p.wave_a.shape[0]):
-        k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
-        e2, inv_s = wave_depth(k, p.depth)
-        add_kinematics(c[0], c[1], zs, S[0], (S[1], S[2], S[3]), (S[4], S[5], S[6]), first, n, p.wave_a[w],
-                       p.wave_w[w], k, p.wave_cos[w], p.wave_sin[w], phi, e2, inv_s)
+    if WAVES:
+        for w in range(p.wave_a.shape[0]):
+            k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
+            e2, inv_s = wave_depth(k, p.depth)
+            add_kinematics(c[0], c[1], zs, S[0], (S[1], S[2], S[3]), (S[4], S[5], S[6]), first, n, p.wave_a[w],
+                           p.wave_w[w], k, p.wave_cos[w], p.wave_sin[w], phi, e2, inv_s)
     for i in range(lo, hi):
         eta[i], zs[i] = 0.0, 0.0
 

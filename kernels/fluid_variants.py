@@ -1,7 +1,7 @@
 """The variants of the fluid's kernels: each fluid's record is of the variant its data needs,
 whose kernels are compiled without the parts that cannot act (kernels/specialise.py; the
 options are kernels.fluid.OPTIONS). A variant's record class is a FluidParams named by its
-options' bits (FluidParams_01), found by that name wherever a record is unpickled."""
+options' bits (FluidParams_011), found by that name wherever a record is unpickled."""
 
 from . import added_mass, fluid, fluid_step
 from .compose import flow_kernel, inertia_kernel
@@ -22,7 +22,7 @@ def options_of(p) -> tuple:
     of the medium may act (by the kernels' own tests, run in Python)."""
     moving = not fluid.still_medium.py_func(p)
     carries = fluid.has_added_mass.py_func(p) or p.buoy_node.shape[0] > 0
-    return moving, carries
+    return moving, carries, p.wave_a.shape[0] > 0
 
 
 def fluid_record(p):

@@ -17,7 +17,7 @@ from numba.extending import intrinsic
 from llvmlite import ir
 
 from .backend import PASS
-from .compiler import CACHED, CACHED_LANES
+from .compiler import CACHED_INLINE, CACHED_LANES
 from .layout import uint
 
 # pi/2 in three parts of 33 bits each: n * part is exact for |n| < 2**20, so the reduction of
@@ -75,7 +75,7 @@ def exp_nonpositive(x):
     return y * _double_of_bits((int(n) + 1023) << 52)
 
 
-@njit(**CACHED_LANES)
+@njit(**CACHED_INLINE)
 def depth_factors(k, zs, e2, inv_s):
     """Return cosh(k (zs + d)) / sinh(k d) and sinh(k (zs + d)) / sinh(k d) at zs <= 0 below
     the still surface over depth d, given e2 = exp(-2 k d) and inv_s = 1 / (1 - e2) (wave_depth;
@@ -86,7 +86,7 @@ def depth_factors(k, zs, e2, inv_s):
     return (e + r) * inv_s, (e - r) * inv_s
 
 
-@njit(**CACHED_LANES)
+@njit(**CACHED_INLINE)
 def wave_depth(k, d):
     """Return (e2, inv_s) of depth_factors for wave number k over depth d (inf: deep)."""
     if math.isinf(d):
@@ -113,7 +113,7 @@ def add_elevation(x, y, eta, lo, n, a, kx, ky, phi):
         eta[i] += a * sin_cos(kx * x[i] + ky * y[i] + phi)[1]
 
 
-@njit(**CACHED)
+@njit(**CACHED_INLINE)
 def stretched(zeta, eta, depth, stretch):
     """Return the height below the still surface at which the waves' kinematics are taken at
     a wet point zeta above it under the waved surface eta: Wheeler's (stretch 1: the wet
@@ -125,7 +125,7 @@ def stretched(zeta, eta, depth, stretch):
     return min(s, 0.0)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INLINE)
 def component(a, w, k, cos_h, sin_h, th, zs, e2, inv_s):
     """Return the velocity and acceleration (ux, uy, uz, ax, ay, az) of one Airy component
     (amplitude a, angular frequency w, wave number k, heading (cos_h, sin_h); e2, inv_s:
