@@ -46,6 +46,7 @@ from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
+from .elementary import sin_cos
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
     relative_rotation, solve_sym3
 from .specialise import Variants
@@ -99,8 +100,9 @@ def ball_axis(p0, p1, p2, i):
         b = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
     else:
         t = math.sqrt(t2)
-        a = (1.0 - math.cos(t)) / t2
-        b = (t - math.sin(t)) / (t2 * t)
+        st, ct = sin_cos(t)
+        a = (1.0 - ct) / t2
+        b = (t - st) / (t2 * t)
     e0, e1, e2 = (1.0 if i == 0 else 0.0), (1.0 if i == 1 else 0.0), (1.0 if i == 2 else 0.0)
     cx, cy, cz = cross(p0, p1, p2, e0, e1, e2)
     dx, dy, dz = cross(p0, p1, p2, cx, cy, cz)

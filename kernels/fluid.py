@@ -38,7 +38,8 @@ from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
 from .layout import columns, uint
 from .rotations import quat_rotate
-from .waves import add_elevation, add_kinematics, component, sample_depths, sin_cos, stretched, wave_depth, wave_phase
+from .elementary import sin_cos
+from .waves import add_elevation, add_kinematics, component, sample_depths, stretched, wave_depth, wave_phase
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)

@@ -10,6 +10,7 @@ import math
 from numba import njit
 
 from .compiler import INNER
+from .elementary import sin_cos
 
 OPTS = INNER   # the scalar helpers below
 
@@ -33,8 +34,8 @@ def quat_exp(px, py, pz):
         s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
     else:
         a = math.sqrt(a2)
-        c = math.cos(0.5 * a)
-        s = math.sin(0.5 * a) / a
+        s, c = sin_cos(0.5 * a)   # (inlined: the library's are calls of tens of ns, a joint's every step)
+        s /= a
     return c, s * px, s * py, s * pz
 
 
@@ -157,7 +158,7 @@ def exp_rates(rx, ry, rz, dx, dy, dz, ex, ey, ez):
         db = -1.0 / 120.0 + x * (2.0 / 5040.0 - x * (3.0 / 362880.0 - x * 4.0 / 39916800.0))
     else:
         t = math.sqrt(x)
-        c, s = math.cos(t), math.sin(t)
+        s, c = sin_cos(t)
         a = (1.0 - c) / x
         b = (t - s) / (x * t)
         da = (t * s - 2.0 + 2.0 * c) / (2.0 * x * x)

@@ -1,6 +1,7 @@
-"""Airy waves (kernels/waves.py): the elementary functions the vectorised passes take, held to
-the C library's, and the medium a line's vertices and a buoy sample, held to linear wave
-theory evaluated with numpy, over finite and deep water, stretched and not."""
+"""Airy waves (kernels/waves.py): the elementary functions the vectorised passes take
+(kernels/elementary.py), held to the C library's, and the medium a line's vertices and a
+buoy sample, held to linear wave theory evaluated with numpy, over finite and deep water,
+stretched and not."""
 
 import math
 
@@ -8,23 +9,24 @@ import numpy as np
 import pytest
 
 import cosnet
-from cosnet.kernels import waves
+from cosnet.kernels import elementary, waves
 
 RHO, G = 1025.0, 9.81
 
 
 def test_the_vectorisable_sine_cosine_and_exponential_are_the_libraries_to_two_ulps():
     rng = np.random.default_rng(7)
-    xs = np.concatenate([rng.uniform(-10.0, 10.0, 4000), rng.uniform(-waves.REDUCED_RANGE, waves.REDUCED_RANGE, 4000),
+    wide = elementary.REDUCED_RANGE
+    xs = np.concatenate([rng.uniform(-10.0, 10.0, 4000), rng.uniform(-wide, wide, 4000),
                          np.arange(-40, 41) * math.pi / 4])
     for x in xs:
-        s, c = waves.sin_cos(x)
+        s, c = elementary.sin_cos(x)
         for got, want in ((s, math.sin(x)), (c, math.cos(x))):
             # two ulps of the value, or of the reduction's residue where the value is near a zero
             assert abs(got - want) <= 2.0 * max(np.spacing(abs(want)), 1e-30 * max(1.0, abs(x))), x
     for x in np.concatenate([rng.uniform(-720.0, 0.0, 4000), rng.uniform(-1.0, 0.0, 4000), [0.0, -708.0]]):
-        want = math.exp(max(x, waves.EXP_FLOOR))
-        assert abs(waves.exp_nonpositive(x) - want) <= np.spacing(want), x
+        want = math.exp(max(x, elementary.EXP_FLOOR))
+        assert abs(elementary.exp_nonpositive(x) - want) <= np.spacing(want), x
     for t in (0.0, 1.0, 1e3, 1e6):   # a component's phase stays within [-pi, pi], the same angle
         a = waves.wave_phase(0.785, 0.3, t)
         assert abs(a) <= math.pi + 1e-12
