@@ -1,7 +1,7 @@
 """Elementary functions written so that a loop over vertices or elements runs them in vector
 lanes, and a scalar caller inlines them: the C library's sine, cosine and exponential are
-calls that no loop vectorises and that cost tens of nanoseconds where they are called once
-(a joint's rotation, at every step). These are the C library's own algorithms (fdlibm's:
+calls, which no loop vectorises and which a scalar kernel (a joint's rotation, at every
+step) pays as calls all the same. These are the C library's own algorithms (fdlibm's:
 Cody-Waite reduction, then its minimax polynomials), branch-free, each within an ulp or two
 of the library's value. They are compiled without fast-math: reassociation would undo the
 reduction's exact steps (LLVM inlines them into fast-math callers with their own flags)."""

@@ -36,9 +36,9 @@ from numba import njit
 from .backend import PASS
 from .compiler import CACHED, INNER
 from .effects import interp_table, table_interval
+from .elementary import sin_cos
 from .layout import columns, uint
 from .rotations import quat_rotate
-from .elementary import sin_cos
 from .waves import add_elevation, add_kinematics, component, sample_depths, stretched, wave_depth, wave_phase
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)

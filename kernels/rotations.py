@@ -34,7 +34,7 @@ def quat_exp(px, py, pz):
         s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
     else:
         a = math.sqrt(a2)
-        s, c = sin_cos(0.5 * a)   # (inlined: the library's are calls of tens of ns, a joint's every step)
+        s, c = sin_cos(0.5 * a)   # (kernels/elementary.py: inlined where the library's are calls)
         s /= a
     return c, s * px, s * py, s * pz
 
