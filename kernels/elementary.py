@@ -18,7 +18,7 @@ from .compiler import CACHED_LANES
 # an argument below REDUCED_RANGE loses nothing (fdlibm's __ieee754_rem_pio2, medium case)
 PIO2_1, PIO2_2, PIO2_3 = 1.57079632673412561417e+00, 6.07710050630396597660e-11, 2.02226624871116645580e-21
 TWO_OVER_PI = 6.36619772367581382433e-01
-REDUCED_RANGE = 2.0 ** 19 * math.pi   # |x| below which sin_cos is within two ulps
+REDUCED_RANGE = 2.0 ** 19 * math.pi   # |x| below which sin_cos is within two ulps (sin_cos)
 S1, S2, S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
 S4, S5, S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
 C1, C2, C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
@@ -40,8 +40,9 @@ def _double_of_bits(typingctx, bits):
 
 @njit(**CACHED_LANES)
 def sin_cos(x):
-    """Return (sin x, cos x), within two ulps for |x| < REDUCED_RANGE (beyond it the reduction
-    keeps about 53 - log2(|x| / REDUCED_RANGE) bits)."""
+    """Return (sin x, cos x), within two ulps for |x| < REDUCED_RANGE, or 1e-30 per radian of
+    x near a zero (the reduction's residue; beyond REDUCED_RANGE it keeps about
+    53 - log2(|x| / REDUCED_RANGE) bits)."""
     n = math.floor(x * TWO_OVER_PI + 0.5)
     r = ((x - n * PIO2_1) - n * PIO2_2) - n * PIO2_3
     z = r * r
