@@ -1,7 +1,7 @@
 """Airy waves (kernels/waves.py): the elementary functions the vectorised passes take
 (kernels/elementary.py), held to the C library's, and the medium a line's vertices and a
 buoy sample, held to linear wave theory evaluated with numpy, over finite and deep water,
-stretched and not."""
+stretched and not; an irregular sea drawn from a spectrum (cosnet/core/sea_state.py)."""
 
 import math
 
@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import cosnet
+from cosnet.core.sea_state import jonswap, jonswap_components
 from cosnet.kernels import elementary, waves
 
 RHO, G = 1025.0, 9.81
@@ -122,3 +123,99 @@ def test_a_line_and_a_buoy_sample_the_waves_kinematics_of_linear_theory(depth, s
     Ub += current[:, None] * current_factor(nb[2:3], shape)
     np.testing.assert_allclose(p.buoy_sample[0, 1:4], Ub[:, 0], rtol=0, atol=atol)
     np.testing.assert_allclose(p.buoy_sample[0, 4:7], Ab[:, 0], rtol=0, atol=atol)
+
+
+# ------------------------------------------------------------------ an irregular sea from a spectrum
+def test_a_pierson_moskowitz_sea_cut_into_bands_has_the_spectrums_own_height():
+    # the spectrum's analytic integral is Hs^2 / 16 (gamma = 1): bands over all of it need no
+    # scaling, and the components then follow the spectrum's shape band by band
+    hs, tp = 2.5, 9.0
+    a, T, _ = jonswap_components(hs, tp, gamma=1.0, components=4000, band=(0.3, 12.0))
+    w = 2 * math.pi / T
+    scale = a / np.sqrt(2 * jonswap(w, hs, tp, 1.0) * (w[1] - w[0]))
+    assert np.ptp(scale) < 1e-12 * scale[0]
+    assert scale[0] == pytest.approx(1.0, abs=1e-3)
+    assert 16 * np.sum(a * a / 2) == pytest.approx(hs * hs, rel=1e-12)
+
+
+def test_a_jonswap_sea_peaks_at_its_period_with_the_usual_normalisation_and_its_seeded_phases():
+    hs, tp, gamma = 3.0, 10.0, 3.3
+    a, T, phases = jonswap_components(hs, tp, gamma, components=200, band=(0.2, 8.0), seed=4)
+    w = 2 * math.pi / T
+    # the peak enhancement takes the spectrum's integral to about Hs^2 / 16 / A_gamma,
+    # A_gamma = 1 - 0.287 ln gamma (DNV-RP-C205 3.5.5.4, itself a fit of a few %)
+    scale = a[0] / math.sqrt(2 * jonswap(w[0], hs, tp, gamma) * (w[1] - w[0]))
+    assert scale ** 2 == pytest.approx(1 - 0.287 * math.log(gamma), rel=0.03)
+    assert abs(w[np.argmax(a)] - 2 * math.pi / tp) <= (w[1] - w[0]) / 2
+    assert 16 * np.sum(a * a / 2) == pytest.approx(hs * hs, rel=1e-12)
+    again = jonswap_components(hs, tp, gamma, components=200, band=(0.2, 8.0), seed=4)[2]
+    other = jonswap_components(hs, tp, gamma, components=200, band=(0.2, 8.0), seed=5)[2]
+    assert np.array_equal(phases, again) and not np.allclose(phases, other)
+    assert np.all((phases >= 0) & (phases < 2 * math.pi))
+
+
+def test_the_scene_draws_its_waves_from_the_spectrum_and_refuses_bad_ones_in_one_line(tmp_path):
+    scene = """
+[materials.m]
+E = 1e9
+G = 4e8
+density = 2000.0
+[sections.s]
+kind = "circle"
+radius = 0.01
+[nodes.a]
+position = [0.0, 0.0, -20.0]
+[nodes.b]
+position = [10.0, 0.0, -20.0]
+[lines.l]
+start = "a"
+end = "b"
+material = "m"
+section = "s"
+elements = 4
+[[effects]]
+kind = "gravity"
+[[effects]]
+kind = "fluid"
+density = 1025.0
+surface = 0.0
+depth = 60.0
+drag = [1.2, 0.0]
+wave_spectrum = "jonswap"
+significant_height = {hs}
+peak_period = 8.0
+wave_components = 30
+wave_headings = [40.0]
+wave_seed = 3
+[run]
+until = 0.1
+"""
+    path = tmp_path / "sea.toml"
+    path.write_text(scene.format(hs=2.0))
+    sim = cosnet.load_scene(path).simulation()
+    (fluid,) = [e for e in sim.effects if isinstance(e, cosnet.Fluid)]
+    a, T, headings, phases = fluid.waves
+    want = jonswap_components(2.0, 8.0, components=30, seed=3)
+    assert all(np.array_equal(x, y) for x, y in zip((a, T, phases), want)) and np.all(headings == 40.0)
+    path.write_text(scene.format(hs=-2.0))
+    with pytest.raises(ValueError) as e:
+        cosnet.load_scene(path).simulation()
+    assert "sea.toml" in str(e.value) and "significant_height" in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(wave_spectrum="jonswap", significant_height=2.0, peak_period=8.0, peak_enhancement=0.5), "peak_enhancement"),
+    (dict(wave_spectrum="jonswap", significant_height=2.0, peak_period=8.0, wave_components=0), "wave_components"),
+    (dict(wave_spectrum="jonswap", significant_height=2.0, peak_period=8.0, wave_band=(3.0, 0.5)), "wave_band"),
+    (dict(wave_spectrum="jonswap", significant_height=2.0), "peak_period"),
+    (dict(wave_spectrum="jonswap", significant_height=2.0, peak_period=8.0, wave_amplitudes=[1.0],
+          wave_periods=[5.0]), "not both"),
+    (dict(wave_spectrum="jonswap", significant_height=2.0, peak_period=8.0, wave_headings=[0.0, 90.0]),
+     "one heading"),
+    (dict(wave_spectrum="bretschneider", significant_height=2.0, peak_period=8.0), "wave_spectrum"),
+    (dict(significant_height=2.0, peak_period=8.0), "need wave_spectrum"),
+])
+def test_bad_spectra_are_refused_in_one_line(kwargs, words):
+    with pytest.raises(ValueError) as e:
+        cosnet.Fluid(RHO, surface=0.0, **kwargs)
+    assert words in str(e.value) and "\n" not in str(e.value)

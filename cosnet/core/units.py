@@ -213,6 +213,8 @@ def array(shape, allow_inf=False):
         if not ok:
             raise BadValue(f"must have shape {tuple(shape)} (a nested list), got {shown(v)}")
         return a
+    # (the scene reference's type column)
+    conv.__doc__ = f"{shape[0]} numbers" if len(shape) == 1 and shape[0] > 0 else f"numbers of shape {tuple(shape)}"
     return conv
 
 

@@ -19,9 +19,10 @@ from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams
 from ..kernels.fluid_variants import VARIANTS, fluid_record
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
+from ..core.sea_state import jonswap_components
 from ..core.turbulence import IEC_LENGTH, turbulent_series
-from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, nonnegative, number,
-                          pair, positive, seed)
+from ..core.units import (LENGTH, TIME, VELOCITY, Unit, array, boolean, choice, floats, integer, nonnegative,
+                          number, pair, positive, seed)
 
 DENSITY = Unit("kg/m^3", -3, 1, 0)
 RESISTANCE = Unit("N s/m^2", -1, 1, -1)   # force per length per velocity
@@ -104,8 +105,10 @@ class Fluid(Effect):
     The current is ``velocity`` times a profile over height (a table, or a power law
     ((z - ground) / reference_height)^power_law) times a factor over time (a table, or a seeded
     turbulent series: ``turbulence_intensity`` and cosnet.core.turbulence); waves are
-    linear (Airy) components over water of the given depth, their kinematics stretched to the
-    instantaneous surface (Wheeler) or held above the still surface at its value ("none").
+    linear (Airy) components over water of the given depth (given one by one, or drawn from
+    a JONSWAP spectrum: ``wave_spectrum`` and cosnet.core.sea_state), their kinematics
+    stretched to the instantaneous surface (Wheeler) or held above the still surface at its
+    value ("none").
     Vertical is +z; above the free surface nothing acts. Drag and the added mass are solved
     exactly (or implicitly at nodes), so they never shorten the step. Energy: buoyancy and the
     entrained fluid's kinetic energy are in energy(); what drag takes (relative to the medium)
@@ -142,6 +145,15 @@ class Fluid(Effect):
             Key("wave_periods", floats, TIME, doc="their periods"),
             Key("wave_headings", floats, doc="their directions of travel, degrees from +x towards +y"),
             Key("wave_phases", floats, doc="their phases (rad)"),
+            Key("wave_spectrum", choice("jonswap"),
+                doc="components drawn from a spectrum instead of wave_amplitudes/periods/phases (seeded)"),
+            Key("significant_height", positive, LENGTH, doc="its significant wave height Hs"),
+            Key("peak_period", positive, TIME, doc="its peak period Tp"),
+            Key("peak_enhancement", number, doc="its peak enhancement gamma (default 3.3; 1: Pierson-Moskowitz)"),
+            Key("wave_components", integer, doc="how many components it is cut into (default 50)"),
+            Key("wave_band", array((2,)),
+                doc="their frequency band, multiples of the peak frequency (default [0.5, 3])"),
+            Key("wave_seed", seed, doc="their phases' seed (default 0)"),
             Key("stretching", choice("wheeler", "none"), doc="wave kinematics above the still surface"),
             Key("lines", "lines", doc="the lines in the medium (default: all)"),
             Key("buoys", "nodes", doc="nodes with a volume of their own in the medium (buoys, floats)"),
@@ -191,7 +203,9 @@ class Fluid(Effect):
                  added_mass=(0.0, 0.0), added_mass_law: str = "lagrange", buoyancy: bool = False,
                  surface: float | None = None,
                  depth: float | None = None, wave_amplitudes=None, wave_periods=None, wave_headings=None,
-                 wave_phases=None, stretching: str = "wheeler", lines=None, buoys=None, buoy_volumes=None,
+                 wave_phases=None, wave_spectrum=None, significant_height=None, peak_period=None,
+                 peak_enhancement=None, wave_components=None, wave_band=None, wave_seed=None,
+                 stretching: str = "wheeler", lines=None, buoys=None, buoy_volumes=None,
                  buoy_drag_areas=None, buoy_added_mass=None):
         who = "Fluid"
         self.density = checks.positive(who, "density", density)
@@ -225,6 +239,15 @@ class Fluid(Effect):
         if stretching not in ("wheeler", "none"):
             raise ValueError(f"Fluid: stretching must be 'wheeler' or 'none', got {stretching!r}")
         self.stretching = stretching
+        spectrum = dict(significant_height=significant_height, peak_period=peak_period,
+                        peak_enhancement=peak_enhancement, wave_components=wave_components, wave_band=wave_band,
+                        wave_seed=wave_seed)
+        if wave_spectrum is not None:
+            wave_amplitudes, wave_periods, wave_headings, wave_phases = self._spectrum(
+                wave_spectrum, spectrum, wave_amplitudes, wave_periods, wave_headings, wave_phases)
+        elif any(v is not None for v in spectrum.values()):
+            raise ValueError(f"Fluid: {', '.join(k for k, v in spectrum.items() if v is not None)} need "
+                             f"wave_spectrum")
         self.waves = self._waves(wave_amplitudes, wave_periods, wave_headings, wave_phases)
         if self.waves[0].size and not math.isfinite(self.surface):
             raise ValueError("Fluid: waves need a free surface; give surface")
@@ -274,6 +297,26 @@ class Fluid(Effect):
         if a.shape != (2,) or not np.all(np.isfinite(a)) or np.any(a < 0):
             raise ValueError(f"Fluid: {name} must be two finite numbers >= 0 (normal, tangential), got {v!r}")
         return a
+
+    @staticmethod
+    def _spectrum(kind, keys: dict, amplitudes, periods, headings, phases):
+        """(amplitudes, periods, headings, phases) of the components drawn from the spectrum
+        (cosnet.core.sea_state), all along the one heading given (default 0)."""
+        if kind != "jonswap":
+            raise ValueError(f"Fluid: wave_spectrum must be 'jonswap', got {kind!r}")
+        if amplitudes is not None or periods is not None or phases is not None:
+            raise ValueError("Fluid: give wave_spectrum or wave_amplitudes/wave_periods/wave_phases, not both")
+        if keys["significant_height"] is None or keys["peak_period"] is None:
+            raise ValueError("Fluid: wave_spectrum needs significant_height and peak_period")
+        heading = np.zeros(1) if headings is None else np.atleast_1d(np.array(headings, float))
+        if heading.shape != (1,):
+            raise ValueError(f"Fluid: a wave_spectrum's sea has one heading (wave_headings = [degrees]), got "
+                             f"{headings!r}")
+        given = {k: v for k, v in keys.items() if v is not None}
+        a, T, ph = jonswap_components(given.pop("significant_height"), given.pop("peak_period"),
+                                      given.pop("peak_enhancement", 3.3), given.pop("wave_components", 50),
+                                      given.pop("wave_band", (0.5, 3.0)), given.pop("wave_seed", 0))
+        return a, T, np.full(a.size, heading[0]), ph
 
     def _waves(self, amplitudes, periods, headings, phases):
         if amplitudes is None and periods is None:
