@@ -46,6 +46,9 @@ FLUIDS = {
     "the same in two wave components": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
                                             depth=50.0, wave_amplitudes=[1.0, 0.3], wave_periods=[8.0, 5.0],
                                             wave_headings=[0.0, 30.0]),
+    "the same in a JONSWAP sea of 20 components": dict(drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
+                                                       depth=50.0, wave_spectrum="jonswap", significant_height=2.0,
+                                                       peak_period=8.0, wave_components=20),
     "Stokes resistance": dict(resistance=(2.0, 1.0)),
 }
 
