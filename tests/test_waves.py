@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import cosnet
+from cosnet.core.samples import cantilever_scene
 from cosnet.core.sea_state import jonswap, jonswap_components
 from cosnet.kernels import elementary, waves
 
@@ -155,27 +156,7 @@ def test_a_jonswap_sea_peaks_at_its_period_with_the_usual_normalisation_and_its_
 
 
 def test_the_scene_draws_its_waves_from_the_spectrum_and_refuses_bad_ones_in_one_line(tmp_path):
-    scene = """
-[materials.m]
-E = 1e9
-G = 4e8
-density = 2000.0
-[sections.s]
-kind = "circle"
-radius = 0.01
-[nodes.a]
-position = [0.0, 0.0, -20.0]
-[nodes.b]
-position = [10.0, 0.0, -20.0]
-[lines.l]
-start = "a"
-end = "b"
-material = "m"
-section = "s"
-elements = 4
-[[effects]]
-kind = "gravity"
-[[effects]]
+    sea = """[[effects]]
 kind = "fluid"
 density = 1025.0
 surface = 0.0
@@ -191,13 +172,13 @@ wave_seed = 3
 until = 0.1
 """
     path = tmp_path / "sea.toml"
-    path.write_text(scene.format(hs=2.0))
+    path.write_text(cantilever_scene("a rod in a sea", rest=sea.format(hs=2.0)))
     sim = cosnet.load_scene(path).simulation()
     (fluid,) = [e for e in sim.effects if isinstance(e, cosnet.Fluid)]
     a, T, headings, phases = fluid.waves
     want = jonswap_components(2.0, 8.0, components=30, seed=3)
     assert all(np.array_equal(x, y) for x, y in zip((a, T, phases), want)) and np.all(headings == 40.0)
-    path.write_text(scene.format(hs=-2.0))
+    path.write_text(cantilever_scene("a rod in a sea", rest=sea.format(hs=-2.0)))
     with pytest.raises(ValueError) as e:
         cosnet.load_scene(path).simulation()
     assert "sea.toml" in str(e.value) and "significant_height" in str(e.value) and "\n" not in str(e.value)
