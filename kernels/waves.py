@@ -39,7 +39,8 @@ def wave_depth(k, d):
 @njit(**CACHED_LANES)
 def wave_phase(w, phase, t):
     """Return phase - w t reduced to [-pi, pi]: the time's share of a component's argument, so
-    that the argument at a vertex stays small however long the run."""
+    that the argument at a vertex stays small however long the run (the same angle to two
+    ulps up to 2^18 turns, 24 days of an 8 s wave; beyond, a bit fewer for every doubling)."""
     a = phase - w * t
     n = math.floor(a * (0.25 * TWO_OVER_PI) + 0.5)   # whole turns: 2 pi = 4 (pi/2), in the parts above
     return ((a - n * (4.0 * PIO2_1)) - n * (4.0 * PIO2_2)) - n * (4.0 * PIO2_3)
