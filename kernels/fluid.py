@@ -39,7 +39,7 @@ from .effects import interp_table, table_interval
 from .elementary import sin_cos
 from .layout import columns, uint
 from .rotations import quat_rotate
-from .waves import add_elevation, add_kinematics, component, sample_depths, stretched, wave_depth, wave_phase
+from .waves import add_elevation, add_kinematics, component, sample_depths, stretched, wave_phase
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
 SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
@@ -85,6 +85,9 @@ class FluidParams(NamedTuple):
     wave_cos: np.ndarray     # (nw,) direction of travel, cos and sin of the heading
     wave_sin: np.ndarray     # (nw,)
     wave_phase: np.ndarray   # (nw,)
+    wave_depth: np.ndarray   # (nw, 2) exp(-2 k depth) and 1 / (1 - that) of each component (waves.depth_factors;
+                             # 0 and 1 in deep water)
+    wave_now: np.ndarray     # (nw,) scratch: each component's phase at the last sample (waves.wave_phase)
     node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves to their drive
     sample: np.ndarray       # (SAMPLE_ROWS, nv) scratch: at each vertex of the lines in the medium, as the
                              # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
@@ -172,8 +175,8 @@ def medium_at(p, x, y, z, t):
         for c in range(nw):
             k = p.wave_k[c]
             th = k * (x * p.wave_cos[c] + y * p.wave_sin[c]) + wave_phase(p.wave_w[c], p.wave_phase[c], t)
-            e2, inv_s = wave_depth(k, p.depth)
-            du = component(p.wave_a[c], p.wave_w[c], k, p.wave_cos[c], p.wave_sin[c], th, zs, e2, inv_s)
+            du = component(p.wave_a[c], p.wave_w[c], k, p.wave_cos[c], p.wave_sin[c], th, zs, p.wave_depth[c, 0],
+                           p.wave_depth[c, 1])
             ux, uy, uz = ux + du[0], uy + du[1], uz + du[2]
             ax, ay, az = ax + du[3], ay + du[4], az + du[5]
     return True, (ux, uy, uz), (ax, ay, az)
@@ -184,15 +187,16 @@ def sample_moving(p, c, S, lo, hi, t):
     """Update rows 0-6 of the sample (S) at the vertices lo..hi-1 of a line in a moving medium
     given their positions (c: the columns) and the time t: medium_at's values, taken in passes
     over the vertices that run in vector lanes (kernels/waves.py), a component at a time, with
-    rows 10 and 11 as their scratch (left 0: sample_inertia writes them after)."""
+    rows 10 and 11 as their scratch (left 0: sample_inertia writes them after), the
+    components' phases at t in p.wave_now (sample_medium takes them once for every line)."""
     n, first = hi - lo, uint(lo)
     eta, zs = S[10], S[11]
     if WAVES:
         for i in range(lo, hi):
             eta[i] = 0.0
         for w in range(p.wave_a.shape[0]):
-            k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
-            add_elevation(c[0], c[1], eta, first, n, p.wave_a[w], k * p.wave_cos[w], k * p.wave_sin[w], phi)
+            k = p.wave_k[w]
+            add_elevation(c[0], c[1], eta, first, n, p.wave_a[w], k * p.wave_cos[w], k * p.wave_sin[w], p.wave_now[w])
         sample_depths(c[2], eta, S[0], zs, first, n, p.surface, p.depth, p.stretch)
     else:
         sample_still(c[2], S, first, n, p.surface, 0.0, 0.0, 0.0)   # (the wetness; the rest is written below)
@@ -206,10 +210,9 @@ def sample_moving(p, c, S, lo, hi, t):
                    c0 * ft, c1 * ft, c2 * ft, c0 * dft, c1 * dft, c2 * dft)
     if WAVES:
         for w in range(p.wave_a.shape[0]):
-            k, phi = p.wave_k[w], wave_phase(p.wave_w[w], p.wave_phase[w], t)
-            e2, inv_s = wave_depth(k, p.depth)
             add_kinematics(c[0], c[1], zs, S[0], (S[1], S[2], S[3]), (S[4], S[5], S[6]), first, n, p.wave_a[w],
-                           p.wave_w[w], k, p.wave_cos[w], p.wave_sin[w], phi, e2, inv_s)
+                           p.wave_w[w], p.wave_k[w], p.wave_cos[w], p.wave_sin[w], p.wave_now[w], p.wave_depth[w, 0],
+                           p.wave_depth[w, 1])
     for i in range(lo, hi):
         eta[i], zs[i] = 0.0, 0.0
 
@@ -425,6 +428,9 @@ def sample_medium(p, model, state):
     c0, c1, c2, surface = p.current[0], p.current[1], p.current[2], p.surface
     vlen, dry, wet0, wet1 = model.voronoi_rest_length, model.vertex_inv_mass, p.wet_inverse[0], p.wet_inverse[1]
     de = 0.0
+    if MOVING and WAVES:
+        for w in range(p.wave_a.shape[0]):
+            p.wave_now[w] = wave_phase(p.wave_w[w], p.wave_phase[w], t)
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
         if l < 0 or l >= nl:

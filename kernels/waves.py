@@ -19,21 +19,12 @@ from .layout import uint
 @njit(**CACHED_INLINE)
 def depth_factors(k, zs, e2, inv_s):
     """Return cosh(k (zs + d)) / sinh(k d) and sinh(k (zs + d)) / sinh(k d) at zs <= 0 below
-    the still surface over depth d, given e2 = exp(-2 k d) and inv_s = 1 / (1 - e2) (wave_depth;
-    e2 = 0, inv_s = 1 in deep water), written with one exponential, which neither overflows
-    in deep water nor loses the finite-depth term."""
+    the still surface over depth d, given e2 = exp(-2 k d) and inv_s = 1 / (1 - e2) (constants
+    of the component: FluidParams.wave_depth; e2 = 0, inv_s = 1 in deep water), written with
+    one exponential, which neither overflows in deep water nor loses the finite-depth term."""
     e = exp_nonpositive(k * zs)
     r = e2 / e
     return (e + r) * inv_s, (e - r) * inv_s
-
-
-@njit(**CACHED_INLINE)
-def wave_depth(k, d):
-    """Return (e2, inv_s) of depth_factors for wave number k over depth d (inf: deep)."""
-    if math.isinf(d):
-        return 0.0, 1.0
-    e2 = math.exp(-2.0 * k * d)
-    return e2, 1.0 / (1.0 - e2)
 
 
 @njit(**CACHED_LANES)
@@ -71,7 +62,7 @@ def stretched(zeta, eta, depth, stretch):
 def component(a, w, k, cos_h, sin_h, th, zs, e2, inv_s):
     """Return the velocity and acceleration (ux, uy, uz, ax, ay, az) of one Airy component
     (amplitude a, angular frequency w, wave number k, heading (cos_h, sin_h); e2, inv_s:
-    wave_depth) at a point of argument th at the height zs (stretched)."""
+    depth_factors) at a point of argument th at the height zs (stretched)."""
     st, ct = sin_cos(th)
     ch, sh = depth_factors(k, zs, e2, inv_s)
     uh, ah = a * w * ch * ct, a * w * w * ch * st

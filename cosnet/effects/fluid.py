@@ -190,6 +190,10 @@ class Fluid(Effect):
             return "fluid: buoy needs one entry per node, the buoy rows one per buoy node, medium two"
         if p.wet_inverse.shape != (2, nv) or p.decay.shape != (2, nv) or p.decay_h.shape != (1,):
             return "fluid: wet_inverse and decay need two rows of one per vertex, decay_h one entry"
+        nw = p.wave_a.shape[0]
+        if any(getattr(p, name).shape != (nw,) for name in ("wave_w", "wave_k", "wave_cos", "wave_sin", "wave_phase",
+                                                           "wave_now")) or p.wave_depth.shape != (nw, 2):
+            return "fluid: the wave arrays need one entry per component of wave_a (wave_depth two)"
         if p.turning.shape not in ((TURNING_ROWS, nv), (TURNING_ROWS, 0)):
             return f"fluid: turning needs {TURNING_ROWS} rows of one per vertex, or none"
         return (index_error("fluid.lines", p.lines, nl) or index_error("fluid.line_row", p.line_row[p.line_row >= 0], k)
@@ -383,6 +387,7 @@ class Fluid(Effect):
         a, T, hd, ph = self.waves
         omega = 2.0 * math.pi / T if T.size else np.zeros(0)
         kw = np.array([wave_number(w, self.depth, g) for w in omega])
+        e2 = np.exp(-2.0 * kw * self.depth) if math.isfinite(self.depth) else np.zeros(kw.size)
         heading = np.radians(hd)
         zp, fp = self.profile
         tt, tv = self.time_table
@@ -392,7 +397,8 @@ class Fluid(Effect):
                            current=self.velocity.copy(), profile_z=zp.copy(), profile_f=fp.copy(),
                            power=np.array(self.power), times=tt.copy(), values=tv.copy(), wave_a=a.copy(),
                            wave_w=omega, wave_k=kw, wave_cos=np.cos(heading), wave_sin=np.sin(heading),
-                           wave_phase=ph.copy(), node_skip=skip,
+                           wave_phase=ph.copy(), wave_depth=np.column_stack([e2, 1.0 / (1.0 - e2)]),
+                           wave_now=np.zeros(a.size), node_skip=skip,
                            sample=np.zeros((SAMPLE_ROWS, nv)),
                            wet_inverse=self._wet_inverse(on.model, lines, rows),
                            decay=np.zeros((2, nv)), decay_h=np.full(1, np.nan),
