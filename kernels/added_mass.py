@@ -30,15 +30,16 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, kick_drag_vertices, node_free,
-                    sample_rows, split, still_medium, turns)
+from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, kick_changes, kick_drag_vertices,
+                    node_free, sample_rows, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
 
-TURNING_ROWS = 12  # rows of p.turning: the forces G (3, the last kick's until the next), the velocities V they
-                   # are taken at (3), q (3), the last kick's whole change of the velocity at the interior vertices
-                   # (3: add_line_forces, or with the drag's flow fluid.kick_drag_vertices)
+TURNING_ROWS = 6  # rows of p.turning: the forces G at the line ends (3, the last kick's until the next; at the
+                  # interior vertices, scratch), the last kick's whole change of the velocity D at the interior
+                  # vertices (3: add_inner_turning, or with the drag's flow fluid.kick_drag_vertices; at a line end,
+                  # its node's midpoint velocity for the pass: add_turning_forces)
 
 
 @njit(**CACHED, inline="always")
@@ -53,9 +54,9 @@ def turning_span(p, model, j):
 
 @njit(**CACHED, inline="always")
 def turning_rows(p):
-    """The rows of p.turning as four column tuples: G, V, Q, D."""
+    """The rows of p.turning as two column tuples: G, D."""
     T = p.turning
-    return (T[0], T[1], T[2]), (T[3], T[4], T[5]), (T[6], T[7], T[8]), (T[9], T[10], T[11])
+    return (T[0], T[1], T[2]), kick_changes(p)
 
 
 @njit(**INNER)
@@ -68,54 +69,104 @@ def end_spin(model, state, a):
 
 
 @njit(**CACHED, inline="always")
-def own_terms(G, Q, V, S, ci, vlen, i, a, b, da, calm):
-    """Update G at vertex i by -M'u and Q at i by q (module docstring), its chord from vertex a
-    to b, at the velocity columns V (ci: 1 / the chord's length as the sample found it, the
-    positions it was taken at being the kick's; da = a_t - a_n per length; ``calm``: the
+def predicted(v, D, k):
+    """Return vertex k's velocity at the kick's midpoint, v + D/2 (v the velocity columns, D the
+    last kick's whole change of it), to O(h^2): the change of a kick differs from the last
+    one's by O(h^2) (the drag's flow runs there, between the kick's halves:
+    fluid.kick_drag_vertices)."""
+    return v[0][k] + 0.5 * D[0][k], v[1][k] + 0.5 * D[1][k], v[2][k] + 0.5 * D[2][k]
+
+
+@njit(**CACHED, inline="always")
+def vertex_q(S, ci, vlen, k, da, w, calm):
+    """Return q at vertex k (module docstring) at its velocity w, its tangent and 1 / its
+    chord's length (ci) as the sample found them (da = a_t - a_n per length; ``calm``: the
     medium at rest, its velocity rows not read)."""
+    tx, ty, tz = S[7][k], S[8][k], S[9][k]
+    ux, uy, uz = (w[0], w[1], w[2]) if calm else (w[0] - S[1][k], w[1] - S[2][k], w[2] - S[3][k])
+    ut = ux * tx + uy * ty + uz * tz
+    g = da * S[0][k] * vlen[k] * ut * ci[k]
+    return g * (ux - ut * tx), g * (uy - ut * ty), g * (uz - ut * tz)
+
+
+@njit(**CACHED, inline="always")
+def vertex_turning(S, ci, vlen, i, da, w, wa, wb, calm):
+    """Return -M'u at vertex i (module docstring) at its velocity w, its chord's ends moving
+    at wa and wb (vertex_q's arguments)."""
     tx, ty, tz = S[7][i], S[8][i], S[9][i]
     inv = ci[i]
     c = da * S[0][i] * vlen[i]
-    Ux, Uy, Uz = (0.0, 0.0, 0.0) if calm else (S[1][i], S[2][i], S[3][i])
-    ux, uy, uz = V[0][i] - Ux, V[1][i] - Uy, V[2][i] - Uz
+    ux, uy, uz = (w[0], w[1], w[2]) if calm else (w[0] - S[1][i], w[1] - S[2][i], w[2] - S[3][i])
     ut = ux * tx + uy * ty + uz * tz
-    dx, dy, dz = (V[0][b] - V[0][a]) * inv, (V[1][b] - V[1][a]) * inv, (V[2][b] - V[2][a]) * inv
+    dx, dy, dz = (wb[0] - wa[0]) * inv, (wb[1] - wa[1]) * inv, (wb[2] - wa[2]) * inv
     dt = dx * tx + dy * ty + dz * tz
     rx, ry, rz = dx - dt * tx, dy - dt * ty, dz - dt * tz            # t'
     ru = rx * ux + ry * uy + rz * uz
-    G[0][i] = -c * (ut * rx + ru * tx)
-    G[1][i] = -c * (ut * ry + ru * ty)
-    G[2][i] = -c * (ut * rz + ru * tz)
-    g = c * ut * inv
-    Q[0][i], Q[1][i], Q[2][i] = g * (ux - ut * tx), g * (uy - ut * ty), g * (uz - ut * tz)
+    return -c * (ut * rx + ru * tx), -c * (ut * ry + ru * ty), -c * (ut * rz + ru * tz)
+
+
+@njit(**CACHED, inline="always")
+def load_vertex(f, S, vmass, i, up, g, w):
+    """Update the force columns f at interior vertex i to what the kick divides by the vertex
+    mass, m M^-1 (f + g + up times the sampled upthrust), as divide_line; return the power of
+    the turning fluid's force g at the velocity w and the kick's change of the velocity per
+    its length, M^-1 (f + g + ...)."""
+    a = split(S[14][i], S[15][i], f[0][i] + g[0], f[1][i] + g[1], f[2][i] + g[2] + up * S[13][i], S[7][i], S[8][i],
+              S[9][i])
+    m = vmass[i]
+    f[0][i], f[1][i], f[2][i] = m * a[0], m * a[1], m * a[2]
+    return g[0] * w[0] + g[1] * w[1] + g[2] * w[2], a
+
+
+@njit(**CACHED, inline="always")
+def turning_vertex(f, v, D, S, ci, vlen, vmass, i, da, up, calm):
+    """Update the force columns f at interior vertex i by the turning fluid's force there, its
+    -M'u and the q of the chords ending (+) and starting (-) at it (a line end's on its end
+    element's chord), at the midpoint velocities (predicted), and divide them (load_vertex,
+    whose values it returns). (Each neighbour's q computed again, not read: one pass over
+    the line where writing the velocities, then q and -M'u, then the forces took three, and
+    the arithmetic costs less than the columns it spared.)"""
+    a, b = i - uint(1), i + uint(1)
+    w, wa, wb = predicted(v, D, i), predicted(v, D, a), predicted(v, D, b)
+    g = vertex_turning(S, ci, vlen, i, da, w, wa, wb, calm)
+    qa, qb = vertex_q(S, ci, vlen, a, da, wa, calm), vertex_q(S, ci, vlen, b, da, wb, calm)
+    return load_vertex(f, S, vmass, i, up, (g[0] + qa[0] - qb[0], g[1] + qa[1] - qb[1], g[2] + qa[2] - qb[2]), w)
 
 
 @njit(**PASS)
-def interior_terms(G, Q, V, S, ci, vlen, first, n, da, calm):
-    """Update G and Q at the n interior vertices first.. (own_terms; chords between neighbours;
-    a loop for a calm medium of its own)."""
-    if calm:
+def add_inner_turning(f, v, D, S, ci, vlen, vmass, E, h, first, n, da, up, calm, change):
+    """Update the force columns f at a line's n interior vertices first.. (turning_vertex;
+    D at its ends: their midpoint velocities, add_turning_forces) and, where ``change`` (no
+    drag's flow to write it), E by the kick's change of the velocity over h (E, not D, whose
+    neighbours' values the pass reads: the caller copies it); return the power of the
+    turning forces."""
+    power = 0.0
+    if change:
         for k in range(n):
             i = first + uint(k)
-            own_terms(G, Q, V, S, ci, vlen, i, i - uint(1), i + uint(1), da, True)
+            w, a = turning_vertex(f, v, D, S, ci, vlen, vmass, i, da, up, False)
+            power += w
+            E[0][i], E[1][i], E[2][i] = h * a[0], h * a[1], h * a[2]
+    elif calm:
+        for k in range(n):
+            power += turning_vertex(f, v, D, S, ci, vlen, vmass, first + uint(k), da, up, True)[0]
     else:
         for k in range(n):
-            i = first + uint(k)
-            own_terms(G, Q, V, S, ci, vlen, i, i - uint(1), i + uint(1), da, False)
+            power += turning_vertex(f, v, D, S, ci, vlen, vmass, first + uint(k), da, up, False)[0]
+    return power
 
 
-@njit(**PASS)
-def line_turning(G, Q, V, S, ci, vlen, lo, hi, da, calm):
-    """Update the force columns G at the vertices lo..hi-1 of one line by the turning fluid's
-    forces at the velocity columns V (Q: scratch for q; own_terms, the ends on their end
-    element's chord), but for q's share at the interior vertices, which add_line_forces
-    spreads as it adds G to the loads."""
-    own_terms(G, Q, V, S, ci, vlen, lo, lo, lo + 1, da, False)
-    own_terms(G, Q, V, S, ci, vlen, hi - 1, hi - 2, hi - 1, da, False)
-    interior_terms(G, Q, V, S, ci, vlen, uint(lo + 1), hi - lo - 2, da, calm)
-    for k in range(3):
-        G[k][lo] -= Q[k][lo] + Q[k][lo + 1]
-        G[k][hi - 1] += Q[k][hi - 1] + Q[k][hi - 2]
+@njit(**CACHED, inline="always")
+def end_turning(v, D, S, ci, vlen, e, i, da, sign):
+    """Return the turning fluid's force on line end e at the midpoint velocities (predicted):
+    its own -M'u on its end element's chord (to the interior vertex i next to it) and the q
+    of the chords ending (sign = 1: the line's last vertex) or starting (sign = -1: its first)
+    at it, its own and vertex i's (the neighbour's spread by add_inner_turning)."""
+    w, wi = predicted(v, D, e), predicted(v, D, i)
+    wa, wb = (wi, w) if sign > 0.0 else (w, wi)
+    g = vertex_turning(S, ci, vlen, e, da, w, wa, wb, False)
+    q, qi = vertex_q(S, ci, vlen, e, da, w, False), vertex_q(S, ci, vlen, i, da, wi, False)
+    return g[0] + sign * (q[0] + qi[0]), g[1] + sign * (q[1] + qi[1]), g[2] + sign * (q[2] + qi[2])
 
 
 @njit(**INNER)
@@ -137,67 +188,19 @@ def end_sums(p, model, state, G, nd):
     return (fx, fy, fz), (mx, my, mz)
 
 
-@njit(**PASS)
-def predict_line(V, v, D, first, n):
-    """Update the velocity columns V at the n vertices first.. to v and half the last kick's
-    whole change of the velocity D: the kick's midpoint (the drag's flow runs there, between
-    the kick's halves: fluid.kick_drag_vertices), to O(h^2), the change of a kick differing
-    from the last one's by O(h^2)."""
-    for k in range(n):
-        i = first + uint(k)
-        V[0][i] = v[0][i] + 0.5 * D[0][i]
-        V[1][i] = v[1][i] + 0.5 * D[1][i]
-        V[2][i] = v[2][i] + 0.5 * D[2][i]
-
-
-@njit(**CACHED, inline="always")
-def line_force(f, G, Q, V, S, vmass, i, up):
-    """Update G at interior vertex i by q of the vertex before (whose chord ends here) less q
-    of the vertex after (whose chord starts here), and the force columns f there to what the
-    kick divides by the vertex mass: m M^-1 (f + G + up times the sampled upthrust), as
-    divide_line; return the power of G at V and the kick's change of the velocity per its
-    length, M^-1 (f + G + ...)."""
-    gx = G[0][i] + Q[0][i - uint(1)] - Q[0][i + uint(1)]
-    gy = G[1][i] + Q[1][i - uint(1)] - Q[1][i + uint(1)]
-    gz = G[2][i] + Q[2][i - uint(1)] - Q[2][i + uint(1)]
-    G[0][i], G[1][i], G[2][i] = gx, gy, gz
-    a = split(S[14][i], S[15][i], f[0][i] + gx, f[1][i] + gy, f[2][i] + gz + up * S[13][i], S[7][i], S[8][i], S[9][i])
-    m = vmass[i]
-    f[0][i], f[1][i], f[2][i] = m * a[0], m * a[1], m * a[2]
-    return gx * V[0][i] + gy * V[1][i] + gz * V[2][i], a
-
-
-@njit(**PASS)
-def add_line_forces(f, G, Q, V, S, vmass, D, h, first, n, up, change):
-    """Update G and the force columns f at the n interior vertices first.. (line_force: one
-    pass where divide_line and a pass of its own took two) and, where ``change`` (no drag's
-    flow to write it: fluid.kick_drag_vertices), D by the kick's change of the velocity over
-    h; return the power of G at V."""
-    power = 0.0
-    if change:
-        for k in range(n):
-            i = first + uint(k)
-            w, a = line_force(f, G, Q, V, S, vmass, i, up)
-            power += w
-            D[0][i], D[1][i], D[2][i] = h * a[0], h * a[1], h * a[2]
-    else:
-        for k in range(n):
-            power += line_force(f, G, Q, V, S, vmass, first + uint(k), up)[0]
-    return power
-
-
 @njit(**INNER)
 def add_turning_forces(p, model, state, loads, h):
     """Update loads.f (nv, 3) at the interior vertices, loads.node_f and loads.node_tau at the
     free nodes by the turning fluid's forces at the kick's midpoint velocities (module
     docstring), and the interior vertices' loads with the upthrust to what the kick divides
-    by their masses (add_line_forces; kick_fluid the rest); p.supplied by their work
-    over the kick of h, which with the resampled entrained energy (flow_fluid) is what the
-    line and its fluid exchange with the medium: nothing in still water, to the step's
-    order. (One kernel of its own: the records passed to each of several cost more
+    by their masses (add_inner_turning, add_end_turning; kick_fluid the rest); p.supplied by
+    their work over the kick of h, which with the resampled entrained energy (flow_fluid) is
+    what the line and its fluid exchange with the medium: nothing in still water, to the
+    step's order. (One kernel of its own: the records passed to each of several cost more
     compiling than their arithmetic.)"""
-    G, V, Q, D = turning_rows(p)
+    G, D = turning_rows(p)
     S, v, f = sample_rows(p), columns(state.v), columns(loads.f)
+    ci, vlen = p.chord_inverse, model.voronoi_rest_length
     calm = calm_medium(p)
     # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
     # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
@@ -210,30 +213,32 @@ def add_turning_forces(p, model, state, loads, h):
             a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
             d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
             p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
+    work = 0.0
     for j in range(p.lines.shape[0]):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
-        predict_line(V, v, D, uint(lo + 1), hi - lo - 2)
+        # a line end's midpoint velocity (no drag's flow writes D there) carried in D, so that
+        # predicted() gives it, and one pass takes the interior vertices next to the ends too
         for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
             nd = model.attach_node[a]
             c = end_spin(model, state, a)
             vn = state.node_v[nd]
             hf = 0.5 * h if node_free(p, model, nd) else 0.0
             for k in range(3):
-                V[k][i] = vn[k] + c[k] + hf * p.node_rate[nd, k]
-    work = 0.0
-    for j in range(p.lines.shape[0]):
-        l, lo, hi = turning_span(p, model, j)
-        if hi == 0:
-            continue
-        line_turning(G, Q, V, S, p.chord_inverse, model.voronoi_rest_length, lo, hi, p.added_t[j] - p.added_n[j],
-                     calm)
-        work += add_line_forces(f, G, Q, V, S, model.vertex_mass, D, h, uint(lo + 1), hi - lo - 2,
-                                1.0 if p.buoyancy[j] != 0.0 else 0.0, p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0)
-        for a, i in ((2 * l, lo), (2 * l + 1, hi - 1)):
+                D[k][i] = 2.0 * (vn[k] + c[k] + hf * p.node_rate[nd, k] - v[k][i])
+        da, up = p.added_t[j] - p.added_n[j], 1.0 if p.buoyancy[j] != 0.0 else 0.0
+        change = p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0
+        for a, e, i, sign in ((2 * l, lo, lo + 1, -1.0), (2 * l + 1, hi - 1, hi - 2, 1.0)):
+            G[0][e], G[1][e], G[2][e] = end_turning(v, D, S, ci, vlen, e, i, da, sign)
             if node_free(p, model, model.attach_node[a]):
-                work += G[0][i] * V[0][i] + G[1][i] * V[1][i] + G[2][i] * V[2][i]
+                w = predicted(v, D, e)
+                work += G[0][e] * w[0] + G[1][e] * w[1] + G[2][e] * w[2]
+        work += add_inner_turning(f, v, D, S, ci, vlen, model.vertex_mass, G, h, uint(lo + 1), hi - lo - 2, da, up,
+                                  calm, change)
+        if change:
+            for i in range(lo + 1, hi - 1):
+                D[0][i], D[1][i], D[2][i] = G[0][i], G[1][i], G[2][i]
     for nd in range(model.node_mass.shape[0]):
         if node_free(p, model, nd):
             g, m = end_sums(p, model, state, G, nd)

@@ -117,7 +117,7 @@ class FluidParams(NamedTuple):
                              # sample_node_masses), where the medium adds mass
     chord_inverse: np.ndarray  # (nv,) scratch: 1 / |c| of the chord each vertex's sampled tangent is taken
                              # along (the end element at a line end; 1e150 where it vanishes), as the
-                             # sample found it: the turning fluid's terms (kernels/added_mass.own_terms)
+                             # sample found it: the turning fluid's terms (kernels/added_mass.vertex_turning)
     node_rate: np.ndarray    # (nn, 3) scratch: each free node's acceleration the turning fluid's predictor
                              # takes (kernels/added_mass.add_turning_forces)
 
@@ -634,6 +634,14 @@ def sample_rows(p):
 
 
 @njit(**CACHED, inline="always")
+def kick_changes(p):
+    """The rows of p.turning that hold the last kick's whole change of the velocity at the
+    interior vertices (kernels/added_mass.py: the next kick's prediction of its midpoint)."""
+    T = p.turning
+    return T[3], T[4], T[5]
+
+
+@njit(**CACHED, inline="always")
 def turns(p, j):
     """Whether row j's added mass differs across and along its line (its fluid turns with it:
     kernels/added_mass.py)."""
@@ -647,9 +655,9 @@ def kick_drag_vertices(p, model, state, loads, h):
     the whole impulse of loads.f, as the added mass left it): the tangential and normal parts
     of the relative velocity u each keep their direction, their size s becoming s r with
     r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the linear one, m with the
-    added mass of that direction. p.dissipated and p.supplied by its work; rows 9-11 of
+    added mass of that direction. p.dissipated and p.supplied by its work; rows 3-5 of
     p.turning, where the line's fluid turns, by the kick's whole change of the velocity (the
-    next kick's prediction of its midpoint: added_mass.predict_line). One flow a kick at its middle
+    next kick's prediction of its midpoint: added_mass.predicted). One flow a kick at its middle
     where two halves on its sides took two passes; the step stays a symmetric sequence
     (second order) and stable however stiff the drag. (A loop per law over contiguous columns
     with unsigned indices, branch-free, which LLVM vectorises; see layout.columns.)"""
@@ -668,7 +676,7 @@ def kick_drag_vertices(p, model, state, loads, h):
                     p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
         p.decay_h[0] = h
     decay = (p.decay[0], p.decay[1])
-    D = (p.turning[9], p.turning[10], p.turning[11])
+    D = kick_changes(p)
     calm = calm_medium(p)
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
