@@ -595,7 +595,11 @@ def kick_drag_line(v, f, im, hh, D, S, vlen, vmass, first, n, kn, kt, an, at, li
     (kick_drag_vertex; a loop per law, and for Morison's a calm medium's of its own: three rows
     fewer to read, no work supplied); return the energy dissipated and the work supplied."""
     dissipated = supplied = 0.0
-    if keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
+    if keep and calm and not linear:   # (the default: Lagrange's added mass, Morison's drag, still water)
+        for k in range(n):
+            dissipated += kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, False,
+                                           True, decay, True)[0]
+    elif keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, linear, calm,
                                     decay, True)
