@@ -193,7 +193,7 @@ def add_turning_forces(p, model, state, loads, h):
     """Update loads.f (nv, 3) at the interior vertices, loads.node_f and loads.node_tau at the
     free nodes by the turning fluid's forces at the kick's midpoint velocities (module
     docstring), and the interior vertices' loads with the upthrust to what the kick divides
-    by their masses (add_inner_turning, add_end_turning; kick_fluid the rest); p.supplied by
+    by their masses (add_inner_turning, end_turning; kick_fluid the rest); p.supplied by
     their work over the kick of h, which with the resampled entrained energy (flow_fluid) is
     what the line and its fluid exchange with the medium: nothing in still water, to the
     step's order. (One kernel of its own: the records passed to each of several cost more
