@@ -316,10 +316,10 @@ class Fluid(Effect):
         if heading.shape != (1,):
             raise ValueError(f"Fluid: a wave_spectrum's sea has one heading (wave_headings = [degrees]), got "
                              f"{headings!r}")
-        given = {k: v for k, v in keys.items() if v is not None}
-        a, T, ph = jonswap_components(given.pop("significant_height"), given.pop("peak_period"),
-                                      given.pop("peak_enhancement", 3.3), given.pop("wave_components", 50),
-                                      given.pop("wave_band", (0.5, 3.0)), given.pop("wave_seed", 0))
+        # the keys given, by jonswap_components' names: its defaults are the only ones
+        names = dict(peak_enhancement="gamma", wave_components="components", wave_band="band", wave_seed="seed")
+        given = {names[k]: v for k, v in keys.items() if v is not None and k in names}
+        a, T, ph = jonswap_components(keys["significant_height"], keys["peak_period"], **given)
         return a, T, np.full(a.size, heading[0]), ph
 
     def _waves(self, amplitudes, periods, headings, phases):
