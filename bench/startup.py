@@ -5,17 +5,18 @@
 Each case runs three times in processes of its own, one at a time, with a numba cache
 directory of its own: cold (the cache empty), warm (the cache the cold run left), then warm
 with one effect kind the case does not declare added (a small line load, else a node load,
-else gravity): what an edit that adds an effect costs. Each process does what `cosnet run
-CASE` does up to its first frame after t = 0, and times the phases: starting Python and
-importing cosnet, loading the scene, building the simulation (flattening), frame 0 (the
-watch's energy and checksum kernels), the step to frame 1, with a second process compiling
-the step's kernels meanwhile, from the first compilation on (the build's included;
-cosnet.compiling.compiling_alongside, as `cosnet run` does). Compilation in the first
-process is split by the compile log (cosnet/compiling.py) into numba's part (type inference,
-lowering) and LLVM's (optimisation, linking, machine code); the waits for the second process
-are counted apart; what a phase spends beyond those is loading kernels from the cache and
-running them. The figures go to startup.json and the table of docs/performance.md
-(bench/tables.py).
+else gravity): what an edit that adds an effect costs. Python runs as a user's does, with
+the modules' bytecode written once, before the first case, and read from then on. Each
+process does what `cosnet run CASE` does up to its first frame after t = 0, and times the
+phases: starting Python and importing cosnet, loading the scene, building the simulation
+(flattening), frame 0 (the watch's energy and checksum kernels), the step to frame 1, with a
+second process compiling the step's kernels meanwhile, from the first compilation on (the
+build's included; cosnet.compiling.compiling_alongside, as `cosnet run` does). Compilation
+in the first process is split by the compile log (cosnet/compiling.py) into numba's part
+(type inference, lowering) and LLVM's (optimisation, linking, machine code); the waits for
+the second process are counted apart; what a phase spends beyond those is loading kernels
+from the cache and running them. The figures go to startup.json and the table of
+docs/performance.md (bench/tables.py).
 """
 
 from __future__ import annotations
@@ -67,9 +68,18 @@ print(json.dumps({"phases": marks, "steps": sim.steps, "kernels": len(log.kernel
                   "by_root": {k.rsplit(".", 1)[-1]: v for k, v in log.by_root().items()}}))
 """
 
+def python_env(**extra) -> dict:
+    """The environment of the timed processes: a user's Python, which writes the modules'
+    bytecode on their first import and reads it after (a shell with PYTHONDONTWRITEBYTECODE
+    set would compile cosnet's source at every start)."""
+    env = dict(os.environ, **extra)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
 def one(case: Path, cache: str) -> dict:
     with tempfile.TemporaryDirectory() as out:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        env = python_env(NUMBA_CACHE_DIR=cache)
         born = time.time()
         done = subprocess.run([sys.executable, "-c", PHASES, str(case), out, repr(born)], env=env,
                               capture_output=True, text=True, timeout=1800)
@@ -102,6 +112,9 @@ def main(argv: list[str]) -> int:
     runs = []
     load_before = os.getloadavg()[0]
     started = time.perf_counter()
+    # the bytecode written before the first case, as an installed package has it
+    subprocess.run([sys.executable, "-c", "import cosnet.compiling, cosnet.output.record"], env=python_env(),
+                   check=True, timeout=600)
     for name in names:
         case = CASES / f"{name}.toml"
         with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as scenes:
