@@ -94,6 +94,39 @@ def _lock_cache_saves():
 _lock_cache_saves()
 
 
+def _defer_blas_check():
+    """Have numba find scipy's BLAS without importing scipy.linalg until something uses it.
+
+    The first kernel a process compiles or loads from the cache makes numba load its numpy
+    support, whose module numba.np.arraymath checks at import that BLAS is there by importing
+    scipy.linalg (and all it imports): a few tenths of a second of every start, warm ones
+    included, for routines no cosnet kernel calls. The check at that import now only finds
+    scipy.linalg's module; numba's own checks where BLAS is used (numba.np.linalg's
+    ensure_blas, called when a dot or solve is compiled: scipy.linalg imported, its integer
+    width checked) are left as they are."""
+    import importlib.util
+    import sys
+    if "numba.np.arraymath" in sys.modules:
+        return
+    from numba.np import linalg
+    check = getattr(linalg, "ensure_blas", None)
+    if check is None:
+        return
+
+    def find_blas():
+        if importlib.util.find_spec("scipy.linalg") is None:
+            raise ImportError("scipy 0.16+ is required for linear algebra")
+    linalg.ensure_blas = find_blas
+    try:
+        from numba.np import arraymath
+    finally:
+        linalg.ensure_blas = check
+    arraymath.ensure_blas = check
+
+
+_defer_blas_check()
+
+
 # how long a compilation waits for another process compiling the same kernel before it
 # compiles the kernel itself (the other may be stopped, not dead: a dead one frees the lock)
 COMPILE_WAIT = 600.0
