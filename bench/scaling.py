@@ -33,6 +33,7 @@ import numpy as np
 
 import cosnet
 from cosnet.kernels.backend import Parallel, Serial
+from cosnet.kernels.compose import empty_table
 from harness import best_interleaved, best_of, chain, rod, table, write_json
 
 HERE = Path(__file__).resolve().parent
@@ -137,6 +138,10 @@ def with_threads(sim, threads):
     twin = copy.copy(sim)
     twin.threads = threads
     twin.backend = Serial() if threads == 1 else Parallel(threads)
+    # a step table of its own, bound in its turn to the kernels compiled for its backend (the
+    # original's slots hold the other backend's, which its step refuses to call)
+    twin.step_table = empty_table(sim.step_groups)
+    twin._slots_process = twin._compiled_step = None
     return twin
 
 
