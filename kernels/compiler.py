@@ -99,8 +99,8 @@ def _defer_blas_check():
 
     The first kernel a process compiles or loads from the cache makes numba load its numpy
     support, whose module numba.np.arraymath checks at import that BLAS is there by importing
-    scipy.linalg (and all it imports): a few tenths of a second of every start, warm ones
-    included, for routines no cosnet kernel calls. The check at that import now only finds
+    scipy.linalg (and all it imports), a part of every start, warm ones included, for
+    routines no cosnet kernel calls. The check at that import now only finds
     scipy.linalg's module; numba's own checks where BLAS is used (numba.np.linalg's
     ensure_blas, called when a dot or solve is compiled: scipy.linalg imported, its integer
     width checked) are left as they are."""

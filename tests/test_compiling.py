@@ -52,6 +52,38 @@ print("force", lockmod.spring_force(2.0, 0.25), "compiled", len(compiled), flush
 """
 
 
+# Loads numba's numpy support as the first kernel a process compiles or loads does; prints
+# whether scipy.linalg was imported by then, whether numba found BLAS, and whether a dot
+# compiled afterwards imported it and computed the product.
+BLAS = r"""
+import sys
+import numpy as np
+from numba import njit
+from numba.core.registry import cpu_target
+import cosnet  # noqa: F401
+cpu_target.target_context.refresh()
+from numba.np import arraymath
+before = "scipy.linalg" in sys.modules
+
+@njit
+def product(a, b):
+    return np.dot(a, b)
+
+a = np.arange(6.0).reshape(2, 3)
+right = product(a, a.T).tolist() == (a @ a.T).tolist()
+print(before, arraymath._HAVE_BLAS, right and "scipy.linalg" in sys.modules)
+"""
+
+
+def test_numpy_support_loads_without_scipy_linalg_and_blas_still_works():
+    """Numba's numpy support, which every process loads with its first kernel, checks at
+    import that BLAS is there: found without importing scipy.linalg (kernels/compiler.py), and
+    a dot compiled later imports it and multiplies."""
+    r = subprocess.run([sys.executable, "-c", BLAS], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.split() == ["False", "True", "True"], r.stdout
+
+
 def test_a_kernel_being_compiled_elsewhere_is_waited_for_and_loaded(tmp_path):
     from numba import float64
 
