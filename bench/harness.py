@@ -126,6 +126,15 @@ def table(title: str, header: list[str], rows: list[list]) -> str:
     return text
 
 
+def python_env(**extra) -> dict:
+    """The environment for a timed Python process, with ``extra`` set: a user's Python, which
+    writes the modules' bytecode on their first import and reads it after (a shell with
+    PYTHONDONTWRITEBYTECODE set would compile cosnet's source at every start)."""
+    env = dict(os.environ, **extra)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
 def write_json(script: str, payload: dict):
     """Write payload (with the machine) to SCRIPT.json next to the script, or into the folder
     named by the environment variable COSNET_BENCH_OUT if set (bench/run_all.py sets it for

@@ -34,7 +34,7 @@ import numpy as np
 import cosnet
 from cosnet.kernels.backend import Parallel, Serial
 from cosnet.kernels.compose import empty_table
-from harness import best_interleaved, best_of, chain, rod, table, write_json
+from harness import best_interleaved, best_of, chain, python_env, rod, table, write_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -209,9 +209,7 @@ def startup():
     scene = ROOT / "cases" / "bridge.toml"
     times = {}
     with tempfile.TemporaryDirectory() as tmp:
-        env = dict(os.environ, NUMBA_CACHE_DIR=str(Path(tmp) / "cache"))
-        # as a user's Python: bytecode of the modules written on the first run, read after
-        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env = python_env(NUMBA_CACHE_DIR=str(Path(tmp) / "cache"))
         runs = [("cold (empty cache)", ["-m", "cosnet.cli", "run", str(scene), "--out",
                                         str(Path(tmp) / "out"), "--until", "1e-4", "--overwrite"])]
         runs += [(label, runs[0][1]) for label in ("warm (cache)", "warm again")]

@@ -68,16 +68,8 @@ print(json.dumps({"phases": marks, "steps": sim.steps, "kernels": len(log.kernel
                   "by_root": {k.rsplit(".", 1)[-1]: v for k, v in log.by_root().items()}}))
 """
 
-def python_env(**extra) -> dict:
-    """The environment of the timed processes: a user's Python, which writes the modules'
-    bytecode on their first import and reads it after (a shell with PYTHONDONTWRITEBYTECODE
-    set would compile cosnet's source at every start)."""
-    env = dict(os.environ, **extra)
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    return env
-
-
 def one(case: Path, cache: str) -> dict:
+    from harness import python_env
     with tempfile.TemporaryDirectory() as out:
         env = python_env(NUMBA_CACHE_DIR=cache)
         born = time.time()
@@ -107,7 +99,7 @@ def with_new_kind(case: Path, folder: Path) -> tuple[str, Path]:
 
 
 def main(argv: list[str]) -> int:
-    from harness import write_json
+    from harness import python_env, write_json
     names = argv or sorted(p.stem for p in CASES.glob("*.toml"))
     runs = []
     load_before = os.getloadavg()[0]
