@@ -33,7 +33,6 @@ import numpy as np
 
 import cosnet
 from cosnet.kernels.backend import Parallel, Serial
-from cosnet.kernels.compose import empty_table
 from harness import best_interleaved, best_of, chain, python_env, rod, table, write_json
 
 HERE = Path(__file__).resolve().parent
@@ -138,10 +137,7 @@ def with_threads(sim, threads):
     twin = copy.copy(sim)
     twin.threads = threads
     twin.backend = Serial() if threads == 1 else Parallel(threads)
-    # a step table of its own, bound in its turn to the kernels compiled for its backend (the
-    # original's slots hold the other backend's, which its step refuses to call)
-    twin.step_table = empty_table(sim.step_groups)
-    twin._slots_process = twin._compiled_step = None
+    twin._new_step_table()   # the original's slots hold the kernels of its own backend
     return twin
 
 

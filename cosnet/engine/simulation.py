@@ -143,11 +143,9 @@ class Simulation:
         self.flow_records = tuple(p for stage, p, _ in kernel_records if stage == "flow")
         constraints = tuple(p for stage, p, _ in kernel_records if stage == "constraint")
         self.step_groups = (self.load_records, self.flow_records, constraints)
-        self.step_table = empty_table(self.step_groups)
         self._pins = Pins(self.step_groups)
-        self._slots_process = None
         self.advance_kernel = STEPPERS[stepper]
-        self._compiled_step = None
+        self._new_step_table()
         self._scratch_state = None
         self.threads = self._choose_threads(threads)
         self.backend = Serial() if self.threads == 1 else Parallel(self.threads)
@@ -288,6 +286,15 @@ class Simulation:
         sizes and whatever their effects)."""
         return (record_type(self.model), record_type(self.state), record_type(self.loads),
                 numba.typeof(self.step_table), numba.types.float64, numba.types.int64, numba.typeof(self.backend))
+
+    def _new_step_table(self):
+        """Give the step a table of its own, bound to no kernels: the next step binds it to
+        those of this simulation's backend (bind_kernels). A copy stepped on another backend
+        needs one: the slots of the table it shares hold the other backend's kernels, which
+        its step refuses to call."""
+        self.step_table = empty_table(self.step_groups)
+        self._slots_process = None
+        self._compiled_step = None
 
     def bind_kernels(self):
         """Compile (or load) the kernels the step calls (its own and the effects') and write
