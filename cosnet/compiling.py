@@ -55,7 +55,7 @@ def learned_path() -> str:
     """The file of this machine's compile times: beside the cache directories of every kernel
     source (kernels/compiler.py), so an edited kernel keeps its estimate."""
     from numba.core import config
-    return os.path.join(os.path.dirname(config.CACHE_DIR), LEARNED)  # type: ignore[attr-defined]
+    return os.path.join(os.path.dirname(config.CACHE_DIR), LEARNED)
 
 
 def _read_learned() -> dict:

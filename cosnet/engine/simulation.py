@@ -35,7 +35,7 @@ PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs mo
 def check_threads(threads) -> int:
     """Return threads if it is an integer from 1 to the number of threads numba may use
     (NUMBA_NUM_THREADS), else raise ValueError saying so."""
-    available = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at numba import
+    available = numba.config.NUMBA_NUM_THREADS
     if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) \
             or not 1 <= threads <= available:
         raise ValueError(f"must be an integer from 1 to {available}, got {threads!r}")
