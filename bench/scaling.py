@@ -32,7 +32,7 @@ import numba
 import numpy as np
 
 import cosnet
-from cosnet.kernels.backend import Parallel, Serial
+from cosnet.engine.simulation import backend_for
 from harness import best_interleaved, best_of, chain, python_env, rod, table, write_json
 
 HERE = Path(__file__).resolve().parent
@@ -101,7 +101,6 @@ CHILD = """
 import sys
 sys.path.insert(0, {here!r})
 import cosnet
-from cosnet.kernels.backend import Parallel, Serial
 from scaling import rod, array_bytes
 n = int(sys.argv[1])
 sim = cosnet.Simulation(rod(n), effects=[cosnet.Gravity()], threads=1)
@@ -136,7 +135,7 @@ def with_threads(sim, threads):
     the same backend)."""
     twin = copy.copy(sim)
     twin.threads = threads
-    twin.backend = Serial() if threads == 1 else Parallel(threads)
+    twin.backend = backend_for(sim.model, threads)
     twin._new_step_table()   # the original's slots hold the kernels of its own backend
     return twin
 

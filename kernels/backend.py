@@ -59,18 +59,29 @@ class Parallel(NamedTuple):
     threads: int = 2
 
 
-def _pick(backend, serial, parallel):
-    return parallel if backend.instance_class is Parallel else serial
+class ParallelSplit(NamedTuple):
+    """Parallel, for a net with lines so long that each is split across the threads
+    (kernels/elastic.py): a type of its own, so that the threaded loops over a line's parts,
+    seconds of compilation each, are compiled only for the nets that have such lines."""
+    threads: int = 2
 
 
-def dispatch(serial, parallel):
-    """Return f(backend, *args) calling serial(*args) or parallel(*args) by the type of
-    backend, resolved when the caller is compiled (njit only). An intrinsic: the chosen call
-    is emitted straight into the caller, with no function in between to compile (each
-    compiled function re-optimises the code of everything it calls)."""
+def _pick(backend, serial, parallel, split=None):
+    cls = backend.instance_class
+    if cls is ParallelSplit:
+        return parallel if split is None else split
+    return parallel if cls is Parallel else serial
+
+
+def dispatch(serial, parallel, split=None):
+    """Return f(backend, *args) calling serial(*args), parallel(*args) or (for ParallelSplit,
+    when given) split(*args) by the type of backend, resolved when the caller is compiled
+    (njit only). An intrinsic: the chosen call is emitted straight into the caller, with no
+    function in between to compile (each compiled function re-optimises the code of
+    everything it calls)."""
     @intrinsic
     def call(typingctx, backend, *args):
-        fnty = typingctx.resolve_value_type(_pick(backend, serial, parallel))
+        fnty = typingctx.resolve_value_type(_pick(backend, serial, parallel, split))
         sig = typingctx.resolve_function_type(fnty, args, {})
 
         def codegen(context, builder, signature, llargs):

@@ -338,7 +338,20 @@ def compute_internal_loads(model, state, loads):
 @njit(**INNER, parallel=True)
 def compute_internal_loads_parallel(model, state, loads):
     """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads: a block of lines
-    per task, and each line longer than LONG_LINE split across the threads."""
+    per task (a net with no line longer than LONG_LINE, backend.Parallel)."""
+    nl = model.line_vertex_offsets.shape[0] - 1
+    per = lines_per_block(model)
+    if nl <= per:  # one task: run it here (backend.SOLO)
+        compute_line_block(0, nl, model, state, loads)
+    else:
+        for b in prange((nl + per - 1) // per):
+            compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
+
+
+@njit(**INNER, parallel=True)
+def compute_internal_loads_split(model, state, loads):
+    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads: a block of lines
+    per task, and each line longer than LONG_LINE split across the threads (backend.ParallelSplit)."""
     nl = model.line_vertex_offsets.shape[0] - 1
     per = lines_per_block(model)
     if nl <= per:  # one task: run it here (backend.SOLO)
@@ -374,4 +387,5 @@ def longest_lines(nl, model, state, loads):
             compute_long_line(l, model, state, loads)
 
 
-internal_loads_on = dispatch(compute_internal_loads, compute_internal_loads_parallel)
+internal_loads_on = dispatch(compute_internal_loads, compute_internal_loads_parallel,
+                             compute_internal_loads_split)

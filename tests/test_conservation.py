@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 import cosnet
 from cosnet.core.rotations import matrix_from_quat, quat_from_matrix
-from cosnet.kernels.backend import Parallel, Serial
+from cosnet.kernels.backend import Parallel, ParallelSplit, Serial
 from cosnet.kernels.elastic import LONG_LINE
 from cosnet.kernels.motion import place_line_ends
 from nets import free_net, perturb, smooth_motion
@@ -208,6 +208,7 @@ def test_runs_are_deterministic_and_thread_count_changes_only_round_off():
     a, b = run(1), run(1)
     assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
     c = run(2)
+    assert type(cosnet.Simulation(free_net(n=4), threads=2).backend) is Parallel   # no line split
     assert np.abs(c[0] - a[0]).max() < 1e-12 * np.abs(a[0]).max()
     assert np.abs(c[1] - a[1]).max() < 1e-12
 
@@ -225,7 +226,7 @@ def test_a_long_line_split_across_threads_has_the_serial_loads():
     net.add_line(c, a, material=mat, section=cosnet.Circle(0.01), elements=7)
     rng = np.random.default_rng(3)
     loads = {}
-    for threads, backend in ((1, Serial()), (2, Parallel())):
+    for threads, backend in ((1, Serial()), (2, ParallelSplit())):
         sim = cosnet.Simulation(net, threads=threads)
         m, s = sim.model, sim.state
         s.x[:] += 1e-5 * np.random.default_rng(1).standard_normal(s.x.shape)

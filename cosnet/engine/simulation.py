@@ -18,8 +18,9 @@ from .checkpoint import fingerprint
 from .registry import ACCOUNTS, Binding, Effect, after_added_mass, implied_effects
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
-from ..kernels.backend import Parallel, Serial
+from ..kernels.backend import Parallel, ParallelSplit, Serial
 from ..kernels.compose import Pins, bind_slots, empty_table, step_kernels
+from ..kernels.elastic import LONG_LINE
 from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders,
@@ -40,6 +41,15 @@ def check_threads(threads) -> int:
             or not 1 <= threads <= available:
         raise ValueError(f"must be an integer from 1 to {available}, got {threads!r}")
     return int(threads)
+
+
+def backend_for(model, threads: int):
+    """The backend stepping ``model`` on ``threads`` threads: ParallelSplit where a line is
+    longer than LONG_LINE (its passes split across the threads), else Parallel, or Serial."""
+    if threads == 1:
+        return Serial()
+    lengths = np.diff(model.line_element_offsets)
+    return (ParallelSplit if lengths.size and lengths.max() > LONG_LINE else Parallel)(threads)
 
 
 def joined_records(effects, records) -> tuple[list, list]:
@@ -148,7 +158,7 @@ class Simulation:
         self._new_step_table()
         self._scratch_state = None
         self.threads = self._choose_threads(threads)
-        self.backend = Serial() if self.threads == 1 else Parallel(self.threads)
+        self.backend = backend_for(self.model, self.threads)
         if isinstance(dt, str) and dt != "tight":
             raise ValueError(f"Simulation: dt must be a positive number, None or 'tight', got {dt!r}")
         est = self.stable_dt(tight=dt == "tight")
