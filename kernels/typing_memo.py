@@ -1,10 +1,11 @@
 """Numba's typing made to remember, within a process, what it has already worked out: the
 options in force, the signature of a builtin operation for given argument types, the IR of a
-function inlined at many call sites. Numba's own Python (typing, lowering) is about half of
-a cold start's compiling (bench/startup.py's "numba + LLVM"), and numba redoes these at every
-call site of every kernel. Each adjustment leaves the compiled code as numba makes it (a test
-compares runs bit for bit) and falls back to numba's own where numba is built otherwise.
-COSNET_TYPING_MEMO=0 in the environment leaves numba's typing as it is (a test compares the two).
+function inlined at many call sites (copied once per site, not twice). Numba's own Python
+(typing, lowering) is about half of a cold start's compiling (bench/startup.py's "numba +
+LLVM"), and numba redoes these at every call site of every kernel. Each adjustment leaves the
+compiled code as numba makes it (a test compares runs bit for bit) and falls back to numba's
+own where numba is built otherwise. COSNET_TYPING_MEMO=0 in the environment leaves numba's
+typing as it is (a test compares the two).
 """
 
 import copy
