@@ -108,6 +108,28 @@ def _reuse_inlined_bodies():
     cls.inline_function = inline_function
 
 
+def _inliner_callers_discard_the_copy() -> bool:
+    """Whether every call of numba's inliner (its typed and untyped passes) keeps only the new
+    blocks of its result, not the unchanged copy of the inlined IR it hands back first."""
+    import re
+    try:
+        from numba.core import typed_passes, untyped_passes
+        texts = []
+        for module in (typed_passes, untyped_passes):
+            with open(module.__file__, encoding="utf-8") as f:
+                texts.append(f.read())
+    except (ImportError, OSError, TypeError):
+        return False
+    for text in texts:
+        for call in re.finditer(r"\.inline_(?:ir|function)\(", text):
+            # "_, _, _, new_blocks = inline_worker.inline_ir(", the call maybe on a line of its own
+            before = text[max(0, call.start() - 160):call.start()]
+            if not before.endswith("inline_worker") \
+                    or not before[:-len("inline_worker")].rstrip(" \n\\").endswith("_, _, _, new_blocks ="):
+                return False
+    return True
+
+
 def _copy_inlined_ir_once():
     """Make numba's inliner deep-copy an inlined function's IR once per site, not twice. Its
     ``inline_ir`` copies the IR it is given, changes the copy and splices it in, and copies
@@ -120,7 +142,8 @@ def _copy_inlined_ir_once():
     cls = getattr(inline_closurecall, "InlineWorker", None)
     inline_ir = getattr(cls, "inline_ir", None)
     module_copy = getattr(inline_closurecall, "copy", None)
-    if inline_ir is None or module_copy is not copy or getattr(inline_ir, "copies_once", False):
+    if inline_ir is None or module_copy is not copy or getattr(inline_ir, "copies_once", False) \
+            or not _inliner_callers_discard_the_copy():
         return
     given: set = set()   # ids of the blocks of the IR being inlined (inline_ir is not re-entered)
 

@@ -623,4 +623,6 @@ def test_remembered_typing_compiles_the_same_code(tmp_path):
     assert proc.returncode == 0, stderr[-2000:]
     remembers, digest = stdout.split()[-2:]
     assert (remembers, here["remembers"]) == ("False", True)
+    from numba.core.inline_closurecall import InlineWorker   # and the inliner copies once here
+    assert getattr(InlineWorker.inline_ir, "copies_once", False)
     assert len(digest) == 64 and digest == here["digest"].hexdigest()
