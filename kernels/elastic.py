@@ -335,31 +335,33 @@ def compute_internal_loads(model, state, loads):
         compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
 
 
-@njit(**INNER, parallel=True)
-def compute_internal_loads_parallel(model, state, loads):
-    """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads: a block of lines
-    per task (a net with no line longer than LONG_LINE, backend.Parallel)."""
-    nl = model.line_vertex_offsets.shape[0] - 1
-    per = lines_per_block(model)
-    if nl <= per:  # one task: run it here (backend.SOLO)
-        compute_line_block(0, nl, model, state, loads)
-    else:
-        for b in prange((nl + per - 1) // per):
-            compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
+def over_line_blocks(block):
+    """Return a threaded kernel f(model, state, loads) running block(l0, l1, model, state,
+    loads) over the blocks of lines_per_block lines (a task each)."""
+    @stable_cache_key
+    @njit(**INNER, parallel=True)
+    def run(model, state, loads):
+        nl = model.line_vertex_offsets.shape[0] - 1
+        per = lines_per_block(model)
+        if nl <= per:  # one task: run it here (backend.SOLO)
+            block(0, nl, model, state, loads)
+        else:
+            for b in prange((nl + per - 1) // per):
+                block(b * per, min((b + 1) * per, nl), model, state, loads)
+    return run
 
 
-@njit(**INNER, parallel=True)
+# Update loads.f, loads.tau, loads.end_tau as compute_internal_loads, a block of lines per
+# task: on a net with no line longer than LONG_LINE (backend.Parallel)
+compute_internal_loads_parallel = over_line_blocks(compute_line_block)
+
+
+@njit(**STEP)
 def compute_internal_loads_split(model, state, loads):
     """Update loads.f, loads.tau, loads.end_tau as compute_internal_loads: a block of lines
     per task, and each line longer than LONG_LINE split across the threads (backend.ParallelSplit)."""
-    nl = model.line_vertex_offsets.shape[0] - 1
-    per = lines_per_block(model)
-    if nl <= per:  # one task: run it here (backend.SOLO)
-        compute_short_lines(0, nl, model, state, loads)
-    else:
-        for b in prange((nl + per - 1) // per):
-            compute_short_lines(b * per, min((b + 1) * per, nl), model, state, loads)
-    longest_lines(nl, model, state, loads)
+    short_lines_parallel(model, state, loads)
+    longest_lines(model.line_vertex_offsets.shape[0] - 1, model, state, loads)
 
 
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
@@ -375,6 +377,9 @@ def compute_short_lines(l0, l1, model, state, loads):
             start = l + 1
     if start < l1:
         compute_line_block(start, l1, model, state, loads)
+
+
+short_lines_parallel = over_line_blocks(compute_short_lines)
 
 
 @njit(**STEP)
