@@ -40,10 +40,11 @@ from numba import njit
 from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
-from .backend import STEP
+from .backend import ENTRY, STEP
 from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
-from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
-                    core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key)
+from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, _getpid, call_effect,
+                    call_slot, core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key,
+                    step_pointers)
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
@@ -116,6 +117,7 @@ HOOKS = (("load", LOAD_KERNELS, 0, True), ("flow", FLOW_KERNELS, 1, True),
          ("account", ACCOUNTS, 0, False), ("inertia", INERTIAS, 1, False),
          ("drift constraint", DRIFT_CONSTRAINTS, 2, True), ("kick constraint", KICK_CONSTRAINTS, 2, True))
 N_HOOKS = len(HOOKS)
+LOAD_HOOK = 0   # the index of the load kernels' hook
 # The slot kernels every step calls (internal loads, the velocity and position updates), in
 # the slots of their registration, before the effects' (kernels/slots.py).
 CORE: list = []
@@ -384,6 +386,32 @@ def run_hook(ptrs, h, hook):
         if slots[row, SLOT_RECORD] == 0:
             raise RuntimeError("kernel slot without its record: compose.Pins")
         call_effect(ptrs[0], slots[row, SLOT_ADDRESS], slots[row, SLOT_RECORD], h, hook)
+
+
+@njit(**ENTRY)
+def run_slot(model, state, loads, table, backend, row, h):
+    """Call the effect kernel of slot ``row`` of the step table ``table`` (bound in this
+    process: bind_slots; its record pinned: Pins) at its hook, for time h, with the model,
+    state, loads and backend: one effect's kernel alone, the very code the step calls,
+    callable from Python. Called through layout.typed_call, which types the records as the
+    step does: the slot kernel reads them as the types it was compiled for."""
+    slots = table[0]
+    if row < core_rows() or row >= slots.shape[0] or slots.shape[1] != SLOT_COLUMNS:
+        raise ValueError("run_slot: no effect slot of that row")
+    if slots[row, SLOT_ADDRESS] == 0 or slots[row, SLOT_PROCESS] != _getpid():
+        raise RuntimeError("run_slot: the slot is not bound in this process: compose.bind_slots")
+    if slots[row, SLOT_RECORD] == 0:
+        raise RuntimeError("kernel slot without its record: compose.Pins")
+    ptrs = step_pointers(model, state, loads, table, backend)
+    call_effect(ptrs[0], slots[row, SLOT_ADDRESS], slots[row, SLOT_RECORD], h, slots[row, SLOT_HOOK])
+
+
+def effect_rows(records, record, hook) -> list:
+    """The slots (rows of the step table) of the kernel of hook ``hook`` (an index of HOOKS)
+    that a step of ``records`` (three tuples of effect records) calls with ``record`` (by
+    identity): one, or none where that record has no kernel there."""
+    return [len(CORE) + r for r, (k, g, i, _) in enumerate(records_layout(records))
+            if k == hook and records[g][i] is record]
 
 
 def _at_hook(hook, doc):

@@ -105,12 +105,35 @@ def test_the_checks_fail_on_effects_broken_on_purpose():
     assert abs(check_effect(UncountedDamping, dynamics=True).energy_order) < 0.3
 
 
+def test_effect_loads_run_one_effect_s_kernel_as_the_step_calls_it():
+    """sim.effect_loads: the loads of one effect alone, from the kernel the step calls (its
+    slot): gravity beside a damping and a node load gives m g at every vertex and M g at every
+    node, and nothing of the others; the simulation's own loads are left as they were; an
+    effect without a load kernel of its own is refused in one line."""
+    net = cosnet.Net()
+    a = net.add_node((0.0, 0.0, 0.0), mass=2.0, inertia=(1.0, 1.0, 1.0))
+    b = net.add_node((1.0, 0.0, 0.0), mass=3.0, inertia=(1.0, 1.0, 1.0))
+    net.add_line(a, b, material=cosnet.Material(E=1e9, poisson=0.3, density=1000.0), section=cosnet.Circle(0.01),
+                 elements=4)
+    gravity, damping = Gravity((0.0, 0.0, -9.81)), Damping(1.0)
+    sim = cosnet.Simulation(net, [cosnet.NodeLoad(b, force=(5.0, 0.0, 0.0)), gravity, damping])
+    before = sim.loads.f.copy()
+    loads = sim.effect_loads(gravity)
+    m = sim.model
+    np.testing.assert_array_equal(loads.f[:, 2], -9.81 * m.vertex_mass)
+    np.testing.assert_array_equal(loads.node_f[:, 2], -9.81 * m.node_own_mass)
+    assert not loads.f[:, :2].any() and not loads.node_f[:, :2].any() and not loads.tau.any()
+    np.testing.assert_array_equal(sim.loads.f, before)
+    with pytest.raises(ValueError, match="no load kernel of its own"):
+        sim.effect_loads(damping)
+
+
 def test_momentum_check_sees_a_force_without_its_reaction():
     """The crossing rods' contact loads sum to nothing; without those on the second rod (a
     kernel that forgot the reaction) the check sees a force and a moment."""
     sim, effect = effect_check.example_simulation(Contact)
     effect_check._perturb(sim, np.random.default_rng(0))
-    loads = effect_check._loads(Contact, sim.effect_params(effect), sim)
+    loads = sim.effect_loads(effect)
     force, moment = effect_check.momentum_of(sim, loads)
     assert force < ROUND_OFF and moment < ROUND_OFF
     second = sim.vertex_range(sim.net.lines[1])

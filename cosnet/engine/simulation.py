@@ -19,9 +19,9 @@ from .registry import ACCOUNTS, Binding, Effect, after_added_mass, implied_effec
 from .flatten import flatten
 from ..kernels import effects as _effect_kernels  # noqa: F401  (registers the built-in kernels)
 from ..kernels.backend import Parallel, ParallelSplit, Serial
-from ..kernels.compose import Pins, bind_slots, empty_table, step_kernels
+from ..kernels.compose import LOAD_HOOK, Pins, bind_slots, effect_rows, empty_table, run_slot, step_kernels
 from ..kernels.elastic import LONG_LINE
-from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type
+from ..kernels.layout import TYPING_ONLY, Model, State, empty_loads, record_type, typed_call
 from ..kernels.motion import place_line_ends
 from ..kernels.stepping import (CHUNK_STEPS, advance_pefrl, advance_verlet, compile_orders,
                                 stability_interval, steps_to)
@@ -325,6 +325,24 @@ class Simulation:
         stepper run for no steps). The line ends are where the state last put them."""
         self._stepper()(self.model, self.state, self.loads, self.step_table, 0.0, 0, self.backend)
         return self.loads
+
+    def effect_loads(self, effect: Effect):
+        """The loads of load effect ``effect`` alone at the present state, in loads of their
+        own: its kernel, the very code the step calls (through its slot, kernels.compose.run_slot),
+        run once (it changes nothing else but what it keeps from call to call, as in a step).
+        An effect joined with others of its class into one kernel record (Effect.join) has
+        no kernel of its own: the step runs them as one."""
+        rows = effect_rows(self.step_groups, self.effect_params(effect), LOAD_HOOK)
+        if not rows:
+            raise ValueError(f"{effect.describe()}: no load kernel of its own in this simulation "
+                             f"(not a load effect, or joined with the effects of its class beside it)")
+        self.bind_kernels()
+        self._pins(self.step_table)
+        loads = empty_loads(self.model)
+        if self.threads > 1:
+            numba.set_num_threads(self.threads)
+        typed_call(run_slot, self.model, self.state, loads, self.step_table, self.backend, rows[0], 0.0)
+        return loads
 
     def _stepper(self):
         """The stepper compiled (or loaded from the cache) for step_signature, called directly:

@@ -18,14 +18,11 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..core.rotations import matrix_from_quat, qmul, quat_from_rotvec
 from ..core.samples import smooth_motion
 from ..engine.registry import Binding
 from ..engine.simulation import Simulation
-from ..kernels.compose import KERNELS
-from ..kernels.layout import empty_loads
 from ..kernels.motion import place_line_ends
 
 # relative steps of the finite differences: positions in element lengths, rotations in rad
@@ -92,29 +89,6 @@ def _perturb(sim, rng):
     place_line_ends(m, st)
 
 
-_TWINS: dict = {}
-
-
-def python_kernel(cls):
-    """The load kernel of ``cls`` callable from Python: a kernel compiled for the step alone
-    (without numba's Python wrapper; called from Python it would crash) gets a twin with the
-    wrapper, compiled here and not cached (its cache entries would be the step's)."""
-    kernel = KERNELS[cls.record]
-    if not kernel.targetoptions.get("no_cpython_wrapper"):
-        return kernel
-    if kernel not in _TWINS:
-        options = {k: v for k, v in kernel.targetoptions.items()
-                   if k not in ("no_cpython_wrapper", "no_cfunc_wrapper", "nopython", "cache")}
-        _TWINS[kernel] = njit(**options)(kernel.py_func)
-    return _TWINS[kernel]
-
-
-def _loads(cls, p, sim):
-    loads = empty_loads(sim.model)
-    python_kernel(cls)(p, sim.model, sim.state, loads)
-    return loads
-
-
 def _energy(effect, p, sim) -> float:
     return float(effect.potential(p, Binding(sim.net, sim.model, sim.state, tuple(sim.effects))))
 
@@ -172,7 +146,7 @@ def gradient_error(cls, sim, effect, rng) -> float:
     of mass, lab, with their line ends), by central differences of potential()."""
     p = sim.effect_params(effect)
     st, m = sim.state, sim.model
-    loads = _loads(cls, p, sim)
+    loads = sim.effect_loads(effect)
     h = H_POSITION * _length(sim)
     ends = np.zeros(st.x.shape[0], bool)
     ends[m.attach_vertex] = True
@@ -216,7 +190,7 @@ def momentum_sums(cls, sim, effect) -> tuple[float, float]:
     """(|sum F| / sum |F|, |sum M| / sum |M|): the effect's loads' total force and total moment
     about the origin (vertex and node forces, element torques, node torques and the torques
     at line ends turned into the lab), each against the sum of the sizes of its terms."""
-    return momentum_of(sim, _loads(cls, sim.effect_params(effect), sim))
+    return momentum_of(sim, sim.effect_loads(effect))
 
 
 def momentum_of(sim, L) -> tuple[float, float]:
@@ -239,7 +213,6 @@ def checkpoint_exact(cls, sim, effect, rng) -> bool:
     saved state, the kernel runs twice (the net moved between the calls, so what it keeps
     from call to call, friction anchors, counts), the checkpoint is loaded, and the same two
     calls must give the same loads."""
-    p = sim.effect_params(effect)
     st = sim.state
     step = [0.1 * _length(sim) * rng.standard_normal(st.x.shape)
             for _ in range(2)]
@@ -247,7 +220,7 @@ def checkpoint_exact(cls, sim, effect, rng) -> bool:
     def two_calls():
         out = []
         for d in step:
-            out.append(_loads(cls, p, sim))
+            out.append(sim.effect_loads(effect))
             st.x[:] += d
         return out
 
