@@ -415,9 +415,11 @@ def effect_rows(records, record, hook) -> list:
 
 
 def _at_hook(hook, doc):
-    """The step's call of run_hook at hook ``hook``: f(ptrs, h), inlined where called."""
+    """The step's call of run_hook at hook ``hook``: f(ptrs, h), inlined where called. The
+    hook passed as an int64, not the constant it is here: numba types a constant argument as
+    a literal and compiled run_hook once per hook, six functions where one serves."""
     def apply(ptrs, h):
-        run_hook(ptrs, h, hook)
+        run_hook(ptrs, h, np.int64(hook))
     apply.__doc__ = doc
     return njit(**STEP, inline="always")(apply)
 

@@ -9,6 +9,7 @@ r(nu) + D(nu) xi(nu, lambda) with frame D(nu) X(nu, lambda).
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from .backend import ENTRY, PASS, STEP, dispatch, each_node
@@ -30,17 +31,19 @@ def each_row_block(block):
     """Return (serial, parallel) kernels f(model, state, c, d) running
     block(model, state, c, d, vs, ve, es, ee) over every vertex and element: the serial one
     in one call, the parallel one a block of BLOCK vertices and elements per task."""
+    # (the first rows as int64, not the literal 0: numba compiled block once for a literal
+    # first row and again for the parallel tasks' computed ones)
     @stable_cache_key
     @njit(**STEP)
     def serial(model, state, c, d):
-        block(model, state, c, d, 0, state.x.shape[0], 0, state.q.shape[0])
+        block(model, state, c, d, np.int64(0), state.x.shape[0], np.int64(0), state.q.shape[0])
 
     @stable_cache_key
     @njit(**INNER, parallel=True)
     def parallel(model, state, c, d):
         nv, ne = state.x.shape[0], state.q.shape[0]
         if max(nv, ne) <= BLOCK:  # one task: run it here (backend.SOLO)
-            block(model, state, c, d, 0, nv, 0, ne)
+            block(model, state, c, d, np.int64(0), nv, np.int64(0), ne)
             return
         for b in prange((max(nv, ne) + BLOCK - 1) // BLOCK):
             vs, ve = block_rows(b, nv)
