@@ -51,7 +51,7 @@ def time_factor(p, t):
     if p.wave[4] == 0.0:
         return ramp
     eval_path(t, p.sched_rate, p.sched_amp, p.sched_wave, p.sched_times, p.sched_coef, p.sched_zero,
-              p.sched_out, 0)
+              p.sched_out, np.int64(0))   # (an int64 as the drives pass it: one compilation of eval_path)
     return ramp * p.sched_out[0]
 
 

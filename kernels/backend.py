@@ -12,6 +12,7 @@ LLVM inlines anyway, is correct; tests/test_conservation.py checks 1 vs 2 thread
 import os
 from typing import NamedTuple
 
+import numpy as np
 from numba import njit, prange
 from numba.core import cgutils, types
 from numba.extending import intrinsic
@@ -114,8 +115,10 @@ def each_node(body):
     @stable_cache_key
     @njit(**INNER, parallel=True)
     def parallel(n, a, b, c, d):
-        if n <= NODE_BLOCK:  # one task: run it here (see SOLO)
-            block(0, n, a, b, c, d)
+        # one task: run it here (see SOLO); its first node an int64 as the tasks' are (numba
+        # compiles a callee once more for a literal 0)
+        if n <= NODE_BLOCK:
+            block(np.int64(0), n, a, b, c, d)
             return
         for k in prange((n + NODE_BLOCK - 1) // NODE_BLOCK):
             block(k * NODE_BLOCK, min((k + 1) * NODE_BLOCK, n), a, b, c, d)

@@ -16,6 +16,7 @@ energy's change to l/2 (v - v0)^T K (v - v0), added by a pass of its own (prestr
 the stretch pass, so a net without one steps exactly as before.
 """
 
+import numpy as np
 from numba import njit, prange
 
 from .backend import PASS, STEP, dispatch
@@ -343,8 +344,10 @@ def over_line_blocks(block):
     def run(model, state, loads):
         nl = model.line_vertex_offsets.shape[0] - 1
         per = lines_per_block(model)
-        if nl <= per:  # one task: run it here (backend.SOLO)
-            block(0, nl, model, state, loads)
+        # one task: run it here (backend.SOLO); its first line an int64 as the tasks' are (numba
+        # compiles a callee once more for a literal 0)
+        if nl <= per:
+            block(np.int64(0), nl, model, state, loads)
         else:
             for b in prange((nl + per - 1) // per):
                 block(b * per, min((b + 1) * per, nl), model, state, loads)
