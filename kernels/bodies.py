@@ -44,7 +44,7 @@ from numba import njit
 from .backend import ENTRY
 from .compose import account_kernel, load_kernel
 from .obstacles import FREE, SLIDE, STICK
-from .compiler import CACHED
+from .compiler import CACHED, CACHED_INNER
 from .effects import add_wrench
 from .rotations import cross, quat_rotate, quat_rotate_inv
 from .segments import VARIANTS
@@ -199,7 +199,7 @@ def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
     return fx, fy, fz, lost
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def body_element_overlap(p, state, e):
     """Return (eps_int, t, nx, ny, nz, side, sx, sy, sz): element e's excess overlap with the
     body's shape beyond its end vertices' (<= 0: none; cosnet.kernels.segments), the deepest

@@ -4,14 +4,14 @@ from outside between run() calls) and the first non-finite value."""
 import numpy as np
 from numba import njit
 
-from .compiler import CACHED
+from .compiler import CACHED, CACHED_INNER
 
 FNV_OFFSET = np.uint64(0xCBF29CE484222325)
 FNV_PRIME = np.uint64(0x100000001B3)
 EXPONENT = np.uint64(0x7FF0000000000000)   # all exponent bits set: inf or NaN
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def mix(h, w):
     """Return h after taking in the word w: an FNV-1a step (xor, multiply), whose multiply
     carries differences only upwards, then a shift that carries them down."""

@@ -60,7 +60,7 @@ from numba import njit
 from .backend import ENTRY
 from .compose import account_kernel, load_kernel
 from .friction import plane_tangent, stick_slip, turn_into_plane
-from .compiler import CACHED
+from .compiler import CACHED, CACHED_INNER
 
 HASH_X, HASH_Y, HASH_Z = 73856093, 19349663, 83492791
 COORD_LIMIT = 2.0 ** 40  # cell coordinates are clamped here (far-away points)
@@ -114,7 +114,7 @@ def clamp01(a):
     return 0.0 if a < 0.0 else (1.0 if a > 1.0 else a)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def segment_closest(px, py, pz, qx, qy, qz, ax, ay, az, bx, by, bz):
     """Return (s, t): parameters of the closest points p + s (q - p), a + t (b - a) of two
     segments, clamped to [0, 1] (Ericson, Real-Time Collision Detection, 5.1.9). Parallel
@@ -286,7 +286,7 @@ def _spread(f, a, wa, wb, gx, gy, gz):
     f[a + 1, 2] += wb * gz
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def pair_load(x, v, f, a, b, r_sum, k, gamma, dx, dy, dz, apply):
     """Narrow phase of the segments starting at vertices a and b (radii summing to r_sum,
     midpoints dx, dy, dz apart): return (energy, s, t, nx, ny, nz, fn): the energy
@@ -334,7 +334,7 @@ def _offset(x, a, b, s, t, k):
     return (1 - s) * x[a, k] + s * x[a + 1, k] - (1 - t) * x[b, k] - t * x[b + 1, k]
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def begin_pairs(p):
     """Update p's pair table: empty the side this call fills (the side before the last).
     Return (old, new): the side of the last call and this call's."""
@@ -348,7 +348,7 @@ def begin_pairs(p):
     return old, new
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def end_pairs(p, old, new):
     """Update p's pair table: make new the current side; return the spring energy of the
     pairs of the old side that no longer touch (their springs are released)."""
@@ -363,7 +363,7 @@ def end_pairs(p, old, new):
     return lost
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def pair_friction(p, x, v, f, ei, ej, a, b, s, t, nx, ny, nz, fn, old, new):
     """Update f (nv, 3) and the pair table's side new given the touching elements ei, ej
     (first vertices a, b), their closest points' parameters s, t, the unit normal n (from j
@@ -436,7 +436,7 @@ def pair_friction(p, x, v, f, ei, ej, a, b, s, t, nx, ny, nz, fn, old, new):
     return slip
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def pair_springs(p):
     """Return the spring energy k_t |delta|^2 / 2 of the pairs of the last call."""
     side = 1 if p.pair_state[0] == 1 else 0
@@ -455,7 +455,7 @@ FORWARD = np.array([(dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for d
                     if (dz, dy, dx) > (0, 0, 0)], dtype=np.int64)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def sweep(p, model, state, f, apply):
     """Visit every candidate pair once (grid broad phase, bounding spheres, exclusions, then
     the narrow phase); return the contact energy and, if apply, add the contact forces to f

@@ -25,7 +25,7 @@ from .backend import ENTRY, STEP
 from .compose import constraint_kernels
 from .effects import table_interval
 from .motion import place_line_end
-from .compiler import CACHED
+from .compiler import CACHED, CACHED_INNER
 from .rotations import cross, exp_rates, quat_exp, quat_mul, quat_rotate, quat_rotate_inv
 from .specialise import Variants
 
@@ -106,7 +106,7 @@ def eval_path(t, rate, amp, wave, times, coef, start, out, o):
         out[o + 2 * k + j] = ddf
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def prescribe_turn(p, t):
     """Update p.kin[9:15] with the prescribed lab angular velocity and acceleration at time t
     (zero for a free rotation); return the prescribed turn from the node as built (a quaternion)."""
@@ -133,7 +133,7 @@ def prescribe_turn(p, t):
     return 1.0, 0.0, 0.0, 0.0
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def drive_kinematics(p, t):
     """Update p.kin given time t: the prescribed centre of mass x, v, a and the angular
     velocity and acceleration (lab); return the prescribed node quaternion."""
@@ -162,7 +162,7 @@ def drive_kinematics(p, t):
     return quat_mul(tw, tx, ty, tz, q0[0], q0[1], q0[2], q0[3])
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def set_drive_velocity(p, model, state):
     """Update the node's prescribed velocities (state.node_v, state.node_w) given p.kin."""
     nd, kin, a = p.node, p.kin, p.axis
@@ -180,7 +180,7 @@ def set_drive_velocity(p, model, state):
         state.node_w[nd, 0], state.node_w[nd, 1], state.node_w[nd, 2] = bx, by, bz
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def pose_drive(p, model, state):
     """Update the node's prescribed pose and velocities (state.node_x, node_q, node_v, node_w)
     at time state.clock[0], then place its line ends (1.1)/(1.3)."""
