@@ -110,7 +110,7 @@ def _target(p, o, own):
                      own.grid_origin, own.grid_h, own.grid_dims, own.cell_start, own.cell_tri)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def posed_distance(shape, nd, state, cx, cy, cz):
     """Return (d, nx, ny, nz): obstacle_distance of lab point c from a shape fixed in node nd's
     principal frame about its centre of mass (nd < 0: a shape in the lab), lab normal."""
@@ -144,7 +144,7 @@ def push_node(nd, state, loads, px, py, pz, fx, fy, fz):
     add_wrench(loads, nd, px - x[0], py - x[1], pz - x[2], fx, fy, fz)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def touch(p, j, eps, scale, nx, ny, nz, ux, uy, uz, dt):
     """Update p.delta[j], p.mode[j], p.deepest given contact j's overlap eps (scale: the radius
     its depth is reported against), the target's outward normal n, the relative velocity u of
@@ -237,7 +237,7 @@ def body_element_overlap(p, state, e):
     return deep, t, nx, ny, nz, -1, 0.0, 0.0, 1.0
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def add_element_contacts(p, state, loads, base, dt):
     """Update loads.f, loads.node_f, loads.node_tau and contacts base.. of p given the
     positions and velocities: the excess contact of every element reaching deeper into the

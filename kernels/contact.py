@@ -249,7 +249,7 @@ def build_grid(p, x):
     return nx, ny, nz
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def excluded(eidx, egeom, attach_node, attach_offset, node_gap, self_contact, self_gap, e1, e2, r_sum):
     """True if elements e1, e2 are neighbours along a line or through a junction node."""
     l1, l2 = eidx[e1, 1], eidx[e2, 1]

@@ -202,7 +202,7 @@ def pose_drive(p, model, state):
         place_line_end(model.node_attach_list[j], model, state)
 
 
-@njit(**CACHED)
+@njit(**CACHED_INNER)
 def drive_reaction(p, model, state, loads):
     """Update p.reaction given p.kin (at the state's time) and the node's loads
     loads.node_f, loads.node_tau: the force m a - F on the prescribed components and the
