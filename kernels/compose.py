@@ -42,9 +42,9 @@ from numba.extending import intrinsic
 
 from .backend import ENTRY, STEP
 from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
-from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, _getpid, call_effect,
-                    call_slot, core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key,
-                    step_pointers)
+from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
+                    core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key,
+                    slots_bound_here, step_pointers)
 
 LOAD_KERNELS: dict = {}
 FLOW_KERNELS: dict = {}
@@ -398,8 +398,8 @@ def run_slot(model, state, loads, table, backend, row, h):
     slots = table[0]
     if row < core_rows() or row >= slots.shape[0] or slots.shape[1] != SLOT_COLUMNS:
         raise ValueError("run_slot: no effect slot of that row")
-    if slots[row, SLOT_ADDRESS] == 0 or slots[row, SLOT_PROCESS] != _getpid():
-        raise RuntimeError("run_slot: the slot is not bound in this process: compose.bind_slots")
+    if not slots_bound_here(table):
+        raise RuntimeError("run_slot: the slots are not bound in this process: compose.bind_slots")
     if slots[row, SLOT_RECORD] == 0:
         raise RuntimeError("kernel slot without its record: compose.Pins")
     ptrs = step_pointers(model, state, loads, table, backend)

@@ -109,7 +109,7 @@ def test_effect_loads_run_one_effect_s_kernel_as_the_step_calls_it():
     """sim.effect_loads: the loads of one effect alone, from the kernel the step calls (its
     slot): gravity beside a damping and a node load gives m g at every vertex and M g at every
     node, and nothing of the others; the simulation's own loads are left as they were; an
-    effect without a load kernel of its own is refused in one line."""
+    effect without a load kernel of its own, or a row outside the effects' slots, is refused."""
     net = cosnet.Net()
     a = net.add_node((0.0, 0.0, 0.0), mass=2.0, inertia=(1.0, 1.0, 1.0))
     b = net.add_node((1.0, 0.0, 0.0), mass=3.0, inertia=(1.0, 1.0, 1.0))
@@ -126,6 +126,11 @@ def test_effect_loads_run_one_effect_s_kernel_as_the_step_calls_it():
     np.testing.assert_array_equal(sim.loads.f, before)
     with pytest.raises(ValueError, match="no load kernel of its own"):
         sim.effect_loads(damping)
+    from cosnet.kernels.compose import run_slot   # a row outside the effects' slots is refused
+    from cosnet.kernels.layout import typed_call
+    for row in (0, sim.step_table[0].shape[0]):
+        with pytest.raises(ValueError, match="no effect slot"):
+            typed_call(run_slot, m, sim.state, loads, sim.step_table, sim.backend, row, 0.0)
 
 
 def test_momentum_check_sees_a_force_without_its_reaction():

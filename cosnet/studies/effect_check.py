@@ -140,7 +140,7 @@ def _difference(effect, p, sim, move, undo, h) -> float:
     return -(up - down) / (2 * h)
 
 
-def gradient_error(cls, sim, effect, rng) -> float:
+def gradient_error(sim, effect, rng) -> float:
     """max |load + dE/dq| / max |load| over the most loaded interior vertices (forces, lab),
     elements (torques about the body axes) and nodes (forces and torques about their centres
     of mass, lab, with their line ends), by central differences of potential()."""
@@ -186,7 +186,7 @@ def gradient_error(cls, sim, effect, rng) -> float:
     return worst / scale if scale > 0 else math.inf
 
 
-def momentum_sums(cls, sim, effect) -> tuple[float, float]:
+def momentum_sums(sim, effect) -> tuple[float, float]:
     """(|sum F| / sum |F|, |sum M| / sum |M|): the effect's loads' total force and total moment
     about the origin (vertex and node forces, element torques, node torques and the torques
     at line ends turned into the lab), each against the sum of the sizes of its terms."""
@@ -208,7 +208,7 @@ def momentum_of(sim, L) -> tuple[float, float]:
             float(np.linalg.norm(moments.sum(axis=0))) / m_size if m_size else 0.0)
 
 
-def checkpoint_exact(cls, sim, effect, rng) -> bool:
+def checkpoint_exact(sim, effect, rng) -> bool:
     """Whether a checkpoint round trip continues the effect's kernel bit for bit: from a
     saved state, the kernel runs twice (the net moved between the calls, so what it keeps
     from call to call, friction anchors, counts), the checkpoint is loaded, and the same two
@@ -300,15 +300,15 @@ def check_effect(cls, *, dynamics: bool = False, until: float = 2e-3, seed: int 
     sim, effect = example_simulation(cls)
     _perturb(sim, rng)
     report = Report(cls.__name__)
-    callable_kernel = cls.stage == "load"
-    if effect.conservative and callable_kernel:
-        report.gradient_error = gradient_error(cls, sim, effect, rng)
-    if effect.internal and callable_kernel:
-        report.force_sum, report.moment_sum = momentum_sums(cls, sim, effect)
+    load_effect = cls.stage == "load"
+    if effect.conservative and load_effect:
+        report.gradient_error = gradient_error(sim, effect, rng)
+    if effect.internal and load_effect:
+        report.force_sum, report.moment_sum = momentum_sums(sim, effect)
     report.unrefused = unrefused_tables(cls, sim, effect)
     report.unsaved = unsaved_accounts(sim, effect)
-    if callable_kernel:
-        report.checkpoint_exact = checkpoint_exact(cls, sim, effect, rng)
+    if load_effect:
+        report.checkpoint_exact = checkpoint_exact(sim, effect, rng)
     if dynamics:
         def build(dt):
             net, effects = cls.example()
