@@ -67,6 +67,21 @@ class ParallelSplit(NamedTuple):
     threads: int = 2
 
 
+def inline_twin(kernel):
+    """``kernel`` as numba inlines it where called: typed and compiled once, inside its
+    caller, rather than once alone and again there (each compiled function optimises again,
+    and compiles to machine code again, the code of every function it calls). A kernel that
+    sets fast-math, the error model or reference counting otherwise than the step keeps its
+    own compilation (inlined, its code would take the caller's)."""
+    options = dict(kernel.targetoptions)
+    if any(k in options and options[k] != v for k, v in STEP.items()
+           if k in ("fastmath", "error_model", "_nrt")):
+        return kernel
+    for k in ("nopython", "no_cpython_wrapper", "no_cfunc_wrapper", "inline"):
+        options.pop(k, None)
+    return njit(**options, inline="always", no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
+
+
 def _pick(backend, serial, parallel, split=None):
     cls = backend.instance_class
     if cls is ParallelSplit:

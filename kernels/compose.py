@@ -40,7 +40,7 @@ from numba import njit
 from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
-from .backend import ENTRY, STEP
+from .backend import ENTRY, STEP, inline_twin
 from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
 from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
                     core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key,
@@ -153,7 +153,7 @@ def slot_wrapper(kernel, hook):
         return held
     what, f = HOOKS[hook][0], kernel.py_func
     name = f"{what}:{f.__module__}.{f.__qualname__}"
-    registered, kernel = kernel, _inline_twin(kernel)
+    registered, kernel = kernel, inline_twin(kernel)
     # the step calls it with order = the hook it runs (run_hook): a kernel found in another
     # hook's rows raises instead of running there; pinned checks the record's type
     if what == "load":
@@ -182,20 +182,6 @@ def slot_wrapper(kernel, hook):
     else:
         extend_cache_key(held, stamp)
     return held
-
-
-def _inline_twin(kernel):
-    """``kernel`` as numba inlines it where called: typed and compiled once, inside its
-    wrapper, rather than once alone and again there. A kernel that sets fast-math, the error
-    model or reference counting otherwise than the step keeps its own compilation (inlined,
-    its code would take the wrapper's)."""
-    options = dict(kernel.targetoptions)
-    if any(k in options and options[k] != v for k, v in STEP.items()
-           if k in ("fastmath", "error_model", "_nrt")):
-        return kernel
-    for k in ("nopython", "no_cpython_wrapper", "no_cfunc_wrapper", "inline"):
-        options.pop(k, None)
-    return njit(**options, inline="always", no_cpython_wrapper=True, no_cfunc_wrapper=True)(kernel.py_func)
 
 
 def _source_stamp(kernel):

@@ -19,7 +19,7 @@ the stretch pass, so a net without one steps exactly as before.
 import numpy as np
 from numba import njit, prange
 
-from .backend import PASS, STEP, dispatch
+from .backend import PASS, STEP, dispatch, inline_twin
 from .layout import columns, quat_columns, uint
 from .compiler import INLINE, INNER, stable_cache_key
 from .rotations import (cross, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, relative_rotation,
@@ -254,6 +254,11 @@ def compute_line_block(l0, l1, model, state, loads):
         finish_line(l, voff, eoff, force, f, left, right, loads.end_tau)
 
 
+# compute_line_block compiled inside its serial caller (compute_internal_loads) rather than
+# called by it; the threaded loops call it, a task each
+line_block = inline_twin(compute_line_block)
+
+
 # elements per part of a long line (a task of the threaded passes); a line longer than
 # LONG_LINE is split across the threads in such parts (as one task it would leave the other
 # thread idle)
@@ -333,7 +338,7 @@ def compute_internal_loads(model, state, loads):
     nl = model.line_vertex_offsets.shape[0] - 1
     per = lines_per_block(model)
     for b in range((nl + per - 1) // per):
-        compute_line_block(b * per, min((b + 1) * per, nl), model, state, loads)
+        line_block(b * per, min((b + 1) * per, nl), model, state, loads)
 
 
 def over_line_blocks(block):

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .backend import ENTRY, PASS, STEP, dispatch, each_node
+from .backend import ENTRY, PASS, STEP, dispatch, each_node, inline_twin
 from .layout import columns, quat_columns
 from .compiler import INLINE, INNER, stable_cache_key
 from .rotations import cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
@@ -33,10 +33,12 @@ def each_row_block(block):
     in one call, the parallel one a block of BLOCK vertices and elements per task."""
     # (the first rows as int64, not the literal 0: numba compiled block once for a literal
     # first row and again for the parallel tasks' computed ones)
+    whole = inline_twin(block)   # the serial one is all block: compiled inside it, not called
+
     @stable_cache_key
     @njit(**STEP)
     def serial(model, state, c, d):
-        block(model, state, c, d, np.int64(0), state.x.shape[0], np.int64(0), state.q.shape[0])
+        whole(model, state, c, d, np.int64(0), state.x.shape[0], np.int64(0), state.q.shape[0])
 
     @stable_cache_key
     @njit(**INNER, parallel=True)
@@ -273,7 +275,7 @@ def drift_node(nd, model, state, h, order):
 drift_nodes_on = dispatch(*each_node(drift_node))
 
 
-@njit(**STEP)
+@njit(**STEP, inline="always")  # one caller: drift_positions
 def drift_state(model, state, h, order, backend):
     """Update state (positions, quaternions, clock) by the free flight of time h, then place
     every line end on its node (1.1)/(1.3)."""
