@@ -31,10 +31,10 @@ def each_row_block(block):
     """Return (serial, parallel) kernels f(model, state, c, d) running
     block(model, state, c, d, vs, ve, es, ee) over every vertex and element: the serial one
     in one call, the parallel one a block of BLOCK vertices and elements per task."""
-    # (the first rows as int64, not the literal 0: numba compiled block once for a literal
-    # first row and again for the parallel tasks' computed ones)
     whole = inline_twin(block)   # the serial one is all block: compiled inside it, not called
 
+    # (the first rows as int64, not the literal 0: numba compiled block once for a literal
+    # first row and again for the parallel tasks' computed ones)
     @stable_cache_key
     @njit(**STEP)
     def serial(model, state, c, d):
@@ -275,7 +275,7 @@ def drift_node(nd, model, state, h, order):
 drift_nodes_on = dispatch(*each_node(drift_node))
 
 
-@njit(**STEP, inline="always")  # one caller: drift_positions
+@njit(**STEP, inline="always")  # part of its caller, stepping.drift_positions_at
 def drift_state(model, state, h, order, backend):
     """Update state (positions, quaternions, clock) by the free flight of time h, then place
     every line end on its node (1.1)/(1.3)."""
