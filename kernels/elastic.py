@@ -290,36 +290,43 @@ def vertex_part(v0, e0, j0, j1, model, state, loads):
     vertex_span(v0, e0, j0, j1, columns(loads.elem_force), columns(loads.f))
 
 
-def in_parts(part):
-    """Return a threaded kernel f(v0, e0, j0, j1, model, state, loads) running part over
-    j0 .. j1-1 in parts of LINE_PART (a task each)."""
-    @stable_cache_key
-    @njit(**INNER, parallel=True)
-    def run(v0, e0, j0, j1, model, state, loads):
-        for p in prange((j1 - j0 + LINE_PART - 1) // LINE_PART):
-            a = j0 + p * LINE_PART
-            part(v0, e0, a, min(a + LINE_PART, j1), model, state, loads)
-    return run
+BEND, STRETCH, VERTICES = 0, 1, 2   # the passes of a long line (line_parts)
 
 
-bend_parts, stretch_parts, vertex_parts = in_parts(bend_part), in_parts(stretch_part), in_parts(vertex_part)
+@stable_cache_key
+@njit(**INNER, parallel=True)
+def line_parts(which, v0, e0, n, model, state, loads):
+    """Update loads by pass ``which`` (BEND: bend_part over the interior Voronoi points,
+    STRETCH: stretch_part over the elements, VERTICES: vertex_part over the interior vertices)
+    of a line of n elements, in parts of LINE_PART, a task each. (One threaded loop for the
+    three passes: numba compiles each prange loop as a kernel of its own, seconds each.)"""
+    j0, j1 = (0 if which == STRETCH else 1), n
+    for p in prange((j1 - j0 + LINE_PART - 1) // LINE_PART):
+        a = j0 + p * LINE_PART
+        b = min(a + LINE_PART, j1)
+        if which == BEND:
+            bend_part(v0, e0, a, b, model, state, loads)
+        elif which == STRETCH:
+            stretch_part(v0, e0, a, b, model, state, loads)
+        else:
+            vertex_part(v0, e0, a, b, model, state, loads)
 
 
-@njit(**STEP)
+@njit(**STEP, inline="always")   # (see longest_lines)
 def compute_long_line(l, model, state, loads):
     """Update loads.f, loads.tau, loads.end_tau of line l as compute_line_block, each pass
     split across the threads (a pass finishes before the next one reads its results)."""
     voff, eoff = model.line_vertex_offsets, model.line_element_offsets
     v0, e0, n = uint(voff[l]), uint(eoff[l]), eoff[l + 1] - eoff[l]
-    bend_parts(v0, e0, 1, n, model, state, loads)
+    line_parts(np.int64(BEND), v0, e0, n, model, state, loads)
     vor, q = voronoi_columns(model), quat_columns(state.q)
     left, right = columns(loads.bend_left), columns(loads.bend_right)
     bend_ends(l, model, state, vor, q, left, right)
-    stretch_parts(v0, e0, 0, n, model, state, loads)
+    line_parts(np.int64(STRETCH), v0, e0, n, model, state, loads)
     if has_rest_strain(model):  # on one thread: a long active line is rare
         prestress_span(v0, e0, 0, n, columns(state.x), quat_columns(state.q), columns(model.element_stiffness),
                        columns(model.element_rest_strain), columns(loads.elem_force), columns(loads.tau))
-    vertex_parts(v0, e0, 1, n, model, state, loads)
+    line_parts(np.int64(VERTICES), v0, e0, n, model, state, loads)
     finish_line(l, voff, eoff, columns(loads.elem_force), columns(loads.f), left, right, loads.end_tau)
 
 
@@ -390,10 +397,12 @@ def compute_short_lines(l0, l1, model, state, loads):
 short_lines_parallel = over_line_blocks(compute_short_lines)
 
 
-@njit(**STEP)
+@njit(**STEP, inline="always")
 def longest_lines(nl, model, state, loads):
     """compute_long_line for every line longer than LONG_LINE (outside the prange loop over
-    blocks: each of its passes is a threaded loop of its own)."""
+    blocks: each of its passes is a threaded loop of its own). Both compiled inside their one
+    caller, compute_internal_loads_split, rather than called: each level of calls would
+    optimise and compile the threaded passes' code once more."""
     eoff = model.line_element_offsets
     for l in range(nl):
         if eoff[l + 1] - eoff[l] > LONG_LINE:
