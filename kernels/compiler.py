@@ -127,6 +127,46 @@ def _defer_blas_check():
 _defer_blas_check()
 
 
+class _PlainWrapperLibrary:
+    """A code library whose added modules' functions LLVM leaves unoptimised (optnone)."""
+
+    def __init__(self, library):
+        self.library = library
+
+    def add_ir_module(self, module):
+        for fn in module.functions:
+            if not fn.is_declaration:
+                fn.attributes.add("noinline")   # (optnone requires it)
+                fn.attributes.add("optnone")
+        self.library.add_ir_module(module)
+
+    def __getattr__(self, name):
+        return getattr(self.library, name)
+
+
+def _plain_python_wrappers():
+    """Have LLVM compile the wrapper through which Python calls a kernel as it is written, not
+    optimised. The wrapper unboxes each argument from its Python object: for a kernel taking
+    an effect's record, the model and the state, a hundred arrays, a long straight run of
+    checks that LLVM took most of a second to optimise and compile (the kernel itself, which
+    the wrapper calls, is optimised as before). Unoptimised it compiles in half the time and
+    costs about a microsecond more per call from Python, which the kernels called so (the
+    step once per chunk of steps, the energies once per frame) do not notice."""
+    from numba.core import cpu
+    cls = getattr(cpu, "CPUContext", None)
+    create = getattr(cls, "create_cpython_wrapper", None)
+    if create is None or getattr(create, "plain", False):
+        return
+
+    def create_plain(self, library, *args, **kwargs):
+        return create(self, _PlainWrapperLibrary(library), *args, **kwargs)
+    create_plain.plain = True
+    cls.create_cpython_wrapper = create_plain
+
+
+_plain_python_wrappers()
+
+
 # how long a compilation waits for another process compiling the same kernel before it
 # compiles the kernel itself (the other may be stopped, not dead: a dead one frees the lock)
 COMPILE_WAIT = 600.0
