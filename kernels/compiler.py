@@ -151,7 +151,9 @@ def _plain_python_wrappers():
     checks that LLVM took most of a second to optimise and compile (the kernel itself, which
     the wrapper calls, is optimised as before). Unoptimised it compiles in half the time and
     costs about a microsecond more per call from Python, which the kernels called so (the
-    step once per chunk of steps, the energies once per frame) do not notice."""
+    step once per chunk of steps, the energies once per frame) do not notice. Numba's, so
+    process-wide: every function numba compiles in a process that imports cosnet has such a
+    wrapper."""
     from numba.core import cpu
     cls = getattr(cpu, "CPUContext", None)
     create = getattr(cls, "create_cpython_wrapper", None)
