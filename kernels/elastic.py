@@ -299,7 +299,8 @@ def line_parts(which, v0, e0, n, model, state, loads):
     """Update loads by pass ``which`` (BEND: bend_part over the interior Voronoi points,
     STRETCH: stretch_part over the elements, VERTICES: vertex_part over the interior vertices)
     of a line of n elements, in parts of LINE_PART, a task each. (One threaded loop for the
-    three passes: numba compiles each prange loop as a kernel of its own, seconds each.)"""
+    three passes: numba compiles each prange loop as a kernel of its own, with a wrapper the
+    thread pool calls.)"""
     j0, j1 = (0 if which == STRETCH else 1), n
     for p in prange((j1 - j0 + LINE_PART - 1) // LINE_PART):
         a = j0 + p * LINE_PART
