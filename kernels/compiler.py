@@ -150,7 +150,7 @@ def _plain_python_wrappers():
     an effect's record, the model and the state, a hundred arrays, a long straight run of
     checks that LLVM took most of a second to optimise and compile (the kernel itself, which
     the wrapper calls, is optimised as before). Unoptimised it compiles in half the time and
-    costs about a microsecond more per call from Python, which the kernels called so (the
+    costs a microsecond or two more per call from Python, which the kernels called so (the
     step once per chunk of steps, the energies once per frame) do not notice. Numba's, so
     process-wide: every function numba compiles in a process that imports cosnet has such a
     wrapper."""
