@@ -449,8 +449,11 @@ FAST = {"contract", "arcp", "reassoc", "nsz"}
 # cache with it linked in. A cache filled by test workers in one order then made a rope pile's
 # step raise ZeroDivisionError that a cache filled in another order did not. Set, a kernel's
 # code is the same whoever calls it first. No kernel allocates; any that did would be refused
-# at compile time (no reference counts), as the steps refuse it.
-CACHED = dict(_cache_options(), fastmath=FAST, error_model="numpy", _nrt=False)
+# at compile time (no reference counts), as the steps refuse it. No C-callable wrapper: numba
+# builds one for every function unless told not to, taking the records' arrays as a few hundred
+# scalar arguments, and nothing here calls a kernel through it (the slots call the kernels
+# themselves, kernels/slots.py).
+CACHED = dict(_cache_options(), fastmath=FAST, error_model="numpy", _nrt=False, no_cfunc_wrapper=True)
 # the same, inlined by numba where called (the joints' helpers)
 CACHED_INLINE = dict(CACHED, inline="always")
 # the same, for helpers called only from other kernels: without the Python entry wrapper,

@@ -272,7 +272,7 @@ def add_obstacle(p, model, state, loads):
     p.active[0] = active
 
 
-@njit(**CACHED_LANES, **noalias(), no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(**CACHED_LANES, **noalias(), no_cpython_wrapper=True)
 def contact_law(w, mode, count, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_back, k_lat):
     """Update mode (m,) and the rows F, A, D, LOST of w (ROWS arrays (m,), none the same) in
     their first count columns given its rows C, V, EPS, N, U, A there: each vertex contact's
