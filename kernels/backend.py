@@ -33,7 +33,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # any allocation slipping into a step is refused at compile time. STEP kernels are called
 # from other kernels only (see rotations.INNER); ENTRY kernels also from Python.
 STEP = dict(INNER, _nrt=False)
-ENTRY = dict(KERNEL, _nrt=False, no_cfunc_wrapper=True)
+ENTRY = dict(KERNEL, _nrt=False)
 
 # nodes per task of the threaded node loops
 NODE_BLOCK = 256

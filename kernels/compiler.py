@@ -458,7 +458,7 @@ CACHED = dict(_cache_options(), fastmath=FAST, error_model="numpy", _nrt=False, 
 CACHED_INLINE = dict(CACHED, inline="always")
 # the same, for helpers called only from other kernels: without the Python entry wrapper,
 # whose compilation (unboxing a record of dozens of arrays) costs more than a small body's
-CACHED_INNER = dict(CACHED, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+CACHED_INNER = dict(CACHED, no_cpython_wrapper=True)
 # Without fast-math: the vertex-obstacle contact (other rounding than the step's fused
 # multiply-adds). For kernels whose divisions are all guarded, whose loops run in vector lanes.
 CACHED_LANES = dict(CACHED, fastmath=False)
@@ -468,7 +468,7 @@ KERNEL = CACHED
 # compiles, for every function, a wrapper unboxing its arguments from Python objects; for a
 # function taking the model, state and loads records (47 arrays) that alone is most of a
 # second of compilation, even for a body of one line.
-INNER = dict(KERNEL, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+INNER = dict(KERNEL, no_cpython_wrapper=True)
 # Inlined by numba where called: for the bodies of vectorised loops whose arguments are
 # tuples of arrays (left to LLVM, such calls, passing dozens of array fields, slowed the
 # vectorised passes by half). Numba types an inlined body afresh at every call site, so the
