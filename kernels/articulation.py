@@ -27,7 +27,10 @@ theorem): the step stays variational, and a free axis adds no stiffness to it. T
 receives the whole torque on G (the joint frame is in balance between the line and the node).
 
 phi is found by Newton's method with the Jacobian's leading term, c_i^T B c_k / L + (k_i +
-d_i / dt) delta_ik (B in G's components, L the boundary point's length), to round-off. The
+d_i / dt) delta_ik (B in G's components, L the boundary point's length), to round-off. A
+hinge that turns takes its exact derivative once its first step is above the tolerance, and a
+step so found below ONE_STEP is not evaluated again: its loads are carried along it to first
+order (settle_hinge), one evaluation of the boundary point a step where two were needed. The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
 (tens of seconds for this module). coordinate_balance, called three times in each Newton step,
@@ -48,12 +51,14 @@ from .compose import load_kernel
 from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
-    relative_rotation, solve_sym3
+    relative_rotation, small_rotation, solve_sym3
 from .specialise import Variants
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
 NEWTON_STEPS = 40                  # at most; a balance converges in a few
 NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
+ONE_STEP = 1e-7                    # rad: a hinge's exact Newton step below it is taken without evaluating
+                                   # again, its loads carried to first order (their error O(step^2))
 
 # Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
 # needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
@@ -314,12 +319,122 @@ def within_cone(p, j, phi):
     return quat_log(q[0], q[1], q[2], q[3])
 
 
+@njit(**INLINE)
+def inverse_jacobian(t, cc, e, x):
+    """Return J x, J = 1 + e/2 [theta]x + cc [theta]x^2: J_r^-1(theta) for e = 1, J_l^-1 for
+    e = -1 (bend_torques)."""
+    a = cross(t[0], t[1], t[2], x[0], x[1], x[2])
+    b = cross(t[0], t[1], t[2], a[0], a[1], a[2])
+    return (x[0] + 0.5 * e * a[0] + cc * b[0], x[1] + 0.5 * e * a[1] + cc * b[1],
+            x[2] + 0.5 * e * a[2] + cc * b[2])
+
+
+@njit(**INLINE)
+def jacobian_rate(t, cc, c2, e, v, x):
+    """Return the derivative of inverse_jacobian(theta, ...) x along theta's direction v:
+    e/2 v x x + 2 c2 (theta . v) theta x (theta x x) + cc (v x (theta x x) + theta x (v x x)),
+    c2 = d cc / d |theta|^2."""
+    vx = cross(v[0], v[1], v[2], x[0], x[1], x[2])
+    tx = cross(t[0], t[1], t[2], x[0], x[1], x[2])
+    ttx = cross(t[0], t[1], t[2], tx[0], tx[1], tx[2])
+    vtx = cross(v[0], v[1], v[2], tx[0], tx[1], tx[2])
+    tvx = cross(t[0], t[1], t[2], vx[0], vx[1], vx[2])
+    k = 2.0 * c2 * dot3(t, v)
+    return (0.5 * e * vx[0] + k * ttx[0] + cc * (vtx[0] + tvx[0]),
+            0.5 * e * vx[1] + k * ttx[1] + cc * (vtx[1] + tvx[1]),
+            0.5 * e * vx[2] + k * ttx[2] + cc * (vtx[2] + tvx[2]))
+
+
+@njit(**INNER)
+def boundary_turn(p, j, model, state, r):
+    """Return (theta, cc, c2, m, rel, e) at joint j's boundary Voronoi point given R
+    (quaternion): theta the rotation vector from its left frame to its right one (G to E at a
+    line's start, e = -1; E to G at its end, e = 1), cc and c2 = d cc / d |theta|^2 of the
+    inverse Jacobians (bend_torques), its moment m = B (theta/L - u0) and rel = G^T E."""
+    a = p.attach[j]
+    k = model.attach_vertex[a]
+    f = end_frame(model, state, a)
+    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
+    q = state.q[model.attach_element[a]]
+    start = a % 2 == 0
+    if start:
+        rw, rx, ry, rz, small = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
+    else:
+        rw, rx, ry, rz, small = relative_quat(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
+    if small:
+        tx, ty, tz, cc = small_rotation(rw, rx, ry, rz)
+        t2 = tx * tx + ty * ty + tz * tz
+        c2 = 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
+    else:   # with s = sin(t/2) = |r_vec|, w = cos(t/2): cc = 1/t^2 - w/(2 t s)
+        tx, ty, tz = quat_log(rw, rx, ry, rz)
+        t2 = tx * tx + ty * ty + tz * tz
+        t, s2 = math.sqrt(t2), rx * rx + ry * ry + rz * rz
+        s = math.sqrt(s2)
+        cc = 1.0 / t2 - rw / (2.0 * t * s)
+        c2 = -1.0 / (t2 * t2) + 1.0 / (8.0 * t2 * s2) + rw / (4.0 * t2 * t * s)
+    il, u0, bend = model.voronoi_inv_rest_length[k], model.voronoi_rest_curvature[k], p.bend[j]
+    m = (bend[0] * (tx * il - u0[0]), bend[1] * (ty * il - u0[1]), bend[2] * (tz * il - u0[2]))
+    rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
+    return (tx, ty, tz), cc, c2, m, rel, (-1.0 if start else 1.0)
+
+
+@njit(**INNER)
+def settle_hinge(p, j, model, state, x, prev, fric, inv_dt):
+    """Return (phi, node torque, tau_E) of hinge j, whose coordinate moves, by Newton's method
+    from x: the coordinate where its loads balance, the torque on the node (X's components)
+    and the body torque on the end element. With w = J a (J the inverse Jacobian of the
+    boundary point on the joint frame's side, inverse_jacobian) the generalised torque is
+    Q = -e w . m, its derivative -(D_w J a . m + w^T B w / L), and the end element's torque
+    tau_E = e J m changes by D_w J m + J B w / L per radian (jacobian_rate). A step is first
+    taken with the leading term w^T B w / L, which ends the iteration below NEWTON_TOL as
+    settle_joint's does; a larger one is
+    taken again with the exact derivative, and if below ONE_STEP without evaluating again:
+    tau_E carried along it to first order, the node receiving -(F^T E) tau_E (the boundary
+    point's energy depends on G^T E alone, so the torques on G and E cancel in the lab), both
+    within O(step^2) of their values at the balance. (Where the spring table's slope is
+    negative, the exact derivative is not used.)"""
+    a, k0, rest, d = p.axis_a[j], p.stiffness[j, 0], p.rest[j, 0], p.damping[j, 0] * inv_dt
+    il, bend = model.voronoi_inv_rest_length[model.attach_vertex[p.attach[j]]], p.bend[j]
+    lo, hi = p.lower[j, 0], p.upper[j, 0]
+    for it in range(NEWTON_STEPS):
+        r = quat_exp(x * a[0], x * a[1], x * a[2])
+        t, cc, c2, m, rel, e = boundary_turn(p, j, model, state, r)
+        w = inverse_jacobian(t, cc, e, (a[0], a[1], a[2]))
+        bw = (il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2])
+        table, slope = spring_table(p, j, 0, x)
+        g = -e * dot3(w, m) - k0 * (x - rest) - table - d * (x - prev) - fric
+        lead = dot3(w, bw) + k0 + max(slope, 0.0) + d
+        step = min(max(x + g / lead, lo), hi) - x
+        carried = 0.0
+        if abs(step) > NEWTON_TOL and it < NEWTON_STEPS - 1:
+            stiff = dot3(jacobian_rate(t, cc, c2, e, w, (a[0], a[1], a[2])), m) + lead
+            if slope < 0.0 or not stiff > 0.0:   # (far from a balance the elastic part may soften)
+                x += step
+                continue
+            step = min(max(x + g / stiff, lo), hi) - x
+            if abs(step) > ONE_STEP:
+                x += step
+                continue
+            carried = step
+        te = inverse_jacobian(t, cc, e, m)
+        tx, ty, tz = e * te[0], e * te[1], e * te[2]
+        if carried != 0.0:
+            dm = jacobian_rate(t, cc, c2, e, w, m)
+            jb = inverse_jacobian(t, cc, e, bw)
+            tx, ty, tz = tx + carried * (dm[0] + jb[0]), ty + carried * (dm[1] + jb[1]), tz + carried * (dm[2] + jb[2])
+        fe = quat_mul(r[0], r[1], r[2], r[3], rel[0], rel[1], rel[2], rel[3])   # F^T E
+        n = quat_rotate(fe[0], fe[1], fe[2], fe[3], tx, ty, tz)
+        return x + carried, (-n[0], -n[1], -n[2]), (tx, ty, tz)
+    return x, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
+
+
 @njit(**INNER)
 def settle_joint(p, j, model, state, dt):
-    """Return (phi, friction, moves, R, tau_G, tau_E) of joint j: its coordinates where its
+    """Return (phi, friction, moves, torque, tau_E) of joint j: its coordinates where its
     loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque
-    on each and whether each moves (3-tuples), and at phi the joint's rotation and the boundary
-    point's torques on the joint frame and on the end element (boundary_torques)."""
+    on each and whether each moves (3-tuples), and at phi the torque on the node through the
+    joint (X's components: R tau_G) and the body torque on the end element (boundary_torques;
+    a hinge that moves: settle_hinge)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
@@ -339,6 +454,9 @@ def settle_joint(p, j, model, state, dt):
     phi = within_cone(p, j, (clamp_step(p, j, 0, m0, prev[0], ahead * p.rate[j, 0]),
                              clamp_step(p, j, 1, m1, prev[1], ahead * p.rate[j, 1]),
                              clamp_step(p, j, 2, m2, prev[2], ahead * p.rate[j, 2])))
+    if n == HINGE and m0:
+        x, torque, te = settle_hinge(p, j, model, state, phi[0], prev[0], f0, inv_dt)
+        return (x, phi[1], phi[2]), (f0, f1, f2), (m0, m1, m2), torque, te
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
         tau, te, _, _, rel = boundary_torques(p, j, model, state, r)
@@ -357,7 +475,7 @@ def settle_joint(p, j, model, state, dt):
         if not size > NEWTON_TOL or it == NEWTON_STEPS - 1:
             break
         phi = new
-    return phi, (f0, f1, f2), (m0, m1, m2), r, tau, te
+    return phi, (f0, f1, f2), (m0, m1, m2), quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te
 
 
 @load_kernel(ArticulationParams)
@@ -371,13 +489,12 @@ def add_articulations(p, model, state, loads):
     p.last[0] = state.clock[0]
     spent = 0.0
     for j in range(p.attach.shape[0]):
-        phi, fric, moves, r, tau, te = settle_joint(p, j, model, state, dt)
+        phi, fric, moves, (tx, ty, tz), te = settle_joint(p, j, model, state, dt)
         a = p.attach[j]
         e = model.attach_element[a]
         loads.tau[e, 0] += te[0]
         loads.tau[e, 1] += te[1]
         loads.tau[e, 2] += te[2]
-        tx, ty, tz = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
         loads.end_tau[a, 0] += tx
         loads.end_tau[a, 1] += ty
         loads.end_tau[a, 2] += tz
