@@ -30,7 +30,8 @@ phi is found by Newton's method with the Jacobian's leading term, c_i^T B c_k / 
 d_i / dt) delta_ik (B in G's components, L the boundary point's length), to round-off. A
 hinge that turns takes its exact derivative once its first step is above the tolerance, and a
 step so found below ONE_STEP is not evaluated again: its loads are carried along it to first
-order (settle_hinge), one evaluation of the boundary point a step where two were needed. The
+order (settle_hinge), one evaluation of the boundary point a step where two were needed; a
+universal joint likewise (settle_universal). The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
 (tens of seconds for this module). coordinate_balance, called three times in each Newton step,
@@ -273,15 +274,24 @@ def free_joint(p, j):
 
 
 @njit(**INLINE)
+def axis_balance(p, j, i, q, x, prev, fric, inv_dt):
+    """Return (g, spring, slope) of coordinate i of joint j at x given the line's generalised
+    torque q on it: g = Q_i - f_i (the module's equation), the springs' and damper's part of
+    the Newton diagonal, and the spring table's slope there."""
+    table, slope = spring_table(p, j, i, x)
+    d = p.damping[j, i] * inv_dt
+    g = q - p.stiffness[j, i] * (x - p.rest[j, i]) - table - d * (x - prev) - fric
+    return g, p.stiffness[j, i] + max(slope, 0.0) + d, slope
+
+
+@njit(**INLINE)
 def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, model):
     """Return (Q_i - f_i, the Newton diagonal) of coordinate i of joint j (module docstring);
     (0, 1) for a coordinate that does not move."""
     if not moves:
         return 0.0, 1.0
-    d = p.damping[j, i] * inv_dt
-    table, slope = spring_table(p, j, i, phi)
-    g = dot3(col, tau) - p.stiffness[j, i] * (phi - p.rest[j, i]) - table - d * (phi - prev) - fric
-    return g, axis_stiffness(p, j, model, rel, col, col) + p.stiffness[j, i] + max(slope, 0.0) + d
+    g, spring, _ = axis_balance(p, j, i, dot3(col, tau), phi, prev, fric, inv_dt)
+    return g, axis_stiffness(p, j, model, rel, col, col) + spring
 
 
 @njit(**INLINE)
@@ -378,6 +388,27 @@ def boundary_turn(p, j, model, state, r):
     return (tx, ty, tz), cc, c2, m, rel, (-1.0 if start else 1.0)
 
 
+@njit(**INLINE)
+def carried_torque(t, cc, c2, e, m, w, bw, step):
+    """Return the change of the end element's torque tau_E = e J m along a step of a coordinate
+    whose axis J maps to w (bw = B w / L): step (D_w J m + J B w / L) (settle_hinge)."""
+    if step == 0.0:   # (a joint balanced where evaluated, most of a net's at rest)
+        return 0.0, 0.0, 0.0
+    dm = jacobian_rate(t, cc, c2, e, w, m)
+    jb = inverse_jacobian(t, cc, e, bw)
+    return step * (dm[0] + jb[0]), step * (dm[1] + jb[1]), step * (dm[2] + jb[2])
+
+
+@njit(**INLINE)
+def node_torque(r, rel, te):
+    """Return the torque on the node through the joint (X's components), -(F^T E) tau_E, given
+    R, rel = G^T E and the end element's torque tau_E: the boundary point's energy depends on
+    G^T E alone, so its torques on G and E cancel in the lab."""
+    fe = quat_mul(r[0], r[1], r[2], r[3], rel[0], rel[1], rel[2], rel[3])   # F^T E
+    n = quat_rotate(fe[0], fe[1], fe[2], fe[3], te[0], te[1], te[2])
+    return -n[0], -n[1], -n[2]
+
+
 @njit(**INNER)
 def settle_hinge(p, j, model, state, x, prev, fric, inv_dt):
     """Return (phi, node torque, tau_E) of hinge j, whose coordinate moves, by Newton's method
@@ -387,13 +418,12 @@ def settle_hinge(p, j, model, state, x, prev, fric, inv_dt):
     Q = -e w . m, its derivative -(D_w J a . m + w^T B w / L), and the end element's torque
     tau_E = e J m changes by D_w J m + J B w / L per radian (jacobian_rate). A step is first
     taken with the leading term w^T B w / L, which ends the iteration below NEWTON_TOL as
-    settle_joint's does; a larger one is
-    taken again with the exact derivative, and if below ONE_STEP without evaluating again:
-    tau_E carried along it to first order, the node receiving -(F^T E) tau_E (the boundary
-    point's energy depends on G^T E alone, so the torques on G and E cancel in the lab), both
-    within O(step^2) of their values at the balance. (Where the spring table's slope is
-    negative, the exact derivative is not used.)"""
-    a, k0, rest, d = p.axis_a[j], p.stiffness[j, 0], p.rest[j, 0], p.damping[j, 0] * inv_dt
+    settle_joint's does; a larger one is taken again with the exact derivative, and if below
+    ONE_STEP without evaluating again: tau_E carried along it to first order (carried_torque),
+    the node receiving its opposite (node_torque), both within O(step^2) of their values at
+    the balance. (Where the spring table's slope is negative, the exact derivative is not
+    used.)"""
+    a = p.axis_a[j]
     il, bend = model.voronoi_inv_rest_length[model.attach_vertex[p.attach[j]]], p.bend[j]
     lo, hi = p.lower[j, 0], p.upper[j, 0]
     for it in range(NEWTON_STEPS):
@@ -401,9 +431,8 @@ def settle_hinge(p, j, model, state, x, prev, fric, inv_dt):
         t, cc, c2, m, rel, e = boundary_turn(p, j, model, state, r)
         w = inverse_jacobian(t, cc, e, (a[0], a[1], a[2]))
         bw = (il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2])
-        table, slope = spring_table(p, j, 0, x)
-        g = -e * dot3(w, m) - k0 * (x - rest) - table - d * (x - prev) - fric
-        lead = dot3(w, bw) + k0 + max(slope, 0.0) + d
+        g, spring, slope = axis_balance(p, j, 0, -e * dot3(w, m), x, prev, fric, inv_dt)
+        lead = dot3(w, bw) + spring
         step = min(max(x + g / lead, lo), hi) - x
         carried = 0.0
         if abs(step) > NEWTON_TOL and it < NEWTON_STEPS - 1:
@@ -417,15 +446,60 @@ def settle_hinge(p, j, model, state, x, prev, fric, inv_dt):
                 continue
             carried = step
         te = inverse_jacobian(t, cc, e, m)
-        tx, ty, tz = e * te[0], e * te[1], e * te[2]
-        if carried != 0.0:
-            dm = jacobian_rate(t, cc, c2, e, w, m)
-            jb = inverse_jacobian(t, cc, e, bw)
-            tx, ty, tz = tx + carried * (dm[0] + jb[0]), ty + carried * (dm[1] + jb[1]), tz + carried * (dm[2] + jb[2])
-        fe = quat_mul(r[0], r[1], r[2], r[3], rel[0], rel[1], rel[2], rel[3])   # F^T E
-        n = quat_rotate(fe[0], fe[1], fe[2], fe[3], tx, ty, tz)
-        return x + carried, (-n[0], -n[1], -n[2]), (tx, ty, tz)
+        dx, dy, dz = carried_torque(t, cc, c2, e, m, w, bw, carried)
+        te = (e * te[0] + dx, e * te[1] + dy, e * te[2] + dz)
+        return x + carried, node_torque(r, rel, te), te
     return x, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
+
+
+@njit(**INNER)
+def settle_universal(p, j, model, state, phi, prev, moves, fric, inv_dt):
+    """Return (phi, node torque, tau_E) of universal joint j, as settle_hinge does for a hinge,
+    with its two coordinates (either may be held by its friction: ``moves``). Its first axis
+    c_0 = exp(-phi_1 b) a turns with the second coordinate, d c_0 / d phi_1 = -b x c_0, which
+    adds e (J d c_0/d phi_1) . m to the derivative's coupling of the two."""
+    il, bend, b = model.voronoi_inv_rest_length[model.attach_vertex[p.attach[j]]], p.bend[j], p.axis_b[j]
+    m0, m1 = moves[0], moves[1]
+    x0, x1 = phi[0], phi[1]
+    for it in range(NEWTON_STEPS):
+        r, c0, c1, _ = joint_turn(p, j, (x0, x1, 0.0))
+        t, cc, c2, m, rel, e = boundary_turn(p, j, model, state, r)
+        w0, w1 = inverse_jacobian(t, cc, e, c0), inverse_jacobian(t, cc, e, c1)
+        bw0 = (il * bend[0] * w0[0], il * bend[1] * w0[1], il * bend[2] * w0[2])
+        bw1 = (il * bend[0] * w1[0], il * bend[1] * w1[1], il * bend[2] * w1[2])
+        g0, s0, slope0 = axis_balance(p, j, 0, -e * dot3(w0, m), x0, prev[0], fric[0], inv_dt)
+        g1, s1, slope1 = axis_balance(p, j, 1, -e * dot3(w1, m), x1, prev[1], fric[1], inv_dt)
+        g0, g1 = (g0 if m0 else 0.0), (g1 if m1 else 0.0)
+        a00 = dot3(w0, bw0) + s0 if m0 else 1.0
+        a11 = dot3(w1, bw1) + s1 if m1 else 1.0
+        a01 = dot3(w0, bw1) if m0 and m1 else 0.0
+        step = solve_sym3(a00, a01, 0.0, a11, 0.0, 1.0, g0, g1, 0.0)
+        n0, n1 = clamp_step(p, j, 0, m0, x0, step[0]) - x0, clamp_step(p, j, 1, m1, x1, step[1]) - x1
+        d0 = d1 = 0.0
+        if max(abs(n0), abs(n1)) > NEWTON_TOL and it < NEWTON_STEPS - 1:
+            if m0:
+                a00 += dot3(jacobian_rate(t, cc, c2, e, w0, c0), m)
+            if m1:
+                a11 += dot3(jacobian_rate(t, cc, c2, e, w1, c1), m)
+            if m0 and m1:
+                bc = cross(b[0], b[1], b[2], c0[0], c0[1], c0[2])
+                jbc = inverse_jacobian(t, cc, e, bc)
+                a01 += dot3(jacobian_rate(t, cc, c2, e, w1, c0), m) - e * dot3(jbc, m)
+            if (m0 and slope0 < 0.0) or (m1 and slope1 < 0.0) or not (a00 > 0.0 and a00 * a11 > a01 * a01):
+                x0, x1 = x0 + n0, x1 + n1
+                continue
+            step = solve_sym3(a00, a01, 0.0, a11, 0.0, 1.0, g0, g1, 0.0)
+            n0, n1 = clamp_step(p, j, 0, m0, x0, step[0]) - x0, clamp_step(p, j, 1, m1, x1, step[1]) - x1
+            if max(abs(n0), abs(n1)) > ONE_STEP:
+                x0, x1 = x0 + n0, x1 + n1
+                continue
+            d0, d1 = n0, n1
+        te = inverse_jacobian(t, cc, e, m)
+        a = carried_torque(t, cc, c2, e, m, w0, bw0, d0)
+        c = carried_torque(t, cc, c2, e, m, w1, bw1, d1)
+        te = (e * te[0] + a[0] + c[0], e * te[1] + a[1] + c[1], e * te[2] + a[2] + c[2])
+        return (x0 + d0, x1 + d1, 0.0), node_torque(r, rel, te), te
+    return (x0, x1, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
 
 
 @njit(**INNER)
@@ -457,6 +531,9 @@ def settle_joint(p, j, model, state, dt):
     if n == HINGE and m0:
         x, torque, te = settle_hinge(p, j, model, state, phi[0], prev[0], f0, inv_dt)
         return (x, phi[1], phi[2]), (f0, f1, f2), (m0, m1, m2), torque, te
+    if n == UNIVERSAL and (m0 or m1):
+        x, torque, te = settle_universal(p, j, model, state, phi, prev, (m0, m1), (f0, f1), inv_dt)
+        return x, (f0, f1, f2), (m0, m1, m2), torque, te
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
         tau, te, _, _, rel = boundary_torques(p, j, model, state, r)

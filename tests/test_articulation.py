@@ -198,9 +198,19 @@ def test_cardan_joint_output_angle():
         x0 = net.nodes[node.index].frame[:, 0]
         return math.atan2(np.cross(x0, d[:, 0]) @ axis, x0 @ d[:, 0])
 
-    worst_angle, worst_rate = 0.0, 0.0
+    def axial_moments():
+        """The reaction's moments about the joint's two axes (lab): a, fixed in the cross's
+        frame, and b, turned with the first coordinate about a (the free joint passes none)."""
+        state = cosnet.joint_state(sim, net.lines[1], "start")
+        d, (a, b) = sim.node_rotation(cross), (along_x.T @ yoke_a, along_x.T @ yoke_b)
+        b = Rotation.from_rotvec(state["angle"][0] * a).as_matrix() @ b
+        return abs(state["reaction"] @ (d @ a)), abs(state["reaction"] @ (d @ b)), np.linalg.norm(state["reaction"])
+
+    worst_angle, worst_rate, worst_moment, largest = 0.0, 0.0, 0.0, 0.0
     while sim.time < 0.2:
         sim.run(steps=500)
+        ma, mb, size = axial_moments()
+        worst_moment, largest = max(worst_moment, ma, mb), max(largest, size)
         t1, t2 = turned(fly, np.array([1.0, 0.0, 0.0])), turned(out, s)
         worst_angle = max(worst_angle, abs(t2 - math.atan2(math.cos(beta) * math.sin(t1), math.cos(t1))))
         ratio = sim.node_angular_velocity(out)[2] / sim.node_angular_velocity(fly)[2]
@@ -209,6 +219,9 @@ def test_cardan_joint_output_angle():
     assert sim.time > 0.2 and turned(fly, np.array([1.0, 0.0, 0.0])) > 1.0
     assert worst_angle < 1e-4       # rad: the shafts' twist under the output's small inertia
     assert worst_rate < 1e-3
+    # the joint's balance: no moment about either axis, to its Newton tolerance (1e-13 rad)
+    # times the boundary point's stiffness B / L = E I / (0.05 m)
+    assert worst_moment < 1e-13 * 2e11 * math.pi * 0.01 ** 4 / 4.0 / 0.05 * 3.0 < 1e-5 * largest
 
 
 def test_ball_joint_keeps_angular_momentum_about_the_vertical():
