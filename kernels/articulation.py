@@ -31,7 +31,8 @@ d_i / dt) delta_ik (B in G's components, L the boundary point's length), to roun
 hinge that turns takes its exact derivative once its first step is above the tolerance, and a
 step so found below ONE_STEP is not evaluated again: its loads are carried along it to first
 order (settle_hinge), one evaluation of the boundary point a step where two were needed; a
-universal joint likewise (settle_universal). The
+universal joint likewise (settle_universal; a ball joint so settled measured no faster:
+three coordinates' exact derivative costs about what an evaluation does). The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
 (tens of seconds for this module). coordinate_balance, called three times in each Newton step,
@@ -221,11 +222,10 @@ def start_turning(p, j, model, state, prev, dt):
 
 
 @njit(**INLINE)
-def table_segment(p, a0, a1, x):
-    """Return (k, T, dT/dphi) at angle x of the spring table in p.table_angle / table_torque
-    a0 .. a1-1: its segment k (first point) and the torque on it, the end segments carried on
-    beyond the table."""
-    ang, tq = p.table_angle, p.table_torque
+def table_segment(ang, tq, a0, a1, x):
+    """Return (k, T, dT/dphi) at angle x of the spring table in ang / tq (p.table_angle /
+    table_torque) a0 .. a1-1: its segment k (first point) and the torque on it, the end
+    segments carried on beyond the table."""
     k = a0
     while k < a1 - 2 and x > ang[k + 1]:
         k += 1
@@ -233,21 +233,26 @@ def table_segment(p, a0, a1, x):
     return k, tq[k] + slope * (x - ang[k]), slope
 
 
-@njit(**INLINE)
-def spring_table(p, j, i, x):
-    """Return (T, dT/dphi) of coordinate i of joint j's spring table at angle x: piecewise
-    linear through its points, its end segments carried on beyond them; (0, 0) without one."""
-    a0, a1 = p.table_offsets[3 * j + i], p.table_offsets[3 * j + i + 1]
+@njit(**INNER)
+def table_torque(ang, tq, a0, a1, x):
+    """Return (T, dT/dphi) of the spring table ang / tq a0 .. a1-1 at angle x: piecewise linear
+    through its points, its end segments carried on beyond them; (0, 0) without one."""
     if a1 - a0 < 2:
         return 0.0, 0.0
-    return table_segment(p, a0, a1, x)[1:]
+    return table_segment(ang, tq, a0, a1, x)[1:]
+
+
+@njit(**INLINE)
+def spring_table(p, j, i, x):
+    """Return (T, dT/dphi) of coordinate i of joint j's spring table at angle x (table_torque)."""
+    return table_torque(p.table_angle, p.table_torque, p.table_offsets[3 * j + i], p.table_offsets[3 * j + i + 1], x)
 
 
 @njit(**INLINE)
 def table_integral(p, a0, a1, x):
     """Return the integral of the spring table a0 .. a1-1 from its first angle to x."""
     ang, tq = p.table_angle, p.table_torque
-    k, at, _ = table_segment(p, a0, a1, x)
+    k, at, _ = table_segment(ang, tq, a0, a1, x)
     whole = 0.0
     for m in range(a0, k):
         whole += 0.5 * (tq[m] + tq[m + 1]) * (ang[m + 1] - ang[m])
@@ -274,14 +279,21 @@ def free_joint(p, j):
 
 
 @njit(**INLINE)
-def axis_balance(p, j, i, q, x, prev, fric, inv_dt):
-    """Return (g, spring, slope) of coordinate i of joint j at x given the line's generalised
-    torque q on it: g = Q_i - f_i (the module's equation), the springs' and damper's part of
-    the Newton diagonal, and the spring table's slope there."""
-    table, slope = spring_table(p, j, i, x)
-    d = p.damping[j, i] * inv_dt
-    g = q - p.stiffness[j, i] * (x - p.rest[j, i]) - table - d * (x - prev) - fric
-    return g, p.stiffness[j, i] + max(slope, 0.0) + d, slope
+def axis_constants(p, j, i, inv_dt):
+    """Return coordinate i of joint j's constants as settle_hinge takes them: (spring, rest,
+    damper / dt, lower, upper, its spring table's first and end offsets)."""
+    return (p.stiffness[j, i], p.rest[j, i], p.damping[j, i] * inv_dt, p.lower[j, i], p.upper[j, i],
+            p.table_offsets[3 * j + i], p.table_offsets[3 * j + i + 1])
+
+
+@njit(**INNER)
+def axis_balance(c, ang, tq, q, x, prev, fric):
+    """Return (g, spring, slope) of a coordinate of constants c (axis_constants) at x given the
+    line's generalised torque q on it: g = Q_i - f_i (the module's equation), the springs' and
+    damper's part of the Newton diagonal, and the spring table's slope there."""
+    table, slope = table_torque(ang, tq, c[5], c[6], x)
+    g = q - c[0] * (x - c[1]) - table - c[2] * (x - prev) - fric
+    return g, c[0] + max(slope, 0.0) + c[2], slope
 
 
 @njit(**INLINE)
@@ -290,7 +302,8 @@ def coordinate_balance(p, j, i, moves, col, tau, rel, phi, prev, fric, inv_dt, m
     (0, 1) for a coordinate that does not move."""
     if not moves:
         return 0.0, 1.0
-    g, spring, _ = axis_balance(p, j, i, dot3(col, tau), phi, prev, fric, inv_dt)
+    g, spring, _ = axis_balance(axis_constants(p, j, i, inv_dt), p.table_angle, p.table_torque, dot3(col, tau), phi,
+                                prev, fric)
     return g, axis_stiffness(p, j, model, rel, col, col) + spring
 
 
@@ -329,7 +342,7 @@ def within_cone(p, j, phi):
     return quat_log(q[0], q[1], q[2], q[3])
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def inverse_jacobian(t, cc, e, x):
     """Return J x, J = 1 + e/2 [theta]x + cc [theta]x^2: J_r^-1(theta) for e = 1, J_l^-1 for
     e = -1 (bend_torques)."""
@@ -339,7 +352,7 @@ def inverse_jacobian(t, cc, e, x):
             x[2] + 0.5 * e * a[2] + cc * b[2])
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def jacobian_rate(t, cc, c2, e, v, x):
     """Return the derivative of inverse_jacobian(theta, ...) x along theta's direction v:
     e/2 v x x + 2 c2 (theta . v) theta x (theta x x) + cc (v x (theta x x) + theta x (v x x)),
@@ -356,17 +369,16 @@ def jacobian_rate(t, cc, c2, e, v, x):
 
 
 @njit(**INNER)
-def boundary_turn(p, j, model, state, r):
-    """Return (theta, cc, c2, m, rel, e) at joint j's boundary Voronoi point given R
-    (quaternion): theta the rotation vector from its left frame to its right one (G to E at a
-    line's start, e = -1; E to G at its end, e = 1), cc and c2 = d cc / d |theta|^2 of the
-    inverse Jacobians (bend_torques), its moment m = B (theta/L - u0) and rel = G^T E."""
-    a = p.attach[j]
-    k = model.attach_vertex[a]
-    f = end_frame(model, state, a)
+def boundary_turn(f, q, start, il, u0, bend, r):
+    """Return (theta, cc, c2, m, rel, e) at a joint's boundary Voronoi point given the end
+    frame F (quaternion f), the end element's q, whether the joint is at the line's start, the
+    point's 1/L, rest curvature u0 and stiffness B, and R (quaternion): theta the rotation
+    vector from its left frame to its right one (G = F R to E at a line's start, e = -1; E to
+    G at its end, e = 1), cc and c2 = d cc / d |theta|^2 of the inverse Jacobians
+    (bend_torques), its moment m = B (theta/L - u0) and rel = G^T E. (Scalars, not the
+    records: a call passes these in registers where the records would take hundreds of
+    arguments.)"""
     g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
-    q = state.q[model.attach_element[a]]
-    start = a % 2 == 0
     if start:
         rw, rx, ry, rz, small = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
     else:
@@ -382,24 +394,32 @@ def boundary_turn(p, j, model, state, r):
         s = math.sqrt(s2)
         cc = 1.0 / t2 - rw / (2.0 * t * s)
         c2 = -1.0 / (t2 * t2) + 1.0 / (8.0 * t2 * s2) + rw / (4.0 * t2 * t * s)
-    il, u0, bend = model.voronoi_inv_rest_length[k], model.voronoi_rest_curvature[k], p.bend[j]
     m = (bend[0] * (tx * il - u0[0]), bend[1] * (ty * il - u0[1]), bend[2] * (tz * il - u0[2]))
     rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
     return (tx, ty, tz), cc, c2, m, rel, (-1.0 if start else 1.0)
 
 
 @njit(**INLINE)
+def boundary_point(p, j, model, state):
+    """Return (F, q, start, 1/L, u0, B) of joint j's boundary Voronoi point (boundary_turn's
+    arguments but R), as tuples."""
+    a = p.attach[j]
+    k = model.attach_vertex[a]
+    q, u0, bend = state.q[model.attach_element[a]], model.voronoi_rest_curvature[k], p.bend[j]
+    return (end_frame(model, state, a), (q[0], q[1], q[2], q[3]), a % 2 == 0, model.voronoi_inv_rest_length[k],
+            (u0[0], u0[1], u0[2]), (bend[0], bend[1], bend[2]))
+
+
+@njit(**INNER)
 def carried_torque(t, cc, c2, e, m, w, bw, step):
     """Return the change of the end element's torque tau_E = e J m along a step of a coordinate
     whose axis J maps to w (bw = B w / L): step (D_w J m + J B w / L) (settle_hinge)."""
-    if step == 0.0:   # (a joint balanced where evaluated, most of a net's at rest)
-        return 0.0, 0.0, 0.0
     dm = jacobian_rate(t, cc, c2, e, w, m)
     jb = inverse_jacobian(t, cc, e, bw)
     return step * (dm[0] + jb[0]), step * (dm[1] + jb[1]), step * (dm[2] + jb[2])
 
 
-@njit(**INLINE)
+@njit(**INNER)
 def node_torque(r, rel, te):
     """Return the torque on the node through the joint (X's components), -(F^T E) tau_E, given
     R, rel = G^T E and the end element's torque tau_E: the boundary point's energy depends on
@@ -410,105 +430,113 @@ def node_torque(r, rel, te):
 
 
 @njit(**INNER)
-def settle_hinge(p, j, model, state, x, prev, fric, inv_dt):
-    """Return (phi, node torque, tau_E) of hinge j, whose coordinate moves, by Newton's method
+def settle_hinge(point, a, c, ang, tq, x, prev, fric, moves):
+    """Return (phi, node torque, tau_E) of a hinge by Newton's method
     from x: the coordinate where its loads balance, the torque on the node (X's components)
-    and the body torque on the end element. With w = J a (J the inverse Jacobian of the
-    boundary point on the joint frame's side, inverse_jacobian) the generalised torque is
-    Q = -e w . m, its derivative -(D_w J a . m + w^T B w / L), and the end element's torque
-    tau_E = e J m changes by D_w J m + J B w / L per radian (jacobian_rate). A step is first
-    taken with the leading term w^T B w / L, which ends the iteration below NEWTON_TOL as
-    settle_joint's does; a larger one is taken again with the exact derivative, and if below
-    ONE_STEP without evaluating again: tau_E carried along it to first order (carried_torque),
-    the node receiving its opposite (node_torque), both within O(step^2) of their values at
-    the balance. (Where the spring table's slope is negative, the exact derivative is not
-    used.)"""
-    a = p.axis_a[j]
-    il, bend = model.voronoi_inv_rest_length[model.attach_vertex[p.attach[j]]], p.bend[j]
-    lo, hi = p.lower[j, 0], p.upper[j, 0]
+    and the body torque on the end element; point: its boundary point (boundary_point), a its
+    axis, c its coordinate's constants (axis_constants), ang / tq the spring tables. With
+    w = J a (J the inverse Jacobian of the boundary point on the joint frame's side,
+    inverse_jacobian) the generalised torque is Q = -e w . m, its derivative
+    -(D_w J a . m + w^T B w / L), and the end element's torque tau_E = e J m changes by
+    D_w J m + J B w / L per radian (jacobian_rate). A step is first taken with the leading
+    term w^T B w / L, which ends the iteration below NEWTON_TOL as settle_joint's does; a
+    larger one is taken again with the exact derivative, and if below ONE_STEP without
+    evaluating again: tau_E carried along it to first order (carried_torque), the node
+    receiving its opposite (node_torque), both within O(step^2) of their values at the
+    balance. (Where the spring table's slope is negative, the exact derivative is not used.
+    A hinge held by its friction, ``moves`` false, is evaluated where it is.)"""
+    f, q, start, il, u0, bend = point
     for it in range(NEWTON_STEPS):
         r = quat_exp(x * a[0], x * a[1], x * a[2])
-        t, cc, c2, m, rel, e = boundary_turn(p, j, model, state, r)
-        w = inverse_jacobian(t, cc, e, (a[0], a[1], a[2]))
+        t, cc, c2, m, rel, e = boundary_turn(f, q, start, il, u0, bend, r)
+        w = inverse_jacobian(t, cc, e, a)
         bw = (il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2])
-        g, spring, slope = axis_balance(p, j, 0, -e * dot3(w, m), x, prev, fric, inv_dt)
+        g, spring, slope = axis_balance(c, ang, tq, -e * dot3(w, m), x, prev, fric)
         lead = dot3(w, bw) + spring
-        step = min(max(x + g / lead, lo), hi) - x
+        step = min(max(x + g / lead, c[3]), c[4]) - x if moves else 0.0
         carried = 0.0
         if abs(step) > NEWTON_TOL and it < NEWTON_STEPS - 1:
-            stiff = dot3(jacobian_rate(t, cc, c2, e, w, (a[0], a[1], a[2])), m) + lead
+            stiff = dot3(jacobian_rate(t, cc, c2, e, w, a), m) + lead
             if slope < 0.0 or not stiff > 0.0:   # (far from a balance the elastic part may soften)
                 x += step
                 continue
-            step = min(max(x + g / stiff, lo), hi) - x
+            step = min(max(x + g / stiff, c[3]), c[4]) - x
             if abs(step) > ONE_STEP:
                 x += step
                 continue
             carried = step
         te = inverse_jacobian(t, cc, e, m)
-        dx, dy, dz = carried_torque(t, cc, c2, e, m, w, bw, carried)
-        te = (e * te[0] + dx, e * te[1] + dy, e * te[2] + dz)
+        te = (e * te[0], e * te[1], e * te[2])
+        if carried != 0.0:
+            d = carried_torque(t, cc, c2, e, m, w, bw, carried)
+            te = (te[0] + d[0], te[1] + d[1], te[2] + d[2])
         return x + carried, node_torque(r, rel, te), te
     return x, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
 
 
 @njit(**INNER)
-def settle_universal(p, j, model, state, phi, prev, moves, fric, inv_dt):
-    """Return (phi, node torque, tau_E) of universal joint j, as settle_hinge does for a hinge,
-    with its two coordinates (either may be held by its friction: ``moves``). Its first axis
-    c_0 = exp(-phi_1 b) a turns with the second coordinate, d c_0 / d phi_1 = -b x c_0, which
-    adds e (J d c_0/d phi_1) . m to the derivative's coupling of the two."""
-    il, bend, b = model.voronoi_inv_rest_length[model.attach_vertex[p.attach[j]]], p.bend[j], p.axis_b[j]
+def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
+    """Return (phi, node torque, tau_E) of a universal joint of axes a and b, as settle_hinge
+    does for a hinge, with its two coordinates (c0, c1 their constants; either may be held by
+    its friction: ``moves``). Its first axis exp(-phi_1 b) a turns with the second
+    coordinate, d/d phi_1 of it = -b x it, which adds e (J (d/d phi_1 of it)) . m to the
+    derivative's coupling of the two."""
+    f, q, start, il, u0, bend = point
     m0, m1 = moves[0], moves[1]
     x0, x1 = phi[0], phi[1]
     for it in range(NEWTON_STEPS):
-        r, c0, c1, _ = joint_turn(p, j, (x0, x1, 0.0))
-        t, cc, c2, m, rel, e = boundary_turn(p, j, model, state, r)
-        w0, w1 = inverse_jacobian(t, cc, e, c0), inverse_jacobian(t, cc, e, c1)
+        ra = quat_exp(x0 * a[0], x0 * a[1], x0 * a[2])
+        rb = quat_exp(x1 * b[0], x1 * b[1], x1 * b[2])
+        r = quat_mul(ra[0], ra[1], ra[2], ra[3], rb[0], rb[1], rb[2], rb[3])
+        k0 = quat_rotate_inv(rb[0], rb[1], rb[2], rb[3], a[0], a[1], a[2])   # the first axis in the joint frame
+        t, cc, c2, m, rel, e = boundary_turn(f, q, start, il, u0, bend, r)
+        w0, w1 = inverse_jacobian(t, cc, e, k0), inverse_jacobian(t, cc, e, b)
         bw0 = (il * bend[0] * w0[0], il * bend[1] * w0[1], il * bend[2] * w0[2])
         bw1 = (il * bend[0] * w1[0], il * bend[1] * w1[1], il * bend[2] * w1[2])
-        g0, s0, slope0 = axis_balance(p, j, 0, -e * dot3(w0, m), x0, prev[0], fric[0], inv_dt)
-        g1, s1, slope1 = axis_balance(p, j, 1, -e * dot3(w1, m), x1, prev[1], fric[1], inv_dt)
+        g0, s0, slope0 = axis_balance(c0, ang, tq, -e * dot3(w0, m), x0, prev[0], fric[0])
+        g1, s1, slope1 = axis_balance(c1, ang, tq, -e * dot3(w1, m), x1, prev[1], fric[1])
         g0, g1 = (g0 if m0 else 0.0), (g1 if m1 else 0.0)
         a00 = dot3(w0, bw0) + s0 if m0 else 1.0
         a11 = dot3(w1, bw1) + s1 if m1 else 1.0
         a01 = dot3(w0, bw1) if m0 and m1 else 0.0
         step = solve_sym3(a00, a01, 0.0, a11, 0.0, 1.0, g0, g1, 0.0)
-        n0, n1 = clamp_step(p, j, 0, m0, x0, step[0]) - x0, clamp_step(p, j, 1, m1, x1, step[1]) - x1
+        n0 = min(max(x0 + step[0], c0[3]), c0[4]) - x0 if m0 else 0.0
+        n1 = min(max(x1 + step[1], c1[3]), c1[4]) - x1 if m1 else 0.0
         d0 = d1 = 0.0
         if max(abs(n0), abs(n1)) > NEWTON_TOL and it < NEWTON_STEPS - 1:
             if m0:
-                a00 += dot3(jacobian_rate(t, cc, c2, e, w0, c0), m)
+                a00 += dot3(jacobian_rate(t, cc, c2, e, w0, k0), m)
             if m1:
-                a11 += dot3(jacobian_rate(t, cc, c2, e, w1, c1), m)
+                a11 += dot3(jacobian_rate(t, cc, c2, e, w1, b), m)
             if m0 and m1:
-                bc = cross(b[0], b[1], b[2], c0[0], c0[1], c0[2])
-                jbc = inverse_jacobian(t, cc, e, bc)
-                a01 += dot3(jacobian_rate(t, cc, c2, e, w1, c0), m) - e * dot3(jbc, m)
+                bk = cross(b[0], b[1], b[2], k0[0], k0[1], k0[2])
+                a01 += dot3(jacobian_rate(t, cc, c2, e, w1, k0), m) - e * dot3(inverse_jacobian(t, cc, e, bk), m)
             if (m0 and slope0 < 0.0) or (m1 and slope1 < 0.0) or not (a00 > 0.0 and a00 * a11 > a01 * a01):
                 x0, x1 = x0 + n0, x1 + n1
                 continue
             step = solve_sym3(a00, a01, 0.0, a11, 0.0, 1.0, g0, g1, 0.0)
-            n0, n1 = clamp_step(p, j, 0, m0, x0, step[0]) - x0, clamp_step(p, j, 1, m1, x1, step[1]) - x1
+            n0 = min(max(x0 + step[0], c0[3]), c0[4]) - x0 if m0 else 0.0
+            n1 = min(max(x1 + step[1], c1[3]), c1[4]) - x1 if m1 else 0.0
             if max(abs(n0), abs(n1)) > ONE_STEP:
                 x0, x1 = x0 + n0, x1 + n1
                 continue
             d0, d1 = n0, n1
         te = inverse_jacobian(t, cc, e, m)
-        a = carried_torque(t, cc, c2, e, m, w0, bw0, d0)
-        c = carried_torque(t, cc, c2, e, m, w1, bw1, d1)
-        te = (e * te[0] + a[0] + c[0], e * te[1] + a[1] + c[1], e * te[2] + a[2] + c[2])
+        te = (e * te[0], e * te[1], e * te[2])
+        if d0 != 0.0 or d1 != 0.0:
+            u = (d0 * w0[0] + d1 * w1[0], d0 * w0[1] + d1 * w1[1], d0 * w0[2] + d1 * w1[2])
+            bu = (il * bend[0] * u[0], il * bend[1] * u[1], il * bend[2] * u[2])
+            d = carried_torque(t, cc, c2, e, m, u, bu, 1.0)   # (linear in the direction)
+            te = (te[0] + d[0], te[1] + d[1], te[2] + d[2])
         return (x0 + d0, x1 + d1, 0.0), node_torque(r, rel, te), te
     return (x0, x1, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
 
 
-@njit(**INNER)
-def settle_joint(p, j, model, state, dt):
-    """Return (phi, friction, moves, torque, tau_E) of joint j: its coordinates where its
-    loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque
-    on each and whether each moves (3-tuples), and at phi the torque on the node through the
-    joint (X's components: R tau_G) and the body torque on the end element (boundary_torques;
-    a hinge that moves: settle_hinge)."""
+@njit(**INLINE)
+def start_joint(p, j, model, state, dt):
+    """Return (phi^-, moves, friction, phi, 1/dt) of joint j (settle_joint): its coordinates at
+    the last evaluation, dt before this one; whether each may move and the friction torque it
+    then meets; where its Newton iteration starts, those carried on at their last rate."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
@@ -528,12 +556,19 @@ def settle_joint(p, j, model, state, dt):
     phi = within_cone(p, j, (clamp_step(p, j, 0, m0, prev[0], ahead * p.rate[j, 0]),
                              clamp_step(p, j, 1, m1, prev[1], ahead * p.rate[j, 1]),
                              clamp_step(p, j, 2, m2, prev[2], ahead * p.rate[j, 2])))
-    if n == HINGE and m0:
-        x, torque, te = settle_hinge(p, j, model, state, phi[0], prev[0], f0, inv_dt)
-        return (x, phi[1], phi[2]), (f0, f1, f2), (m0, m1, m2), torque, te
-    if n == UNIVERSAL and (m0 or m1):
-        x, torque, te = settle_universal(p, j, model, state, phi, prev, (m0, m1), (f0, f1), inv_dt)
-        return x, (f0, f1, f2), (m0, m1, m2), torque, te
+    return prev, (m0, m1, m2), (f0, f1, f2), phi, inv_dt
+
+
+@njit(**INNER)
+def settle_joint(p, j, model, state, dt):
+    """Return (phi, friction, moves, torque, tau_E) of joint j: its coordinates where its
+    loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque
+    on each and whether each moves (3-tuples), and at phi the torque on the node through the
+    joint (X's components: R tau_G) and the body torque on the end element, by Newton's
+    method with the leading term of the derivative (a hinge or universal joint: settle_axes)."""
+    prev, moves, fric, phi, inv_dt = start_joint(p, j, model, state, dt)
+    m0, m1, m2 = moves
+    f0, f1, f2 = fric
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
         tau, te, _, _, rel = boundary_torques(p, j, model, state, r)
@@ -552,7 +587,38 @@ def settle_joint(p, j, model, state, dt):
         if not size > NEWTON_TOL or it == NEWTON_STEPS - 1:
             break
         phi = new
-    return phi, (f0, f1, f2), (m0, m1, m2), quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te
+    return phi, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te
+
+
+@njit(**INLINE)
+def settle_axes(p, j, model, state, dt):
+    """Return settle_joint's values for hinge or universal joint j by settle_hinge or
+    settle_universal (a coordinate held by its friction does not move). (Inlined into the
+    load kernel's loop, as start_joint is into it and into settle_joint: a call passing the
+    records passes hundreds of arguments, about 40 ns a joint where LLVM does not inline it,
+    and settle_joint with these in it was too long for LLVM to; the turning joints' functions
+    take numbers, which a call passes in registers.)"""
+    prev, moves, fric, phi, inv_dt = start_joint(p, j, model, state, dt)
+    a, point = p.axis_a[j], boundary_point(p, j, model, state)
+    if p.dofs[j] == HINGE:
+        x, torque, te = settle_hinge(point, (a[0], a[1], a[2]), axis_constants(p, j, 0, inv_dt), p.table_angle,
+                                     p.table_torque, phi[0], prev[0], fric[0], moves[0])
+        return (x, phi[1], phi[2]), fric, moves, torque, te
+    b = p.axis_b[j]
+    x, torque, te = settle_universal(point, (a[0], a[1], a[2]), (b[0], b[1], b[2]), axis_constants(p, j, 0, inv_dt),
+                                     axis_constants(p, j, 1, inv_dt), p.table_angle, p.table_torque, phi, prev,
+                                     (moves[0], moves[1]), (fric[0], fric[1]))
+    return x, fric, moves, torque, te
+
+
+@njit(**INLINE)
+def settled(p, j, model, state, dt):
+    """Return settle_joint's values for joint j as the load kernel settles it: settle_axes for
+    a hinge or a universal joint, the iteration for a ball joint. (The energy and the fields
+    take the iteration for every kind: articulation_energy.)"""
+    if BALLS and p.dofs[j] == BALL:
+        return settle_joint(p, j, model, state, dt)
+    return settle_axes(p, j, model, state, dt)
 
 
 @load_kernel(ArticulationParams)
@@ -566,7 +632,7 @@ def add_articulations(p, model, state, loads):
     p.last[0] = state.clock[0]
     spent = 0.0
     for j in range(p.attach.shape[0]):
-        phi, fric, moves, (tx, ty, tz), te = settle_joint(p, j, model, state, dt)
+        phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt)
         a = p.attach[j]
         e = model.attach_element[a]
         loads.tau[e, 0] += te[0]
@@ -592,8 +658,10 @@ def add_articulations(p, model, state, loads):
 def articulation_energy(p, model, state):
     """Return the bending energy of the articulated ends' boundary Voronoi points, L/2 kappa^T
     B kappa, plus the joints' springs, k (phi - phi0)^2 / 2 and the integral of their tables'
-    torque from 0, with each joint settled as the
-    next evaluation of the loads will settle it (nothing is stored)."""
+    torque from 0, with each joint settled where the next evaluation of the loads will settle
+    it (nothing is stored), by settle_joint's iteration for every kind (a hinge's or universal
+    joint's exact step, settle_axes, ends within the iteration's tolerance of the same
+    balance, where the energy is stationary: the two differ by its square)."""
     dt = state.clock[0] - p.last[0]
     total = 0.0
     for j in range(p.attach.shape[0]):
