@@ -59,8 +59,8 @@ from .specialise import Variants
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
 NEWTON_STEPS = 40                  # at most; a balance converges in a few
 NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
-ONE_STEP = 1e-7                    # rad: a hinge's exact Newton step below it is taken without evaluating
-                                   # again, its loads carried to first order (their error O(step^2))
+ONE_STEP = 1e-7                    # rad: a hinge's or universal joint's exact Newton step below it is taken
+                                   # without evaluating again, its loads carried to first order (error O(step^2))
 
 # Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
 # needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
