@@ -534,11 +534,15 @@ def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
 
 @njit(**INLINE)
 def start_joint(p, j, model, state, dt):
-    """Return (phi^-, moves, friction, phi, 1/dt) of joint j (settle_joint): its coordinates at
-    the last evaluation, dt before this one; whether each may move and the friction torque it
-    then meets; where its Newton iteration starts, those carried on at their last rate."""
+    """Return (phi^-, moves, friction, phi, 1/dt, held) of joint j (settle_joint): its
+    coordinates at the last evaluation, dt before this one; whether each may move and the
+    friction torque it then meets; where its Newton iteration starts, those carried on at their
+    last rate; and where the friction was weighed at phi^- (a hinge or universal joint with
+    friction or a damper), the loads there (whether, the torque on the node, tau_E): those of
+    the joint if no coordinate moves (settle_axes)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
+    held = (False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
     elif BALLS and n == BALL:
@@ -546,7 +550,8 @@ def start_joint(p, j, model, state, dt):
         m1, m2 = m0, m0
     else:
         r, c0, c1, c2 = joint_turn(p, j, prev)
-        tau = boundary_torques(p, j, model, state, r)[0]
+        tau, te, _, _, _ = boundary_torques(p, j, model, state, r)
+        held = (True, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te)
         m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
         m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
         m2, f2 = start_motion(p, j, 2, dot3(c2, tau), prev, dt)
@@ -556,7 +561,7 @@ def start_joint(p, j, model, state, dt):
     phi = within_cone(p, j, (clamp_step(p, j, 0, m0, prev[0], ahead * p.rate[j, 0]),
                              clamp_step(p, j, 1, m1, prev[1], ahead * p.rate[j, 1]),
                              clamp_step(p, j, 2, m2, prev[2], ahead * p.rate[j, 2])))
-    return prev, (m0, m1, m2), (f0, f1, f2), phi, inv_dt
+    return prev, (m0, m1, m2), (f0, f1, f2), phi, inv_dt, held
 
 
 @njit(**INNER)
@@ -566,7 +571,7 @@ def settle_joint(p, j, model, state, dt):
     on each and whether each moves (3-tuples), and at phi the torque on the node through the
     joint (X's components: R tau_G) and the body torque on the end element, by Newton's
     method with the leading term of the derivative (a hinge or universal joint: settle_axes)."""
-    prev, moves, fric, phi, inv_dt = start_joint(p, j, model, state, dt)
+    prev, moves, fric, phi, inv_dt, _ = start_joint(p, j, model, state, dt)
     m0, m1, m2 = moves
     f0, f1, f2 = fric
     for it in range(NEWTON_STEPS):
@@ -593,12 +598,15 @@ def settle_joint(p, j, model, state, dt):
 @njit(**INLINE)
 def settle_axes(p, j, model, state, dt):
     """Return settle_joint's values for hinge or universal joint j by settle_hinge or
-    settle_universal (a coordinate held by its friction does not move). (Inlined into the
+    settle_universal (a coordinate held by its friction does not move; a joint held whole
+    takes the loads its friction was weighed with, at the same angles). (Inlined into the
     load kernel's loop, as start_joint is into it and into settle_joint: a call passing the
     records passes hundreds of arguments, about 40 ns a joint where LLVM does not inline it,
     and settle_joint with these in it was too long for LLVM to; the turning joints' functions
     take numbers, which a call passes in registers.)"""
-    prev, moves, fric, phi, inv_dt = start_joint(p, j, model, state, dt)
+    prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt)
+    if held[0] and not (moves[0] or moves[1]):   # held where it was: its loads are the friction check's
+        return phi, fric, moves, held[1], held[2]
     a, point = p.axis_a[j], boundary_point(p, j, model, state)
     if p.dofs[j] == HINGE:
         x, torque, te = settle_hinge(point, (a[0], a[1], a[2]), axis_constants(p, j, 0, inv_dt), p.table_angle,
