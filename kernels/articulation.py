@@ -53,7 +53,7 @@ from .compose import load_kernel
 from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
-    relative_rotation, small_rotation, solve_sym3
+    relative_rotation, rotation_of, solve_sym3
 from .specialise import Variants
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
@@ -383,17 +383,14 @@ def boundary_turn(f, q, start, il, u0, bend, r):
         rw, rx, ry, rz, small = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
     else:
         rw, rx, ry, rz, small = relative_quat(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
+    tx, ty, tz, cc = rotation_of(rw, rx, ry, rz, small)
+    t2 = tx * tx + ty * ty + tz * tz
     if small:
-        tx, ty, tz, cc = small_rotation(rw, rx, ry, rz)
-        t2 = tx * tx + ty * ty + tz * tz
         c2 = 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
-    else:   # with s = sin(t/2) = |r_vec|, w = cos(t/2): cc = 1/t^2 - w/(2 t s)
-        tx, ty, tz = quat_log(rw, rx, ry, rz)
-        t2 = tx * tx + ty * ty + tz * tz
-        t, s2 = math.sqrt(t2), rx * rx + ry * ry + rz * rz
-        s = math.sqrt(s2)
-        cc = 1.0 / t2 - rw / (2.0 * t * s)
-        c2 = -1.0 / (t2 * t2) + 1.0 / (8.0 * t2 * s2) + rw / (4.0 * t2 * t * s)
+    else:   # d/d t^2 of cc = 1/t^2 - w/(2 t s), s = sin(t/2) = |r_vec|, w = cos(t/2)
+        s2 = rx * rx + ry * ry + rz * rz
+        ts = math.sqrt(t2 * s2)
+        c2 = -1.0 / (t2 * t2) + 1.0 / (8.0 * t2 * s2) + rw / (4.0 * t2 * ts)
     m = (bend[0] * (tx * il - u0[0]), bend[1] * (ty * il - u0[1]), bend[2] * (tz * il - u0[2]))
     rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
     return (tx, ty, tz), cc, c2, m, rel, (-1.0 if start else 1.0)
@@ -408,6 +405,12 @@ def boundary_point(p, j, model, state):
     q, u0, bend = state.q[model.attach_element[a]], model.voronoi_rest_curvature[k], p.bend[j]
     return (end_frame(model, state, a), (q[0], q[1], q[2], q[3]), a % 2 == 0, model.voronoi_inv_rest_length[k],
             (u0[0], u0[1], u0[2]), (bend[0], bend[1], bend[2]))
+
+
+@njit(**INLINE)
+def bend_rate(il, bend, w):
+    """Return B w / L (B the boundary point's stiffness, il = 1/L)."""
+    return il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2]
 
 
 @njit(**INNER)
@@ -430,7 +433,7 @@ def node_torque(r, rel, te):
 
 
 @njit(**INNER)
-def settle_hinge(point, a, c, ang, tq, x, prev, fric, moves):
+def settle_hinge(point, a, c, ang, tq, x, prev, fric):
     """Return (phi, node torque, tau_E) of a hinge by Newton's method
     from x: the coordinate where its loads balance, the torque on the node (X's components)
     and the body torque on the end element; point: its boundary point (boundary_point), a its
@@ -444,16 +447,16 @@ def settle_hinge(point, a, c, ang, tq, x, prev, fric, moves):
     evaluating again: tau_E carried along it to first order (carried_torque), the node
     receiving its opposite (node_torque), both within O(step^2) of their values at the
     balance. (Where the spring table's slope is negative, the exact derivative is not used.
-    A hinge held by its friction, ``moves`` false, is evaluated where it is.)"""
+    A hinge held by its friction does not come here: settle_axes.)"""
     f, q, start, il, u0, bend = point
     for it in range(NEWTON_STEPS):
         r = quat_exp(x * a[0], x * a[1], x * a[2])
         t, cc, c2, m, rel, e = boundary_turn(f, q, start, il, u0, bend, r)
         w = inverse_jacobian(t, cc, e, a)
-        bw = (il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2])
+        bw = bend_rate(il, bend, w)
         g, spring, slope = axis_balance(c, ang, tq, -e * dot3(w, m), x, prev, fric)
         lead = dot3(w, bw) + spring
-        step = min(max(x + g / lead, c[3]), c[4]) - x if moves else 0.0
+        step = min(max(x + g / lead, c[3]), c[4]) - x
         carried = 0.0
         if abs(step) > NEWTON_TOL and it < NEWTON_STEPS - 1:
             stiff = dot3(jacobian_rate(t, cc, c2, e, w, a), m) + lead
@@ -491,8 +494,7 @@ def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
         k0 = quat_rotate_inv(rb[0], rb[1], rb[2], rb[3], a[0], a[1], a[2])   # the first axis in the joint frame
         t, cc, c2, m, rel, e = boundary_turn(f, q, start, il, u0, bend, r)
         w0, w1 = inverse_jacobian(t, cc, e, k0), inverse_jacobian(t, cc, e, b)
-        bw0 = (il * bend[0] * w0[0], il * bend[1] * w0[1], il * bend[2] * w0[2])
-        bw1 = (il * bend[0] * w1[0], il * bend[1] * w1[1], il * bend[2] * w1[2])
+        bw0, bw1 = bend_rate(il, bend, w0), bend_rate(il, bend, w1)
         g0, s0, slope0 = axis_balance(c0, ang, tq, -e * dot3(w0, m), x0, prev[0], fric[0])
         g1, s1, slope1 = axis_balance(c1, ang, tq, -e * dot3(w1, m), x1, prev[1], fric[1])
         g0, g1 = (g0 if m0 else 0.0), (g1 if m1 else 0.0)
@@ -525,8 +527,7 @@ def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
         te = (e * te[0], e * te[1], e * te[2])
         if d0 != 0.0 or d1 != 0.0:
             u = (d0 * w0[0] + d1 * w1[0], d0 * w0[1] + d1 * w1[1], d0 * w0[2] + d1 * w1[2])
-            bu = (il * bend[0] * u[0], il * bend[1] * u[1], il * bend[2] * u[2])
-            d = carried_torque(t, cc, c2, e, m, u, bu, 1.0)   # (linear in the direction)
+            d = carried_torque(t, cc, c2, e, m, u, bend_rate(il, bend, u), 1.0)   # (linear in the direction)
             te = (te[0] + d[0], te[1] + d[1], te[2] + d[2])
         return (x0 + d0, x1 + d1, 0.0), node_torque(r, rel, te), te
     return (x0, x1, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
@@ -538,11 +539,11 @@ def start_joint(p, j, model, state, dt):
     coordinates at the last evaluation, dt before this one; whether each may move and the
     friction torque it then meets; where its Newton iteration starts, those carried on at their
     last rate; and where the friction was weighed at phi^- (a hinge or universal joint with
-    friction or a damper), the loads there (whether, the torque on the node, tau_E): those of
-    the joint if no coordinate moves (settle_axes)."""
+    friction or a damper), what was found there (whether, R, tau_G, tau_E): the joint's loads
+    if no coordinate moves (settle_axes)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
-    held = (False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    held = (False, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
     elif BALLS and n == BALL:
@@ -551,7 +552,7 @@ def start_joint(p, j, model, state, dt):
     else:
         r, c0, c1, c2 = joint_turn(p, j, prev)
         tau, te, _, _, _ = boundary_torques(p, j, model, state, r)
-        held = (True, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te)
+        held = (True, r, tau, te)
         m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
         m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
         m2, f2 = start_motion(p, j, 2, dot3(c2, tau), prev, dt)
@@ -606,11 +607,12 @@ def settle_axes(p, j, model, state, dt):
     take numbers, which a call passes in registers.)"""
     prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt)
     if held[0] and not (moves[0] or moves[1]):   # held where it was: its loads are the friction check's
-        return phi, fric, moves, held[1], held[2]
+        r, tau = held[1], held[2]
+        return phi, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
     a, point = p.axis_a[j], boundary_point(p, j, model, state)
     if p.dofs[j] == HINGE:
         x, torque, te = settle_hinge(point, (a[0], a[1], a[2]), axis_constants(p, j, 0, inv_dt), p.table_angle,
-                                     p.table_torque, phi[0], prev[0], fric[0], moves[0])
+                                     p.table_torque, phi[0], prev[0], fric[0])
         return (x, phi[1], phi[2]), fric, moves, torque, te
     b = p.axis_b[j]
     x, torque, te = settle_universal(point, (a[0], a[1], a[2]), (b[0], b[1], b[2]), axis_constants(p, j, 0, inv_dt),

@@ -127,6 +127,13 @@ def relative_rotation(aw, ax, ay, az, bw, bx, by, bz):
     """Return (theta, c): the rotation vector of A^T B (its components agree in both frames)
     and c(theta) = 1/theta^2 - (1 + cos theta)/(2 theta sin theta) of the inverse Jacobians."""
     rw, rx, ry, rz, small = relative_quat(aw, ax, ay, az, bw, bx, by, bz)
+    return rotation_of(rw, rx, ry, rz, small)
+
+
+@njit(**OPTS, inline="always")
+def rotation_of(rw, rx, ry, rz, small):
+    """Return relative_rotation's (theta, c) of the unit quaternion r (r_w >= 0) and whether
+    |theta| < 0.2, as relative_quat gives them (inlined: relative_rotation's code as before)."""
     if small:
         return small_rotation(rw, rx, ry, rz)
     s2 = rx * rx + ry * ry + rz * rz
