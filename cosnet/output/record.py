@@ -136,11 +136,15 @@ def energy_header() -> str:
     return ",".join(("frame", "time", *ENERGY_COLUMNS)) + "\n"
 
 
-def energy_row(k, sim) -> str:
+def energy_values(sim) -> tuple:
+    """The energy budget of sim now, in ENERGY_COLUMNS' order (J)."""
     parts = sim.energy_parts()
-    values = (parts["kinetic"], parts["strain"], parts["potential"],
-              *(getattr(sim, read)() for read, _ in ACCOUNTS.values()))
-    return ",".join([str(k), repr(sim.time)] + [repr(float(v)) for v in values]) + "\n"
+    return (parts["kinetic"], parts["strain"], parts["potential"],
+            *(getattr(sim, read)() for read, _ in ACCOUNTS.values()))
+
+
+def energy_row(k, t, values) -> str:
+    return ",".join([str(k), repr(t)] + [repr(float(v)) for v in values]) + "\n"
 
 
 def keep_probe_rows(path: Path, header: str, last_frame: int):
@@ -331,11 +335,15 @@ class Recorder:
     def write(self):
         """Write the current state as the next frame, its probes row and the checkpoint."""
         sim = self.sim
+        # the energies first: at a cold start their kernels compile here while the process
+        # compiling alongside takes the step's kernels; the frame's reactions (a drive's) need
+        # the whole step, and energies compiled after it kept this process busy alone at the end
+        energy = energy_values(sim)
         self.k = self.writer.write(sim)
         with open(self.out / PROBES, "a") as f:
             f.write(probe_row(self.k, sim, self.probes))
         with open(self.out / ENERGY, "a") as f:
-            f.write(energy_row(self.k, sim))
+            f.write(energy_row(self.k, sim.time, energy))
         sim.save_checkpoint(self.out / CHECKPOINT)
         if self.callback is not None:
             self.callback(sim)
