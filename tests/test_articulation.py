@@ -239,6 +239,37 @@ def test_ball_joint_keeps_angular_momentum_about_the_vertical():
     assert np.abs(reaction).max() < 1e-8 * scale    # a free ball joint passes no moment
 
 
+def test_loose_ball_joint_settles_in_closed_form_where_the_iteration_does():
+    """A ball joint with nothing on it (no spring, friction, damper or cone) balances where its
+    boundary point is unstrained, found in closed form: an arm swinging in a cone and spinning
+    about its own axis, its joint twisting on past pi, moves as the same arm whose joint
+    carries a spring table of zero torque (which the iteration settles), to the iteration's
+    tolerance; the loose joint passes no moment at all, and its angle goes on past pi
+    without a jump."""
+    def spinning(joint):
+        sim, arm, tip = hanging_arm(0.3, joint)
+        spin = np.array([0.0, 0.0, 40.0])
+        sim.line_velocities(arm)[:] = np.cross(spin, sim.state.x[sim.vertex_range(arm)])
+        sim.node_velocity(tip)[:] = np.cross(spin, sim.state.node_x[tip.index])
+        for i, d in enumerate(sim.line_directors(arm)):
+            sim.line_angular_velocities(arm)[i] = d.T @ spin
+        angles, reactions = [], []
+        for _ in range(60):
+            sim.run(steps=500)
+            s = cosnet.joint_state(sim, arm, "start")
+            angles.append(s["angle"])
+            reactions.append(s["reaction"])
+        return sim, np.array(angles), np.array(reactions)
+    loose, angles, reactions = spinning(cosnet.Ball())
+    iterated, angles_it, _ = spinning(cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])))
+    assert np.linalg.norm(angles[-1]) > math.pi + 0.5                  # turned on past pi
+    assert np.abs(np.diff(angles, axis=0)).max() < 0.5                 # no jump of 2 pi on the way
+    assert np.abs(angles - angles_it).max() < 1e-8
+    assert np.abs(loose.state.x - iterated.state.x).max() < 1e-9       # m, on a 1 m arm
+    assert np.abs(loose.state.q - iterated.state.q).max() < 1e-8
+    assert not reactions.any()
+
+
 def test_checkpoint_carries_the_joint_state(tmp_path):
     def sliding():
         _, _, moment = horizontal_arm()
