@@ -290,7 +290,7 @@ def fluid_cost() -> str:
     d = _json("fluid.json")
     rows = [[str(r["elements"]), str(r.get("lines", 1)), r["case"], f"{r['us_per_step']:.3g}",
              f"{r['ns_per_element_step']:.3g}",
-             "–" if r["case"].startswith("dry") else f"+{r['over_dry_percent']:.0f} %"] for r in d["runs"]]
+             "–" if r["case"].startswith("dry") else f"{r['over_dry_percent']:+.0f} %"] for r in d["runs"]]
     return _table(["elements", "lines", "the wire", "µs per step", "ns per element-step", "over the dry step"],
                   rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
@@ -315,7 +315,7 @@ def moordyn() -> str:
 def joints_cost() -> str:
     d = _json("joints.json")
     rows = [[str(r["links"]), str(r.get("elements_per_link", 5)), r["junctions"], f"{r['us_per_step']:.3g}",
-             "–" if r["junctions"] == "welded" else f"+{r['over_weld_percent']:.0f} %",
+             "–" if r["junctions"] == "welded" else f"{r['over_weld_percent']:+.0f} %",
              "–" if r["junctions"] == "welded" else f"{r['us_per_joint']:.2g}", f"{r['stable_dt_over_weld']:.3g}"]
             for r in d["cost"]]
     head = ["links", "elements per link", "junctions", "µs per step", "over the welded chain", "µs per joint",
@@ -334,7 +334,7 @@ def rings_cost() -> str:
 def sheaves_cost() -> str:
     d = _json("sheaves.json")
     rows = [[str(r["per_radius"]), str(r["elements"]), str(r["engaged"]), f"{r['us_bare']:.3g}",
-             f"{r['us_sheave']:.3g}", f"+{r['over_percent']:.0f} %", f"{r['us_per_engaged']:.2g}"] for r in d["cost"]]
+             f"{r['us_sheave']:.3g}", f"{r['over_percent']:+.0f} %", f"{r['us_per_engaged']:.2g}"] for r in d["cost"]]
     head = ["elements per radius", "elements", "vertices on the rim", "µs per step, bare rope",
             "µs per step, over the sheave", "over the bare rope", "µs per vertex on the rim"]
     return _table(head, rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
