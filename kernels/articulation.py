@@ -34,7 +34,8 @@ order (settle_hinge), one evaluation of the boundary point a step where two were
 universal joint likewise (settle_universal; a ball joint so settled measured no faster:
 three coordinates' exact derivative costs about what an evaluation does). A loose ball joint,
 nothing on R but the boundary point, needs no iteration: it balances where that point is
-unstrained, R in closed form (loose_turn), and passes no torque. The
+unstrained, R in closed form (loose_turn), and passes no torque; with a cone, so while that
+balance lies within it. The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
 (tens of seconds for this module). coordinate_balance, called three times in each Newton step,
@@ -625,23 +626,24 @@ def settle_axes(p, j, model, state, dt):
 
 @njit(**INLINE)
 def loose_ball(p, j):
-    """Return whether ball joint j turns freely: no spring, spring table, damper, friction,
-    limit or cone."""
+    """Return whether ball joint j turns freely but for its cone: no spring, spring table,
+    damper, friction or limit."""
     held = 0.0
     for i in range(3):
         held += abs(p.stiffness[j, i]) + p.static[j, i] + p.kinetic[j, i] + p.damping[j, i]
         held += 0.0 if p.lower[j, i] == -math.inf and p.upper[j, i] == math.inf else 1.0
-    return held == 0.0 and p.table_offsets[3 * j + 3] == p.table_offsets[3 * j] and not p.cone[j] < math.pi
+    return held == 0.0 and p.table_offsets[3 * j + 3] == p.table_offsets[3 * j]
 
 
 @njit(**INNER)
-def loose_turn(f, q, start, il, u0, prev):
-    """Return the coordinates phi of a loose ball joint (loose_ball) given its boundary point
-    (boundary_point's F, q, start, 1/L, u0) and phi^- = prev: with nothing on R but the
-    boundary point, the balance is where that point is unstrained, theta = L u0, G^T E =
+def loose_turn(f, q, start, il, u0, prev, cone):
+    """Return (phi, within) of a loose ball joint (loose_ball) given its boundary point
+    (boundary_point's F, q, start, 1/L, u0), phi^- = prev and its cone: with nothing on R but
+    the boundary point, the balance is where that point is unstrained, theta = L u0, G^T E =
     exp(L u0) at a line's start (E^T G at its end), so R = F^T E exp(-L u0) (exp(L u0)), in
-    closed form. phi is R's rotation vector on the branch nearest prev (a turn past pi goes
-    on rather than jumping back by 2 pi)."""
+    closed form; it is the joint's balance if R's d3 is within the cone (``within``), which
+    then does not act. phi is R's rotation vector on the branch nearest prev (a turn past pi
+    goes on rather than jumping back by 2 pi)."""
     rw, rx, ry, rz, _ = relative_quat(f[0], f[1], f[2], f[3], q[0], q[1], q[2], q[3])   # F^T E
     s = -1.0 / il if start else 1.0 / il
     e = quat_exp(s * u0[0], s * u0[1], s * u0[2])
@@ -652,22 +654,25 @@ def loose_turn(f, q, start, il, u0, prev):
         turns = math.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) / t - t) / (2.0 * math.pi) + 0.5)
         k = 1.0 + 2.0 * math.pi * turns / t
         tx, ty, tz = k * tx, k * ty, k * tz
-    return tx, ty, tz
+    # d3 of R in X, its third component 1 - 2 (x^2 + y^2): the cosine of its tilt
+    within = not cone < math.pi or 1.0 - 2.0 * (r[1] * r[1] + r[2] * r[2]) >= math.cos(cone)
+    return (tx, ty, tz), within
 
 
 @njit(**INLINE)
 def settled(p, j, model, state, dt):
     """Return settle_joint's values for joint j as the load kernel settles it: settle_axes for
     a hinge or a universal joint, the iteration for a ball joint, and a loose ball joint in
-    closed form (loose_turn: its boundary point then passes no torque, to the line end or
-    the node). (The energy and the fields take the iteration for every kind:
-    articulation_energy.)"""
+    closed form where it balances within its cone (loose_turn: its boundary point then
+    passes no torque, to the line end or the node). (The energy and the fields take the
+    iteration for every kind: articulation_energy.)"""
     if BALLS and p.dofs[j] == BALL:
         if loose_ball(p, j):
             f, q, start, il, u0, _ = boundary_point(p, j, model, state)
-            zero = (0.0, 0.0, 0.0)
-            return (loose_turn(f, q, start, il, u0, (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])), zero,
-                    (True, True, True), zero, zero)
+            phi, within = loose_turn(f, q, start, il, u0, (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), p.cone[j])
+            if within:
+                zero = (0.0, 0.0, 0.0)
+                return phi, zero, (True, True, True), zero, zero
         return settle_joint(p, j, model, state, dt)
     return settle_axes(p, j, model, state, dt)
 

@@ -240,12 +240,13 @@ def test_ball_joint_keeps_angular_momentum_about_the_vertical():
 
 
 def test_loose_ball_joint_settles_in_closed_form_where_the_iteration_does():
-    """A ball joint with nothing on it (no spring, friction, damper or cone) balances where its
+    """A ball joint with nothing on it (no spring, friction or damper) balances where its
     boundary point is unstrained, found in closed form: an arm swinging in a cone and spinning
     about its own axis, its joint twisting on past pi, moves as the same arm whose joint
     carries a spring table of zero torque (which the iteration settles), to the iteration's
-    tolerance; the loose joint passes no moment at all, and its angle goes on past pi
-    without a jump."""
+    tolerance, and exactly as one whose cone it never reaches; the loose joint passes no
+    moment at all, and its angle goes on past pi without a jump. (test_ball_joint_holds_its_cone:
+    a cone reached.)"""
     def spinning(joint):
         sim, arm, tip = hanging_arm(0.3, joint)
         spin = np.array([0.0, 0.0, 40.0])
@@ -262,6 +263,8 @@ def test_loose_ball_joint_settles_in_closed_form_where_the_iteration_does():
         return sim, np.array(angles), np.array(reactions)
     loose, angles, reactions = spinning(cosnet.Ball())
     iterated, angles_it, _ = spinning(cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])))
+    coned, angles_coned, _ = spinning(cosnet.Ball(cone=3.0))   # a cone the swing never reaches: no part
+    assert np.array_equal(angles_coned, angles) and np.array_equal(coned.state.q, loose.state.q)
     assert np.linalg.norm(angles[-1]) > math.pi + 0.5                  # turned on past pi
     assert np.abs(np.diff(angles, axis=0)).max() < 0.5                 # no jump of 2 pi on the way
     assert np.abs(angles - angles_it).max() < 1e-8
