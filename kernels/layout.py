@@ -176,17 +176,23 @@ _SCALARS = (bool, int, float, np.bool_, np.integer, np.floating)
 
 def typed_call(kernel, *args):
     """Call the njit function ``kernel`` with ``args`` through its overload for the types the
-    stepper gives the same records (record_type for a Model, State or Loads, numba's typeof
-    otherwise), compiled or loaded if need be. Called through numba's own dispatch, a kernel
-    taking a model with an empty or one-row array (a net without active lines, a single node)
-    types it row-major, and every kernel it calls is compiled a second time for the step.
-    Returns None without calling where TYPING_ONLY is set."""
+    stepper gives the same records (typed_entry). Returns None without calling where
+    TYPING_ONLY is set."""
     if TYPING_ONLY[0]:
         return None
+    return typed_entry(kernel, *args)(*args)
+
+
+def typed_entry(kernel, *args):
+    """The entry point of the njit function ``kernel``'s overload for ``args`` as the stepper
+    types the same records (record_type for a Model, State or Loads, numba's typeof
+    otherwise), compiled or loaded if need be. Called through numba's own dispatch, a kernel
+    taking a model with an empty or one-row array (a net without active lines, a single node)
+    types it row-major, and every kernel it calls is compiled a second time for the step."""
     key = _identity_key(kernel, args)
     held = _ENTRIES.get(key) if key is not None else None
     if held is not None and _still(held[0], args):
-        return held[1](*args)
+        return held[1]
     sig = tuple(record_type(a) if isinstance(a, (Model, State, Loads)) else typeof(a) for a in args)
     kernel.compile(sig)
     entry = kernel.overloads[sig].entry_point
@@ -196,7 +202,7 @@ def typed_call(kernel, *args):
         if len(_ENTRIES) >= _ENTRIES_HELD:
             del _ENTRIES[next(iter(_ENTRIES))]
         _ENTRIES[key] = (_references(args), entry)
-    return entry(*args)
+    return entry
 
 
 def _identity_key(kernel, args):

@@ -17,7 +17,7 @@ from ..core import checks
 from ..engine.registry import Binding, Effect, Key
 from ..core.units import ANGULAR_VELOCITY, LENGTH, RATE, TIME, VELOCITY, BadValue, shown, boolean, direction, number
 from ..kernels.drives import ACROSS_AXIS, FREE, ORIENTED, PRESCRIBED, VARIANTS, DriveParams, drive_record, eval_path
-from ..kernels.layout import typed_call
+from ..kernels.layout import typed_call, typed_entry
 from ..core.net import Node
 
 # the keys of a path (a scene's inline table) and their units by the path they belong to:
@@ -282,12 +282,18 @@ class Drive(Effect):
                 raise ValueError(f"Drive on {self.node!r}: the node's {name} {np.round(now[i], 9).tolist()} "
                                  f"contradicts its drive's {np.round(want[i], 9).tolist()} at t = {sim.time:.6g} s")
 
-    def reaction(self, sim, loads_evaluated):
+    def reaction(self, sim, evaluate):
         """(force, torque) the driver supplies now (lab; the torque about the node's centre of
-        mass), given sim.loads evaluated at the current state."""
+        mass), given ``evaluate``, which evaluates sim.loads at the current state and returns
+        them."""
         p = self.params(sim)
-        # typed as the step types the records: drive_reaction is then the kick's own, not a second compile
-        typed_call(VARIANTS.of(p).kernel("reaction_now"), p, sim.model, sim.state, loads_evaluated)
+        # typed as the step types the records: drive_reaction is then the kick's own, not a
+        # second compile; and compiled before the loads are evaluated: at a cold start the step
+        # that evaluates them compiles its kernels in two processes, and this one, compiled
+        # after, kept this process busy alone at the end
+        kernel = VARIANTS.of(p).kernel("reaction_now")
+        typed_entry(kernel, p, sim.model, sim.state, sim.loads)
+        typed_call(kernel, p, sim.model, sim.state, evaluate())
         return p.reaction[:3].copy(), p.reaction[3:].copy()
 
     def drives(self, node) -> bool:

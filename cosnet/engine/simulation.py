@@ -496,7 +496,7 @@ class Simulation:
         if drive is None:
             return np.zeros(3), np.zeros(3)
         place_line_ends(self.model, self.state)
-        return drive.reaction(self, self.evaluate_loads())
+        return drive.reaction(self, self.evaluate_loads)
 
     def driver_work(self) -> float:
         """Work done on the net by every drive so far (J): the kicks' quadrature of the
