@@ -6,7 +6,8 @@ energy error is Verlet's order 2 and the stable step is the welded arm's; a tors
 period, a friction hinge that holds below its static torque and turns above it with the
 energy it takes equal to the kinetic torque times the angle turned, a damper's energy, a
 Cardan joint's output angle tan(theta_2) = cos(beta) tan(theta_1), a ball joint that keeps
-the angular momentum about the vertical, checkpoints and bad input."""
+the angular momentum about the vertical, a loose ball joint settled in closed form where the
+iteration settles it, checkpoints and bad input."""
 
 import math
 
@@ -263,7 +264,7 @@ def test_loose_ball_joint_settles_in_closed_form_where_the_iteration_does():
         return sim, np.array(angles), np.array(reactions)
     loose, angles, reactions = spinning(cosnet.Ball())
     iterated, angles_it, _ = spinning(cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])))
-    coned, angles_coned, _ = spinning(cosnet.Ball(cone=3.0))   # a cone the swing never reaches: no part
+    coned, angles_coned, _ = spinning(cosnet.Ball(cone=3.0))   # a cone the swing never reaches: it never acts
     assert np.array_equal(angles_coned, angles) and np.array_equal(coned.state.q, loose.state.q)
     assert np.linalg.norm(angles[-1]) > math.pi + 0.5                  # turned on past pi
     assert np.abs(np.diff(angles, axis=0)).max() < 0.5                 # no jump of 2 pi on the way
