@@ -400,13 +400,13 @@ def boundary_turn(f, q, start, il, u0, bend, r):
 
 
 @njit(**INLINE)
-def boundary_point(p, j, model, state):
+def boundary_point(p, j, model, state, f):
     """Return (F, q, start, 1/L, u0, B) of joint j's boundary Voronoi point (boundary_turn's
-    arguments but R), as tuples."""
+    arguments but R), as tuples, given its end frame F = f (end_frame)."""
     a = p.attach[j]
     k = model.attach_vertex[a]
     q, u0, bend = state.q[model.attach_element[a]], model.voronoi_rest_curvature[k], p.bend[j]
-    return (end_frame(model, state, a), (q[0], q[1], q[2], q[3]), a % 2 == 0, model.voronoi_inv_rest_length[k],
+    return (f, (q[0], q[1], q[2], q[3]), a % 2 == 0, model.voronoi_inv_rest_length[k],
             (u0[0], u0[1], u0[2]), (bend[0], bend[1], bend[2]))
 
 
@@ -600,19 +600,19 @@ def settle_joint(p, j, model, state, dt):
 
 
 @njit(**INLINE)
-def settle_axes(p, j, model, state, dt):
-    """Return settle_joint's values for hinge or universal joint j by settle_hinge or
-    settle_universal (a coordinate held by its friction does not move; a joint held whole
-    takes the loads its friction was weighed with, at the same angles). (Inlined into the
-    load kernel's loop, as start_joint is into it and into settle_joint: a call passing the
-    records passes hundreds of arguments, about 40 ns a joint where LLVM does not inline it,
-    and settle_joint with these in it was too long for LLVM to; the turning joints' functions
-    take numbers, which a call passes in registers.)"""
+def settle_axes(p, j, model, state, dt, f):
+    """Return settle_joint's values for hinge or universal joint j, its end frame f, by
+    settle_hinge or settle_universal (a coordinate held by its friction does not move; a
+    joint held whole takes the loads its friction was weighed with, at the same angles).
+    (Inlined into the load kernel's loop, as start_joint is into it and into settle_joint: a
+    call passing the records passes hundreds of arguments, about 40 ns a joint where LLVM
+    does not inline it, and settle_joint with these in it was too long for LLVM to; the
+    turning joints' functions take numbers, which a call passes in registers.)"""
     prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt)
     if held[0] and not (moves[0] or moves[1]):   # held where it was: its loads are the friction check's
         r, tau = held[1], held[2]
         return phi, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
-    a, point = p.axis_a[j], boundary_point(p, j, model, state)
+    a, point = p.axis_a[j], boundary_point(p, j, model, state, f)
     if p.dofs[j] == HINGE:
         x, torque, te = settle_hinge(point, (a[0], a[1], a[2]), axis_constants(p, j, 0, inv_dt), p.table_angle,
                                      p.table_torque, phi[0], prev[0], fric[0])
@@ -660,21 +660,21 @@ def loose_turn(f, q, start, il, u0, prev, cone):
 
 
 @njit(**INLINE)
-def settled(p, j, model, state, dt):
-    """Return settle_joint's values for joint j as the load kernel settles it: settle_axes for
-    a hinge or a universal joint, the iteration for a ball joint, and a loose ball joint in
-    closed form where it balances within its cone (loose_turn: its boundary point then
-    passes no torque, to the line end or the node). (The energy and the fields take the
-    iteration for every kind: articulation_energy.)"""
+def settled(p, j, model, state, dt, f):
+    """Return settle_joint's values for joint j, its end frame f, as the load kernel settles
+    it: settle_axes for a hinge or a universal joint, the iteration for a ball joint, and a
+    loose ball joint in closed form where it balances within its cone (loose_turn: its
+    boundary point then passes no torque, to the line end or the node). (The energy and the
+    fields take the iteration for every kind: articulation_energy.)"""
     if BALLS and p.dofs[j] == BALL:
         if loose_ball(p, j):
-            f, q, start, il, u0, _ = boundary_point(p, j, model, state)
+            _, q, start, il, u0, _ = boundary_point(p, j, model, state, f)
             phi, within = loose_turn(f, q, start, il, u0, (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), p.cone[j])
             if within:
                 zero = (0.0, 0.0, 0.0)
                 return phi, zero, (True, True, True), zero, zero
         return settle_joint(p, j, model, state, dt)
-    return settle_axes(p, j, model, state, dt)
+    return settle_axes(p, j, model, state, dt, f)
 
 
 @load_kernel(ArticulationParams)
@@ -685,11 +685,13 @@ def add_articulations(p, model, state, loads):
     boundary Voronoi point bends between the joint frame and the end element (3.22)/(3.24);
     p.phi, rate, sliding, reaction, last and dissipated follow."""
     dt = state.clock[0] - p.last[0]
+    inv_dt = 1.0 / dt if dt > 0.0 else 0.0   # (no rate, no damper's work, over no time)
     p.last[0] = state.clock[0]
     spent = 0.0
     for j in range(p.attach.shape[0]):
-        phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt)
         a = p.attach[j]
+        f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
+        phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
         e = model.attach_element[a]
         loads.tau[e, 0] += te[0]
         loads.tau[e, 1] += te[1]
@@ -697,14 +699,13 @@ def add_articulations(p, model, state, loads):
         loads.end_tau[a, 0] += tx
         loads.end_tau[a, 1] += ty
         loads.end_tau[a, 2] += tz
-        f = end_frame(model, state, a)
         p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = quat_rotate(f[0], f[1], f[2], f[3], tx, ty, tz)
         for i in range(3):
             turned = phi[i] - p.phi[j, i]
-            if moves[i] and dt > 0.0:
-                spent += p.damping[j, i] * turned * turned / dt
+            if moves[i]:
+                spent += p.damping[j, i] * turned * turned * inv_dt
             spent += fric[i] * turned     # the friction's work: it turns with the motion
-            p.rate[j, i] = turned / dt if dt > 0.0 else 0.0
+            p.rate[j, i] = turned * inv_dt
             p.phi[j, i] = phi[i]
             p.sliding[j, i] = 1.0 if moves[i] and p.kinetic[j, i] != 0.0 else 0.0
     p.dissipated[0] += spent
