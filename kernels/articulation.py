@@ -56,7 +56,7 @@ from .compose import load_kernel
 from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
-    relative_rotation, rotation_of, solve_sym3
+    rotation_of, solve_sym3
 from .specialise import Variants
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
@@ -138,21 +138,31 @@ def joint_turn(p, j, phi):
 
 
 @njit(**INNER)
+def boundary_rotation(f, q, start, r):
+    """Return (theta, cc, turn, small, rel) at a joint's boundary Voronoi point given the end
+    frame F (quaternion f), the end element's q, whether the joint is at the line's start, and
+    R (quaternion): theta the rotation vector from its left frame to its right one (G = F R to
+    E at a line's start, E to G at its end), cc of the inverse Jacobians (bend_torques), turn
+    = left^T right (quaternion, w >= 0), whether |theta| < 0.2 (relative_quat), rel = G^T E."""
+    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
+    if start:
+        rw, rx, ry, rz, small = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
+    else:
+        rw, rx, ry, rz, small = relative_quat(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
+    tx, ty, tz, cc = rotation_of(rw, rx, ry, rz, small)
+    rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
+    return (tx, ty, tz), cc, (rw, rx, ry, rz), small, rel
+
+
+@njit(**INNER)
 def boundary_torques(p, j, model, state, r):
     """Return (tau_G, tau_E, kappa, m, rel): the body torques of joint j's boundary Voronoi
     point on the joint frame G = D X R and on the end element, its strain kappa = theta/L - u0,
     its moment m = B kappa (3.22), and rel = G^T E (quaternion), given R (quaternion)."""
     a = p.attach[j]
-    k, e = model.attach_vertex[a], model.attach_element[a]
-    f = end_frame(model, state, a)
-    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
-    q = state.q[e]
+    k, q = model.attach_vertex[a], state.q[model.attach_element[a]]
     start = a % 2 == 0
-    if start:
-        tx, ty, tz, c = relative_rotation(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
-    else:
-        tx, ty, tz, c = relative_rotation(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
-    rel = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])[:4]
+    (tx, ty, tz), c, _, _, rel = boundary_rotation(end_frame(model, state, a), (q[0], q[1], q[2], q[3]), start, r)
     il, u0, bend = model.voronoi_inv_rest_length[k], model.voronoi_rest_curvature[k], p.bend[j]
     kx, ky, kz = tx * il - u0[0], ty * il - u0[1], tz * il - u0[2]
     mx, my, mz = bend[0] * kx, bend[1] * ky, bend[2] * kz
@@ -381,12 +391,7 @@ def boundary_turn(f, q, start, il, u0, bend, r):
     (bend_torques), its moment m = B (theta/L - u0) and rel = G^T E. (Scalars, not the
     records: a call passes these in registers where the records would take hundreds of
     arguments.)"""
-    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
-    if start:
-        rw, rx, ry, rz, small = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
-    else:
-        rw, rx, ry, rz, small = relative_quat(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
-    tx, ty, tz, cc = rotation_of(rw, rx, ry, rz, small)
+    (tx, ty, tz), cc, (rw, rx, ry, rz), small, rel = boundary_rotation(f, q, start, r)
     t2 = tx * tx + ty * ty + tz * tz
     if small:
         c2 = 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
@@ -395,7 +400,6 @@ def boundary_turn(f, q, start, il, u0, bend, r):
         ts = math.sqrt(t2 * s2)
         c2 = -1.0 / (t2 * t2) + 1.0 / (8.0 * t2 * s2) + rw / (4.0 * t2 * ts)
     m = (bend[0] * (tx * il - u0[0]), bend[1] * (ty * il - u0[1]), bend[2] * (tz * il - u0[2]))
-    rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
     return (tx, ty, tz), cc, c2, m, rel, (-1.0 if start else 1.0)
 
 
