@@ -655,7 +655,8 @@ def loose_turn(f, q, start, il, u0, prev, cone):
     tx, ty, tz = quat_log(r[0], r[1], r[2], r[3])
     t = math.sqrt(tx * tx + ty * ty + tz * tz)
     if t > 0.0:
-        turns = math.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) / t - t) / (2.0 * math.pi) + 0.5)
+        # (np.floor, a float: math.floor's integer would turn a NaN angle into a finite one)
+        turns = np.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) / t - t) / (2.0 * math.pi) + 0.5)
         k = 1.0 + 2.0 * math.pi * turns / t
         tx, ty, tz = k * tx, k * ty, k * tz
     # d3 of R in X, its third component 1 - 2 (x^2 + y^2): the cosine of its tilt
