@@ -322,27 +322,35 @@ def _describe(value):
             getattr(py, "cosnet_options", None))   # (kernels/specialise.py: its compile-time options)
 
 
-def code_weight(kernel) -> int:
-    """The bytes of Python bytecode in ``kernel`` (a njit function) and in every cosnet
-    function it reaches (through its names, its closure cells, the typers of the intrinsics
-    it calls), each counted once: known before compiling anything, and in the order of their
-    compile times (an obstacle's line contact against gravity: seventy times the bytecode,
-    twenty times the seconds), so that two processes sharing a queue take the long ones first."""
+def _reach(kernel) -> tuple:
+    """(bytes of Python bytecode, cached dispatchers) of ``kernel`` (a njit function) and of
+    every function it reaches, each counted once: through its names, its closure cells and
+    the typers of the intrinsics it calls, into cosnet's modules and the kernel's own. Read
+    from the code, before anything is compiled; remembered per kernel."""
     import types as pytypes
 
+    from numba.core import caching
     from numba.core.extending import _Intrinsic
+    held = _REACHED.get(kernel)
+    if held is not None:
+        return held
+    root = kernel.py_func.__module__ if isinstance(kernel, numba.core.dispatcher.Dispatcher) else None
     seen: set = set()
-    total, stack = 0, [kernel]
+    total, dispatchers, stack = 0, [], [kernel]
     while stack:
         obj = stack.pop()
         if isinstance(obj, numba.core.dispatcher.Dispatcher):
+            if id(obj) not in seen and isinstance(getattr(obj, "_cache", None), caching.Cache):
+                seen.add(id(obj))
+                dispatchers.append(obj)
             obj = obj.py_func
         elif isinstance(obj, _Intrinsic):
             obj = obj._defn
         elif isinstance(obj, (tuple, list)):
             stack.extend(obj)
             continue
-        if not isinstance(obj, pytypes.FunctionType) or id(obj) in seen or not obj.__module__.startswith("cosnet"):
+        if (not isinstance(obj, pytypes.FunctionType) or id(obj) in seen
+                or not (obj.__module__.startswith("cosnet") or obj.__module__ == root)):
             continue
         seen.add(id(obj))
         for cell in obj.__closure__ or ():
@@ -356,7 +364,51 @@ def code_weight(kernel) -> int:
             total += len(code.co_code)
             codes.extend(c for c in code.co_consts if isinstance(c, pytypes.CodeType))
             stack.extend(obj.__globals__[n] for n in code.co_names if n in obj.__globals__)
-    return total
+    held = _REACHED[kernel] = (total, dispatchers)
+    return held
+
+
+_REACHED: dict = {}
+
+
+def code_weight(kernel) -> int:
+    """The bytes of Python bytecode in ``kernel`` (a njit function) and in every function it
+    reaches (_reach): known before compiling anything, and in the order of their compile
+    times (an obstacle's line contact against gravity: seventy times the bytecode, twenty
+    times the seconds), so that two processes sharing a queue take the long ones first."""
+    return _reach(kernel)[0]
+
+
+def reaches_compiling_elsewhere(kernel) -> bool:
+    """Whether another process is compiling into the cache, right now, a function ``kernel``
+    calls (or it, for any argument types): compiling ``kernel`` would then wait for it (a
+    callee's lock is taken as it is reached), so a caller with other work does that first.
+    (A second process started beside a run asked first for the fluid's flow, which calls the
+    sample the run was compiling for its frame 0, and idled for seconds.)"""
+    indexes = {}
+    for d in _reach(kernel)[1]:
+        path = d._cache._cache_file._index_path
+        indexes.setdefault(os.path.dirname(path), set()).add(os.path.basename(path))
+    for folder, names in indexes.items():
+        try:
+            entries = os.listdir(folder)
+        except OSError:   # nothing cached there yet: nothing compiled into it either
+            continue
+        for entry in entries:
+            # a lock is the index's name, a key's hash, .compiling (compile_lock_path)
+            if not entry.endswith(".compiling") or entry.rsplit(".", 2)[0] not in names:
+                continue
+            path = os.path.join(folder, entry)
+            if path in _held:
+                continue
+            try:
+                f = open(path, "ab")
+            except OSError:
+                continue
+            with f:   # a free lock taken here is released as the file closes
+                if not _take(f):
+                    return True
+    return False
 
 
 def in_cache(dispatcher, sig) -> bool:

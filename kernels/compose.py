@@ -41,7 +41,8 @@ from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
 from .backend import ENTRY, STEP, inline_twin
-from .compiler import compiling_elsewhere, extend_cache_key, keyed_twin, stable_cache_key
+from .compiler import (compiling_elsewhere, extend_cache_key, keyed_twin, reaches_compiling_elsewhere,
+                       stable_cache_key)
 from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
                     core_type, deref, load_table, pin_record, pinned, record_size, slot_argtypes, slot_key,
                     slots_bound_here, step_pointers)
@@ -252,9 +253,11 @@ def bind_slots(table, records, model, state, loads, backend, flags_of, rows=None
     while pending:
         row = pending.popleft()
         kernel, argtypes = calls[row]
-        # a kernel the other process (compiling alongside a run) is compiling right now goes
-        # to the end of the queue: by then it is cached, where waiting for it would idle a core
-        if row not in put_off and pending and compiling_elsewhere(kernel, argtypes):
+        # a kernel the other process (compiling alongside a run) is compiling right now, or
+        # one of its callees, goes to the end of the queue: by then it is cached, where
+        # waiting for it would idle a core
+        if row not in put_off and pending and (compiling_elsewhere(kernel, argtypes)
+                                               or reaches_compiling_elsewhere(kernel)):
             put_off.add(row)
             pending.append(row)
             continue

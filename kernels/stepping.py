@@ -117,8 +117,9 @@ def compile_orders(kernels: list) -> tuple[list, list]:
     """(a run's order, a second process's order) of compiling a step's slot kernels
     (compose.step_kernels): the drift's first for the run (its frame 0 needs it) and last for
     the second process, the others in one order for both, the longest to compile first by
-    their bytecode (compiler.code_weight). Each passes over a kernel the other is compiling
-    and comes back to it at the end (bind_slots), so the two share the list as one queue;
+    their bytecode (compiler.code_weight). Each passes over a kernel the other is compiling,
+    or one calling a function the other is compiling, and comes back to it at the end
+    (bind_slots), so the two share the list as one queue;
     the longest first, so that neither ends waiting while the other compiles a long kernel
     taken last (a line-obstacle contact of 6.6 s, last in slot order, held a run 5.5 s)."""
     drift = CORE.index(drift_positions_at)

@@ -122,26 +122,48 @@ with compiling(compile_lock_path(putoff.spring_force, (float64, float64))):
 """
 
 
+# spring_force and a kernel calling it, and one calling neither
+CALLERS = KERNEL + """
+
+@njit(**CACHED)
+def tension(k, x):
+    return -spring_force(k, x)
+
+@njit(**CACHED)
+def stiffness(k, x):
+    return k
+"""
+
+
 def test_a_kernel_another_process_compiles_is_seen_as_such(tmp_path):
     """compiling_elsewhere (by which bind_slots puts off a kernel the other process is
     compiling, to load it later) is true while another process holds the kernel's lock and
-    false once it let go, or where this process holds it itself."""
+    false once it let go, or where this process holds it itself; a kernel calling it is seen
+    to reach it (reaches_compiling_elsewhere: compiling that caller would wait for it), one
+    calling neither is not."""
     from numba import float64
 
-    from cosnet.kernels.compiler import compile_lock_path, compiling, compiling_elsewhere
-    putoff = _fresh_module(tmp_path / "m", "putoff", KERNEL)
+    from cosnet.kernels.compiler import compile_lock_path, compiling, compiling_elsewhere, reaches_compiling_elsewhere
+    putoff = _fresh_module(tmp_path / "m", "putoff", CALLERS)
     sig = (float64, float64)
     assert not compiling_elsewhere(putoff.spring_force, sig)
+    assert not reaches_compiling_elsewhere(putoff.tension)
     with started([sys.executable, "-c", HOLDER, tmp_path / "m"], stdin=-1, stdout=-1, stderr=-1,
                  text=True) as child:
         assert child.stdout.readline().strip() == "holding", child.stderr.read()
         assert compiling_elsewhere(putoff.spring_force, sig)
+        assert not compiling_elsewhere(putoff.tension, sig)
+        assert reaches_compiling_elsewhere(putoff.tension)
+        assert reaches_compiling_elsewhere(putoff.spring_force)
+        assert not reaches_compiling_elsewhere(putoff.stiffness)
         child.stdin.write("\n")
         child.stdin.flush()
         child.wait(timeout=60)
     assert not compiling_elsewhere(putoff.spring_force, sig)
+    assert not reaches_compiling_elsewhere(putoff.tension)
     with compiling(compile_lock_path(putoff.spring_force, sig)):
         assert not compiling_elsewhere(putoff.spring_force, sig)
+        assert not reaches_compiling_elsewhere(putoff.tension)
 
 
 PAIR = """
