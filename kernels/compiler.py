@@ -361,11 +361,40 @@ def _reach(kernel) -> tuple:
         codes = [obj.__code__]
         while codes:
             code = codes.pop()
-            total += len(code.co_code)
+            size, names = _live_code(code, obj.__globals__)
+            total += size
             codes.extend(c for c in code.co_consts if isinstance(c, pytypes.CodeType))
-            stack.extend(obj.__globals__[n] for n in code.co_names if n in obj.__globals__)
+            stack.extend(obj.__globals__[n] for n in names if n in obj.__globals__)
     held = _REACHED[kernel] = (total, dispatchers)
     return held
+
+
+def _live_code(code, space) -> tuple:
+    """(bytes, global names) of ``code`` outside the branches numba prunes before typing:
+    those a module's boolean constant (space: its globals; a variant's options,
+    kernels/specialise.py) never enters, ``if OPTION:`` with OPTION false or ``if not
+    OPTION:`` with it true. (The fluid's flow reaches the waves' passes, which a still
+    medium's variant never compiles: counted, they made it weigh more than the kick, which
+    takes longer.)"""
+    import dis
+    found = list(dis.get_instructions(code))
+    live, names, until = 0, [], -1
+    for k, ins in enumerate(found):
+        if ins.offset < until:
+            continue
+        live += 1
+        if ins.opname in ("LOAD_GLOBAL", "LOAD_NAME", "LOAD_ATTR", "LOAD_METHOD"):
+            names.append(ins.argval)
+        following = found[k + 1] if k + 1 < len(found) else None
+        if (ins.opname == "LOAD_GLOBAL" and isinstance(space.get(ins.argval), bool) and following is not None
+                and "JUMP" in following.opname and "IF_" in following.opname
+                and isinstance(following.argval, int) and following.argval > following.offset):
+            # the branch jumped over is pruned where the test takes the jump never
+            if following.opname.endswith("IF_FALSE") and not space[ins.argval]:
+                until = following.argval
+            elif following.opname.endswith("IF_TRUE") and space[ins.argval]:
+                until = following.argval
+    return len(code.co_code) * live // max(len(found), 1), names
 
 
 _REACHED: dict = {}

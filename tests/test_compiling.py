@@ -293,6 +293,46 @@ def test_the_queue_two_processes_share_takes_the_longest_kernels_first():
     assert contact < other.index(kernels.index(start_loads_at)) and contact < gravity
 
 
+# a kernel whose call of another sits in a branch an option of its module decides
+OPTIONED = """
+from numba import njit
+from cosnet.kernels.compiler import CACHED
+PART = {part}
+
+@njit(**CACHED)
+def series(x):
+    y = 0.0
+    for k in range(10):
+        y += x ** k / (k + 1.0)
+    return y
+
+@njit(**CACHED)
+def value(x):
+    if PART:
+        return series(x)
+    if not PART:
+        return x
+    return 2.0 * x
+"""
+
+
+def test_a_kernels_weight_leaves_out_what_its_options_prune(tmp_path):
+    """code_weight, which orders the queue, counts what numba compiles: a call in a branch a
+    boolean constant of the module never enters (a variant's option off) is pruned before
+    typing, so neither it nor its callee is counted, and the callee is not among what the
+    kernel reaches (whose locks put it off: reaches_compiling_elsewhere); with the option on,
+    both are, and the branch ``if not PART`` is what is pruned."""
+    from cosnet.kernels.compiler import _reach, code_weight
+    off = _fresh_module(tmp_path / "off", "optioned_off", OPTIONED.format(part=False))
+    on = _fresh_module(tmp_path / "on", "optioned_on", OPTIONED.format(part=True))
+    assert off.value.compile("float64(float64)") is not None
+    assert off.series.overloads == {}   # numba did prune it: the call was never typed
+    assert off.series not in _reach(off.value)[1] and on.series in _reach(on.value)[1]
+    callee = code_weight(on.series)
+    assert code_weight(on.value) > callee > code_weight(off.value)
+    assert code_weight(on.value) < callee + len(on.value.py_func.__code__.co_code)
+
+
 def test_the_process_compiling_alongside_ends_with_the_block(tmp_path, monkeypatch):
     """The second process is started only for a step not cached yet, and is gone when the
     block ends, finished or not."""
