@@ -30,7 +30,7 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CARRIES, FluidParams, calm_medium, end_arm, has_added_mass, kick_changes, kick_drag_vertices,
+from .fluid import (CARRIES, NODES, FluidParams, calm_medium, end_arm, has_added_mass, kick_changes, kick_drag_vertices,
                     node_free, sample_rows, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
@@ -206,13 +206,14 @@ def add_turning_forces(p, model, state, loads, h):
     # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
     # evaluation a kick instead of two (a line end: its node's motion; its translation on,
     # a node's acceleration taken once for all its ends, in p.node_rate)
-    for nd in range(model.node_mass.shape[0]):
-        if node_free(p, model, nd):
-            g, _ = end_sums(p, model, state, G, nd)
-            fn = loads.node_f[nd]
-            a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
-            d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
-            p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
+    if NODES:
+        for nd in range(model.node_mass.shape[0]):
+            if node_free(p, model, nd):
+                g, _ = end_sums(p, model, state, G, nd)
+                fn = loads.node_f[nd]
+                a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
+                d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
+                p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
     work = 0.0
     for j in range(p.lines.shape[0]):
         l, lo, hi = turning_span(p, model, j)
@@ -239,12 +240,13 @@ def add_turning_forces(p, model, state, loads, h):
         if change:
             for i in range(lo + 1, hi - 1):
                 D[0][i], D[1][i], D[2][i] = G[0][i], G[1][i], G[2][i]
-    for nd in range(model.node_mass.shape[0]):
-        if node_free(p, model, nd):
-            g, m = end_sums(p, model, state, G, nd)
-            for k in range(3):
-                loads.node_f[nd, k] += g[k]
-                loads.node_tau[nd, k] += m[k]
+    if NODES:
+        for nd in range(model.node_mass.shape[0]):
+            if node_free(p, model, nd):
+                g, m = end_sums(p, model, state, G, nd)
+                for k in range(3):
+                    loads.node_f[nd, k] += g[k]
+                    loads.node_tau[nd, k] += m[k]
     p.supplied[0] += h * work
 
 
@@ -303,7 +305,7 @@ def kick_fluid(p, model, state, arg):
     f, S = columns(loads.f), sample_rows(p)
     vmass = model.vertex_mass
     nl = model.line_vertex_offsets.shape[0] - 1
-    if still_medium(p) and lifts_nodes(p):
+    if NODES and still_medium(p) and lifts_nodes(p):
         add_node_upthrust(p, model, state, loads)
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
@@ -320,7 +322,8 @@ def kick_fluid(p, model, state, arg):
             divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
                         model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
                         1.0 if p.buoyancy[j] != 0.0 else 0.0)
-        if has_added_mass(p):
+        if NODES and has_added_mass(p):
             divide_node_loads(p, model, loads)
     kick_drag_vertices(p, model, state, loads, h)
-    kick_drag_nodes(p, model, state, loads.node_f, h)
+    if NODES:
+        kick_drag_nodes(p, model, state, loads.node_f, h)

@@ -56,7 +56,10 @@ CARRIES = True       # some line carries an added mass (and its fluid may turn: 
                      # node has a buoy (a volume of its own, with or without an added mass)
 WAVES = True         # the moving medium has waves (their passes, kernels/waves.py, cost a second of compiling
                      # that a current or a wind varying over height or time has no use for)
-OPTIONS = ("MOVING", "CARRIES", "WAVES")
+NODES = True         # some node is the medium's to move (fixed and driven ones are not): the passes over the
+                     # nodes, seconds of compiling that a line between pins or a mooring line from an anchor to
+                     # a driven fairlead has no use for
+OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES")
 
 
 class FluidParams(NamedTuple):
@@ -88,7 +91,7 @@ class FluidParams(NamedTuple):
     wave_depth: np.ndarray   # (nw, 2) exp(-2 k depth) and 1 / (1 - that) of each component (waves.depth_factors;
                              # 0 and 1 in deep water)
     wave_now: np.ndarray     # (nw,) scratch: each component's phase at the last sample (waves.wave_phase)
-    node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves to their drive
+    node_skip: np.ndarray    # (nn,) 1 for nodes the medium leaves alone: held by a drive, or fixed
     sample: np.ndarray       # (SAMPLE_ROWS, nv) scratch: at each vertex of the lines in the medium, as the
                              # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
                              # interior vertices the medium's inertia force (3), the upthrust, and

@@ -13,7 +13,7 @@ from numba import njit
 from .backend import ENTRY, STEP
 from .compiler import CACHED, INNER
 from .compose import flow_kernel
-from .fluid import (CARRIES, MORISON, MOVING, FluidParams, add_split, buoy_of, carrying_span,
+from .fluid import (CARRIES, MORISON, MOVING, NODES, FluidParams, add_split, buoy_of, carrying_span,
                     end_arm, ends_entrained, entrained_line, has_added_mass, node_free, push_vertices,
                     sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force)
 from .layout import columns, uint
@@ -348,7 +348,9 @@ def entrained_energy(p, model, state):
         l, lo, hi = carrying_span(p, model, j)
         if hi > 0:
             e += entrained_line(v, S, model.voronoi_rest_length, uint(lo + 1), hi - lo - 2, p.added_n[j], p.added_t[j])
-    return e + nodes_entrained(p, model, state)
+    if NODES:
+        e += nodes_entrained(p, model, state)
+    return e
 
 
 @njit(**INNER)
@@ -398,7 +400,7 @@ def sample_fluid_nodes(p, model, state):
     """Update p.node_mass given the sample, as a kick's first half flow does: the nodes' mass
     matrices that rings, eyelets and sheaves move them by before the first step (their own
     entry, which scenes without those do not compile: cosnet/effects/carried.py)."""
-    if CARRIES:
+    if CARRIES and NODES:
         sample_node_masses(p, model, state)
 
 
@@ -410,7 +412,8 @@ def push_medium(p, model, state, h, still):
     add_node_upthrust)."""
     if MOVING and not still:
         push_vertices(p, model, state, h)
-        push_nodes(p, model, state, h)
+        if NODES:
+            push_nodes(p, model, state, h)
 
 
 @flow_kernel(FluidParams)
@@ -435,22 +438,30 @@ def flow_fluid(p, model, state, h):
     of its forces, counted in p.supplied, so the energy balance still closes."""
     after = p.turn[0] & 1
     still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
-    if after == 0:   # in a still medium, the lines' share of the change is the sample's own
+    if after == 0:
         if CARRIES and has_added_mass(p):
-            before = buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
+            # (in a still medium, the lines' share of the change is the sample's own; where the
+            # medium moves no node, there are no buoys either and nothing at the nodes to sample)
+            before = entrained_energy(p, model, state) if not still else 0.0
+            if still and NODES:
+                before = buoys_entrained(p, model, state)
             de = sample_medium(p, model, state)
-            if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
-                sample_buoys(p, state, state.clock[0])
-            sample_node_masses(p, model, state)
-            after_sample = de + buoys_entrained(p, model, state) if still else entrained_energy(p, model, state)
+            if NODES:
+                if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
+                    sample_buoys(p, state, state.clock[0])
+                sample_node_masses(p, model, state)
+            after_sample = entrained_energy(p, model, state) if not still else de
+            if still and NODES:
+                after_sample += buoys_entrained(p, model, state)
             p.supplied[0] += after_sample - before
         else:
             sample_medium(p, model, state)
-            if CARRIES and p.buoy_node.shape[0] > 0:
+            if CARRIES and NODES and p.buoy_node.shape[0] > 0:
                 sample_buoys(p, state, state.clock[0])
     if after == 1:
         push_medium(p, model, state, h, still)
-    drag_nodes(p, model, state, h)
+    if NODES:
+        drag_nodes(p, model, state, h)
     if after == 0:
         push_medium(p, model, state, h, still)
     p.turn[0] = 1 - after

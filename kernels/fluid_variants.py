@@ -3,6 +3,8 @@ whose kernels are compiled without the parts that cannot act (kernels/specialise
 options are kernels.fluid.OPTIONS). A variant's record class is a FluidParams named by its
 options' bits (FluidParams_011), found by that name wherever a record is unpickled."""
 
+import numpy as np
+
 from . import added_mass, fluid, fluid_step
 from .compose import flow_kernel, inertia_kernel
 from .fluid import OPTIONS, FluidParams
@@ -22,7 +24,8 @@ def options_of(p) -> tuple:
     of the medium may act (by the kernels' own tests, run in Python)."""
     moving = not fluid.still_medium.py_func(p)
     carries = fluid.has_added_mass.py_func(p) or p.buoy_node.shape[0] > 0
-    return moving, carries, p.wave_a.shape[0] > 0
+    nodes = p.buoy_node.shape[0] > 0 or bool(np.any(p.node_skip == 0.0))   # (fixed nodes are skipped too)
+    return moving, carries, p.wave_a.shape[0] > 0, nodes
 
 
 def fluid_record(p):

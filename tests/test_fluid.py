@@ -574,6 +574,47 @@ def test_a_mooring_line_under_a_surging_fairlead_swings_as_moordyn_does(monkeypa
         assert abs(mine[k]["phase"] - theirs[k]["phase"]) < 0.02 * 2 * math.pi
 
 
+NODE_PASSES = {"drag_nodes", "kick_drag_nodes", "push_nodes", "add_node_upthrust", "divide_node_loads",
+               "sample_node_masses", "nodes_entrained"}
+
+
+def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes(monkeypatch):
+    """A line from a fixed anchor to a driven fairlead, in a current with drag, added mass and
+    buoyancy: the medium moves none of its nodes, so its record is of the variant without the
+    passes over the nodes (kernels/fluid.py, NODES), which its kick and flow do not reach (as
+    numba prunes them: compiler._reach). It moves as in the variant with them, where they find
+    no node to act on: the same positions and accounts over a surge of the fairlead."""
+    from cosnet.kernels import fluid_variants
+    from cosnet.kernels.compiler import _reach
+    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
+
+    def run():
+        net = cosnet.Net()
+        anchor = net.add_node((0.0, 0.0, -8.0), fixed=True)
+        fairlead = net.add_node((8.0, 0.0, 0.0), mass=10.0, inertia=(1.0, 1.0, 1.0))
+        net.add_line(anchor, fairlead, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
+                     section=cosnet.Circle(WIRE_R), elements=10)
+        fluid = cosnet.Fluid(SEA, velocity=(0.0, 0.4, 0.0), drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
+                             surface=0.0)
+        surge = cosnet.Drive(fairlead, position={"times": [0.0, 0.1, 0.2], "values": [[0.0] * 3, [0.3, 0.0, 0.0],
+                                                                                        [0.0] * 3]})
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid, surge])
+        sim.run(until=0.2)
+        p = fluid.params(sim)
+        reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+        return sim, fluid, fluid_variants.options_of(p), reached
+
+    sim, fluid, options, reached = run()
+    assert options[3] is False and not reached & NODE_PASSES, reached & NODE_PASSES
+    options_of = fluid_variants.options_of
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (*options_of(p)[:3], True))
+    full, full_fluid, full_options, full_reached = run()
+    assert full_options[3] is True and {"drag_nodes", "kick_drag_nodes", "sample_node_masses"} <= full_reached
+    assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
+    assert full_fluid.dissipated(full) == pytest.approx(fluid.dissipated(sim), rel=1e-12, abs=1e-15)
+    assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
+
+
 def test_the_stable_step_counts_the_added_mass():
     # a light rod (400 kg/m^3) whose heavier rotary inertia leaves its translation setting the
     # step: in water with C_a = 1 across and along, every translational mass grows by 2.5

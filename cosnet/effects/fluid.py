@@ -383,7 +383,9 @@ class Fluid(Effect):
                 rows["inertia_n"][j], rows["inertia_t"][j] = rho * vol * (1.0 + self.added_coefficients)
             if self.buoyancy:
                 rows["buoyancy"][j] = rho * g * vol
-        skip = driven_nodes(on.effects, nn).astype(float)
+        # the nodes the medium leaves alone: a drive's, and the fixed ones (a variant compiles no
+        # pass over the nodes where that is all of them: kernels/fluid.py, NODES)
+        skip = (driven_nodes(on.effects, nn) | (on.model.node_inv_mass == 0.0)).astype(float)
         a, T, hd, ph = self.waves
         omega = 2.0 * math.pi / T if T.size else np.zeros(0)
         kw = np.array([wave_number(w, self.depth, g) for w in omega])
