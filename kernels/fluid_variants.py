@@ -1,7 +1,7 @@
 """The variants of the fluid's kernels: each fluid's record is of the variant its data needs,
 whose kernels are compiled without the parts that cannot act (kernels/specialise.py; the
 options are kernels.fluid.OPTIONS). A variant's record class is a FluidParams named by its
-options' bits (FluidParams_011), found by that name wherever a record is unpickled."""
+options' bits (FluidParams_0101), found by that name wherever a record is unpickled."""
 
 import numpy as np
 
