@@ -155,14 +155,15 @@ def boundary_rotation(f, q, start, r):
 
 
 @njit(**INNER)
-def boundary_torques(p, j, model, state, r):
+def boundary_torques(p, j, model, state, f, r):
     """Return (tau_G, tau_E, kappa, m, rel): the body torques of joint j's boundary Voronoi
-    point on the joint frame G = D X R and on the end element, its strain kappa = theta/L - u0,
-    its moment m = B kappa (3.22), and rel = G^T E (quaternion), given R (quaternion)."""
+    point on the joint frame G = F R and on the end element, its strain kappa = theta/L - u0,
+    its moment m = B kappa (3.22), and rel = G^T E (quaternion), given its end frame F = D X
+    (f, end_frame: the same at every R the joint is tried at) and R (quaternions)."""
     a = p.attach[j]
     k, q = model.attach_vertex[a], state.q[model.attach_element[a]]
     start = a % 2 == 0
-    (tx, ty, tz), c, _, _, rel = boundary_rotation(end_frame(model, state, a), (q[0], q[1], q[2], q[3]), start, r)
+    (tx, ty, tz), c, _, _, rel = boundary_rotation(f, (q[0], q[1], q[2], q[3]), start, r)
     il, u0, bend = model.voronoi_inv_rest_length[k], model.voronoi_rest_curvature[k], p.bend[j]
     kx, ky, kz = tx * il - u0[0], ty * il - u0[1], tz * il - u0[2]
     mx, my, mz = bend[0] * kx, bend[1] * ky, bend[2] * kz
@@ -204,15 +205,16 @@ def start_motion(p, j, i, torque, prev, dt):
 
 
 @njit(**INNER)
-def start_turning(p, j, model, state, prev, dt):
-    """Return (moves, f0, f1, f2) of ball joint j at phi^- = prev: whether it may turn in this
-    evaluation and the friction's generalised torques f_i = c_i . F on its coordinates. A ball
-    joint's friction is one torque F on its rotation as a whole, not one per coordinate: the
-    joint sticks while the torque T it carries (in G's components, C^T T = q with q_i the
-    coordinates' generalised torques at phi^-, C's columns their axes c_i) stays within the
-    static torque (the kinetic one once turning), and turns against F = kinetic T / |T|."""
+def start_turning(p, j, model, state, f, prev, dt):
+    """Return (moves, f0, f1, f2) of ball joint j (its end frame f) at phi^- = prev: whether
+    it may turn in this evaluation and the friction's generalised torques f_i = c_i . F on its
+    coordinates. A ball joint's friction is one torque F on its rotation as a whole, not one
+    per coordinate: the joint sticks while the torque T it carries (in G's components,
+    C^T T = q with q_i the coordinates' generalised torques at phi^-, C's columns their axes
+    c_i) stays within the static torque (the kinetic one once turning), and turns against
+    F = kinetic T / |T|."""
     r, c0, c1, c2 = joint_turn(p, j, prev)
-    tau = boundary_torques(p, j, model, state, r)[0]
+    tau = boundary_torques(p, j, model, state, f, r)[0]
     q0 = dot3(c0, tau) - p.stiffness[j, 0] * (prev[0] - p.rest[j, 0]) - spring_table(p, j, 0, prev[0])[0]
     q1 = dot3(c1, tau) - p.stiffness[j, 1] * (prev[1] - p.rest[j, 1]) - spring_table(p, j, 1, prev[1])[0]
     q2 = dot3(c2, tau) - p.stiffness[j, 2] * (prev[2] - p.rest[j, 2]) - spring_table(p, j, 2, prev[2])[0]
@@ -541,24 +543,24 @@ def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
 
 
 @njit(**INLINE)
-def start_joint(p, j, model, state, dt):
-    """Return (phi^-, moves, friction, phi, 1/dt, held) of joint j (settle_joint): its
-    coordinates at the last evaluation, dt before this one; whether each may move and the
-    friction torque it then meets; where its Newton iteration starts, those carried on at their
-    last rate; and where the friction was weighed at phi^- (a hinge or universal joint with
-    friction or a damper), what was found there (whether, R, tau_G, tau_E): the joint's loads
-    if no coordinate moves (settle_axes)."""
+def start_joint(p, j, model, state, dt, f):
+    """Return (phi^-, moves, friction, phi, 1/dt, held) of joint j, its end frame f
+    (settle_joint): its coordinates at the last evaluation, dt before this one; whether each
+    may move and the friction torque it then meets; where its Newton iteration starts, those
+    carried on at their last rate; and where the friction was weighed at phi^- (a hinge or
+    universal joint with friction or a damper), what was found there (whether, R, tau_G,
+    tau_E): the joint's loads if no coordinate moves (settle_axes)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
     held = (False, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
     elif BALLS and n == BALL:
-        m0, f0, f1, f2 = start_turning(p, j, model, state, prev, dt)
+        m0, f0, f1, f2 = start_turning(p, j, model, state, f, prev, dt)
         m1, m2 = m0, m0
     else:
         r, c0, c1, c2 = joint_turn(p, j, prev)
-        tau, te, _, _, _ = boundary_torques(p, j, model, state, r)
+        tau, te, _, _, _ = boundary_torques(p, j, model, state, f, r)
         held = (True, r, tau, te)
         m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
         m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
@@ -573,18 +575,19 @@ def start_joint(p, j, model, state, dt):
 
 
 @njit(**INNER)
-def settle_joint(p, j, model, state, dt):
-    """Return (phi, friction, moves, torque, tau_E) of joint j: its coordinates where its
-    loads balance (the module's equation) from phi^- = p.phi[j] after dt, the friction torque
-    on each and whether each moves (3-tuples), and at phi the torque on the node through the
-    joint (X's components: R tau_G) and the body torque on the end element, by Newton's
-    method with the leading term of the derivative (a hinge or universal joint: settle_axes)."""
-    prev, moves, fric, phi, inv_dt, _ = start_joint(p, j, model, state, dt)
+def settle_joint(p, j, model, state, dt, f):
+    """Return (phi, friction, moves, torque, tau_E) of joint j, its end frame f: its
+    coordinates where its loads balance (the module's equation) from phi^- = p.phi[j] after
+    dt, the friction torque on each and whether each moves (3-tuples), and at phi the torque
+    on the node through the joint (X's components: R tau_G) and the body torque on the end
+    element, by Newton's method with the leading term of the derivative (a hinge or
+    universal joint: settle_axes)."""
+    prev, moves, fric, phi, inv_dt, _ = start_joint(p, j, model, state, dt, f)
     m0, m1, m2 = moves
     f0, f1, f2 = fric
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
-        tau, te, _, _, rel = boundary_torques(p, j, model, state, r)
+        tau, te, _, _, rel = boundary_torques(p, j, model, state, f, r)
         g0, a00 = coordinate_balance(p, j, 0, m0, c0, tau, rel, phi[0], prev[0], f0, inv_dt, model)
         g1, a11 = coordinate_balance(p, j, 1, m1, c1, tau, rel, phi[1], prev[1], f1, inv_dt, model)
         g2, a22 = coordinate_balance(p, j, 2, m2, c2, tau, rel, phi[2], prev[2], f2, inv_dt, model)
@@ -612,7 +615,7 @@ def settle_axes(p, j, model, state, dt, f):
     call passing the records passes hundreds of arguments, about 40 ns a joint where LLVM
     does not inline it, and settle_joint with these in it was too long for LLVM to; the
     turning joints' functions take numbers, which a call passes in registers.)"""
-    prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt)
+    prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt, f)
     if held[0] and not (moves[0] or moves[1]):   # held where it was: its loads are the friction check's
         r, tau = held[1], held[2]
         return phi, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
@@ -678,7 +681,7 @@ def settled(p, j, model, state, dt, f):
             if within:
                 zero = (0.0, 0.0, 0.0)
                 return phi, zero, (True, True, True), zero, zero
-        return settle_joint(p, j, model, state, dt)
+        return settle_joint(p, j, model, state, dt, f)
     return settle_axes(p, j, model, state, dt, f)
 
 
@@ -727,9 +730,10 @@ def articulation_energy(p, model, state):
     dt = state.clock[0] - p.last[0]
     total = 0.0
     for j in range(p.attach.shape[0]):
-        phi = settle_joint(p, j, model, state, dt)[0]
+        f = end_frame(model, state, p.attach[j])
+        phi = settle_joint(p, j, model, state, dt, f)[0]
         r = joint_turn(p, j, phi)[0]
-        _, _, kappa, m, _ = boundary_torques(p, j, model, state, r)
+        _, _, kappa, m, _ = boundary_torques(p, j, model, state, f, r)
         k = model.attach_vertex[p.attach[j]]
         total += 0.5 * dot3(kappa, m) / model.voronoi_inv_rest_length[k]
         for i in range(3):
@@ -744,10 +748,10 @@ def articulation_fields(p, model, state, frames, moments, strains):
     theta/L - u0 (3.22), each joint settled as articulation_energy settles it."""
     dt = state.clock[0] - p.last[0]
     for j in range(p.attach.shape[0]):
-        phi = settle_joint(p, j, model, state, dt)[0]
-        r = joint_turn(p, j, phi)[0]
-        _, _, kappa, m, _ = boundary_torques(p, j, model, state, r)
         f = end_frame(model, state, p.attach[j])
+        phi = settle_joint(p, j, model, state, dt, f)[0]
+        r = joint_turn(p, j, phi)[0]
+        _, _, kappa, m, _ = boundary_torques(p, j, model, state, f, r)
         g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
         frames[j, 0], frames[j, 1], frames[j, 2], frames[j, 3] = g
         moments[j, 0], moments[j, 1], moments[j, 2] = quat_rotate(g[0], g[1], g[2], g[3], m[0], m[1], m[2])
