@@ -96,6 +96,8 @@ class FluidParams(NamedTuple):
                              # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
                              # interior vertices the medium's inertia force (3), the upthrust, and
                              # the inverse masses across and along the line, added mass included
+                             # (kept in a still medium only where some line carries added mass:
+                             # the dry ones, model.vertex_inv_mass, are the same numbers)
     wet_inverse: np.ndarray  # (2, nv) 1 / (m + l a_n), 1 / (m + l a_t) of each interior vertex of a line in the
                              # medium: its inverse masses across and along the line where it is wet
     decay: np.ndarray        # (2, nv) scratch of the linear law: exp(-c h l / m) across and along the line at each
@@ -120,7 +122,8 @@ class FluidParams(NamedTuple):
                              # sample_node_masses), where the medium adds mass
     chord_inverse: np.ndarray  # (nv,) scratch: 1 / |c| of the chord each vertex's sampled tangent is taken
                              # along (the end element at a line end; 1e150 where it vanishes), as the
-                             # sample found it: the turning fluid's terms (kernels/added_mass.vertex_turning)
+                             # sample found it (where some line carries added mass): the turning fluid's
+                             # terms (kernels/added_mass.vertex_turning)
     node_rate: np.ndarray    # (nn, 3) scratch: each free node's acceleration the turning fluid's predictor
                              # takes (kernels/added_mass.add_turning_forces)
 
@@ -367,10 +370,14 @@ def wet_inverses(dry, wet0, wet1, i, w):
 @njit(**PASS)
 def sample_chords(c, S, ci, lo, n):
     """Update rows 7-9 of the sample (S) at the n interior vertices lo+1.. of a line by the
-    unit chord between their neighbours (c: the position columns), ci by 1 / its length."""
+    unit chord between their neighbours (c: the position columns), ci by 1 / its length where
+    some line carries added mass (its turning fluid reads it; nothing else does)."""
     for k in range(n):
         i = lo + uint(k + 1)
-        S[7][i], S[8][i], S[9][i], ci[i] = unit_chord(c, i - uint(1), i + uint(1))
+        if CARRIES:
+            S[7][i], S[8][i], S[9][i], ci[i] = unit_chord(c, i - uint(1), i + uint(1))
+        else:
+            S[7][i], S[8][i], S[9][i], _ = unit_chord(c, i - uint(1), i + uint(1))
 
 
 @njit(**PASS)
@@ -453,8 +460,9 @@ def sample_medium(p, model, state):
             else:
                 for i in (lo, hi - 1):
                     S[0][i] = 1.0 if c[2][i] <= surface else 0.0
-            de += sample_still_line(v, c, S, p.chord_inverse, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2,
-                                    surface, an, at, an != 0.0 or at != 0.0)
+            if CARRIES or MOVING:   # (else the drag alone reads the interior, and takes it itself: kick_drag_line)
+                de += sample_still_line(v, c, S, p.chord_inverse, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2,
+                                        surface, an, at, an != 0.0 or at != 0.0)
             if CARRIES and ends:
                 de += ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         else:
@@ -547,26 +555,29 @@ def push_line(v, S, first, n, h):
 
 
 @njit(**CACHED, inline="always")
-def drag_flow(vx, vy, vz, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay):
+def drag_flow(vx, vy, vz, w, tx, ty, tz, S, vlen, vmass, im, i, kn, kt, an, at, linear, calm, decay):
     """Return (the velocity, the energy dissipated, the work the medium supplied) of vertex i
     after the exact flow of drag (see kick_drag_vertices) from the velocity (vx, vy, vz), given
-    the sample rows S, the Voronoi lengths and vertex masses and, for the linear law, the decay
-    factors of a wet vertex over the flow (p.decay: across, along) (``calm``: the medium at
-    rest everywhere, its velocity rows not read)."""
-    wl = S[0][i] * vlen[i]                             # 0 where the vertex is dry
-    tx, ty, tz = S[7][i], S[8][i], S[9][i]
+    its wetness w (1 or 0) and unit tangent t, the sample rows S, the Voronoi lengths, vertex
+    masses and dry inverse masses (im) and, for the linear law, the decay factors of a wet
+    vertex over the flow (p.decay: across, along) (``calm``: the medium at rest everywhere, its
+    velocity rows not read). The inverse masses with the added mass are the sample's rows
+    14-15; where no line carries added mass they are the dry ones, the same numbers, read from
+    im, which the kick reads anyway."""
+    wl = w * vlen[i]                                   # 0 where the vertex is dry
     Ux, Uy, Uz = (0.0, 0.0, 0.0) if calm else (S[1][i], S[2][i], S[3][i])
     ux, uy, uz = vx - Ux, vy - Uy, vz - Uz
     ut = ux * tx + uy * ty + uz * tz
     nx, ny, nz = ux - ut * tx, uy - ut * ty, uz - ut * tz
     sn = math.sqrt(nx * nx + ny * ny + nz * nz)
     if linear:
-        rt, rn = 1.0 + S[0][i] * (decay[1][i] - 1.0), 1.0 + S[0][i] * (decay[0][i] - 1.0)
+        rt, rn = 1.0 + w * (decay[1][i] - 1.0), 1.0 + w * (decay[0][i] - 1.0)
         m = vmass[i]
         jt, jn = (m + vlen[i] * at) * (rt - 1.0), (m + vlen[i] * an) * (rn - 1.0)   # impulse per relative velocity
     else:   # m (r - 1) = -w k s r; both r from one division (the step is bound by their throughput)
         ct, cn = wl * kt * abs(ut), wl * kn * sn
-        at_, an_ = 1.0 + ct * S[15][i], 1.0 + cn * S[14][i]
+        wn, wt = (S[14][i], S[15][i]) if CARRIES else (im[i], im[i])
+        at_, an_ = 1.0 + ct * wt, 1.0 + cn * wn
         d = 1.0 / (at_ * an_)
         rt, rn = an_ * d, at_ * d
         jt, jn = -ct * rt, -cn * rn
@@ -576,16 +587,24 @@ def drag_flow(vx, vy, vz, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay
 
 
 @njit(**CACHED, inline="always")
-def kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay, keep):
+def kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, i, kn, kt, an, at, linear, calm, decay, keep,
+                     fresh):
     """Update the velocity columns v (3-tuple) at vertex i by half the kick's impulse (hh times
     the inverse mass im times the load columns f, as the kick takes them), the exact flow of
     drag (drag_flow), and that half impulse taken back, which the kick then gives with the
     other half: K/2 F K/2. D at i by the kick's whole change of the velocity where ``keep``.
+    The vertex's wetness and tangent as the sample holds them, or where ``fresh`` as
+    sample_still_line finds them, from the position columns c and the surface's height.
     Return the energy dissipated and the work supplied."""
     s = hh * im[i]
     ax, ay, az = s * f[0][i], s * f[1][i], s * f[2][i]
     wx, wy, wz = v[0][i] + ax, v[1][i] + ay, v[2][i] + az
-    u, d, g = drag_flow(wx, wy, wz, S, vlen, vmass, i, kn, kt, an, at, linear, calm, decay)
+    if fresh:
+        w = 1.0 if c[2][i] <= surface else 0.0
+        tx, ty, tz, _ = unit_chord(c, i - uint(1), i + uint(1))
+    else:
+        w, tx, ty, tz = S[0][i], S[7][i], S[8][i], S[9][i]
+    u, d, g = drag_flow(wx, wy, wz, w, tx, ty, tz, S, vlen, vmass, im, i, kn, kt, an, at, linear, calm, decay)
     if keep:
         D[0][i], D[1][i], D[2][i] = u[0] - v[0][i] + ax, u[1] - v[1][i] + ay, u[2] - v[2][i] + az
     v[0][i], v[1][i], v[2][i] = u[0] - ax, u[1] - ay, u[2] - az
@@ -593,35 +612,57 @@ def kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, i, kn, kt, an, at, linear,
 
 
 @njit(**PASS)
-def kick_drag_line(v, f, im, hh, D, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay, keep):
+def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay, keep):
     """Update the velocity columns v at the n vertices first.. by the kick's drag
     (kick_drag_vertex; a loop per law, and for Morison's a calm medium's of its own: three rows
-    fewer to read, no work supplied); return the energy dissipated and the work supplied."""
+    fewer to read, no work supplied); return the energy dissipated and the work supplied.
+    Where no line carries added mass and the medium is still (a variant's constants), nothing
+    but the drag reads the sample at the interior vertices: each takes its wetness and tangent
+    here from the positions (c; the surface's height), which hold still through the kick, as
+    the sample would have found them (the sample skips them: sample_medium), four rows
+    neither written nor read back."""
     dissipated = supplied = 0.0
-    if keep and calm and not linear:   # (the default: Lagrange's added mass, Morison's drag, still water)
+    if not CARRIES and not MOVING:
+        if linear:
+            for k in range(n):
+                d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
+                                        True, False, decay, False, True)
+                dissipated += d
+                supplied += g
+        elif calm:
+            for k in range(n):
+                dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt,
+                                               an, at, False, True, decay, False, True)[0]
+        else:
+            for k in range(n):
+                d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
+                                        False, False, decay, False, True)
+                dissipated += d
+                supplied += g
+    elif keep and calm and not linear:   # (the default: Lagrange's added mass, Morison's drag, still water)
         for k in range(n):
-            dissipated += kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, False,
-                                           True, decay, True)[0]
+            dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
+                                           at, False, True, decay, True, False)[0]
     elif keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
         for k in range(n):
-            d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, linear, calm,
-                                    decay, True)
+            d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
+                                    linear, calm, decay, True, False)
             dissipated += d
             supplied += g
     elif linear:
         for k in range(n):
-            d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, True, False,
-                                    decay, False)
+            d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
+                                    True, False, decay, False, False)
             dissipated += d
             supplied += g
     elif calm:
         for k in range(n):
-            dissipated += kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, False,
-                                           True, decay, False)[0]
+            dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
+                                           at, False, True, decay, False, False)[0]
     else:
         for k in range(n):
-            d, g = kick_drag_vertex(v, f, im, hh, D, S, vlen, vmass, first + uint(k), kn, kt, an, at, False, False,
-                                    decay, False)
+            d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
+                                    False, False, decay, False, False)
             dissipated += d
             supplied += g
     return dissipated, supplied
@@ -668,7 +709,7 @@ def kick_drag_vertices(p, model, state, loads, h):
     where two halves on its sides took two passes; the step stays a symmetric sequence
     (second order) and stable however stiff the drag. (A loop per law over contiguous columns
     with unsigned indices, branch-free, which LLVM vectorises; see layout.columns.)"""
-    v, f, S = columns(state.v), columns(loads.f), sample_rows(p)
+    v, f, S, c = columns(state.v), columns(loads.f), sample_rows(p), columns(state.x)
     vlen, vmass, im = model.voronoi_rest_length, model.vertex_mass, model.vertex_inv_mass
     nl = model.line_vertex_offsets.shape[0] - 1
     if p.law == LINEAR and p.decay_h[0] != h:
@@ -693,8 +734,8 @@ def kick_drag_vertices(p, model, state, loads, h):
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         first, n = uint(lo + 1), hi - lo - 2
         kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR
-        d, g = kick_drag_line(v, f, im, 0.5 * h, D, S, vlen, vmass, first, n, kn, kt, an, at, linear, calm, decay,
-                              turns(p, j))
+        d, g = kick_drag_line(v, f, im, 0.5 * h, D, S, c, p.surface, vlen, vmass, first, n, kn, kt, an, at, linear,
+                              calm, decay, turns(p, j))
         dissipated += d
         supplied += g
     p.dissipated[0] += dissipated
