@@ -1,6 +1,6 @@
 """Cost of the fluid medium per step: the same submerged line stepped dry (gravity alone) and
-in water with each set of the fluid's terms, side by side in one process (interleaved rounds),
-per step and per element-step.
+in water with each set of the fluid's terms, side by side in one process (interleaved rounds,
+the median of three copies of each: harness.median_of_copies), per step and per element-step.
 
 Scene: a steel wire (r = 20 mm) of N elements, 1 m each, pinned at both ends 2 m under the
 surface, under gravity; and the same 1000 elements as a chain of 200 lines of 5, joined at
@@ -15,7 +15,7 @@ import numpy as np
 
 import cosnet
 from cosnet.kernels.stepping import CHUNK_STEPS
-from harness import best_interleaved, table, write_json
+from harness import median_of_copies, table, write_json
 
 SEA = 1025.0
 WIRE = cosnet.Material(E=1e11, poisson=0.3, density=7850.0)
@@ -55,18 +55,21 @@ FLUIDS = {
 
 def main():
     quick = "--quick" in sys.argv
-    sizes, rounds = (((100, 1),), 3) if quick else (((100, 1), (1000, 1), (1000, 200)), 9)
+    sizes, copies, rounds = (((100, 1),), 1, 3) if quick else (((100, 1), (1000, 1), (1000, 200)), 3, 5)
     rows, results = [], []
     for n, lines in sizes:
         steps = max(CHUNK_STEPS, 2_000_000 // n)   # whole chunks: the watch's tests at their usual rate
-        dry = cosnet.Simulation(wire(n, lines), [cosnet.Gravity()], threads=1, fast_modes="rotary")
-        sims = {"dry (gravity)": dry}
-        for name, kw in FLUIDS.items():
-            sims[name] = cosnet.Simulation(wire(n, lines), [cosnet.Gravity(), cosnet.Fluid(SEA, surface=0.0, **kw)],
-                                           dt=dry.dt, force_dt=True, threads=1, fast_modes="rotary")
-        times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims.values()], rounds)
+        dt = cosnet.Simulation(wire(n, lines), [cosnet.Gravity()], threads=1, fast_modes="rotary").dt
+        cases = {"dry (gravity)": None, **FLUIDS}
+
+        def build(kw):   # each copy a simulation of its own (harness.median_of_copies)
+            medium = [] if kw is None else [cosnet.Fluid(SEA, surface=0.0, **kw)]
+            sim = cosnet.Simulation(wire(n, lines), [cosnet.Gravity(), *medium], dt=dt, force_dt=True, threads=1,
+                                    fast_modes="rotary")
+            return lambda: sim.run(steps=steps)
+        times = median_of_copies([lambda kw=kw: build(kw) for kw in cases.values()], copies, rounds)
         base = times[0] / steps
-        for (name, _), t in zip(sims.items(), times):
+        for name, t in zip(cases, times):
             per = t / steps
             results.append({"elements": n, "lines": lines, "case": name, "us_per_step": 1e6 * per,
                             "ns_per_element_step": 1e9 * per / n, "over_dry_percent": 100.0 * (per / base - 1)})

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import statistics
 import time
 from pathlib import Path
 
@@ -58,6 +59,25 @@ def best_interleaved(fns, rounds=9):
             fn()
             best[k] = min(best[k], time.perf_counter() - t0)
     return best
+
+
+def median_of_copies(builds, copies=3, rounds=5):
+    """For each of ``builds`` (callables returning a contender: a callable to time, built anew
+    each call, a simulation and its run), the median over ``copies`` instances of the
+    smallest wall time each takes over ``rounds`` rounds, every instance of every contender
+    timed in turn (best_interleaved). A simulation's step time depends on where its arrays
+    lie in memory: copies of one scene in water, built in one process, differed by a fifth of
+    the dry line's step, each copy keeping its own figure from round to round, and a table of
+    one copy each moved by tens of points between runs in rows whose code had not changed.
+    The best of rounds takes the machine at its best; the median of copies, the contender at
+    a usual placement."""
+    fns, owner = [], []
+    for k, build in enumerate(builds):
+        for _ in range(copies):
+            fns.append(build())
+            owner.append(k)
+    times = best_interleaved(fns, rounds)
+    return [statistics.median(t for t, o in zip(times, owner) if o == k) for k in range(len(builds))]
 
 
 def cpu_times():
