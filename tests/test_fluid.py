@@ -615,6 +615,44 @@ def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes
     assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
 
 
+@pytest.mark.parametrize("law", ["drag", "resistance"])
+def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypatch, law):
+    """A wire between pins, half out of the water, swinging through a current with drag alone
+    (Morison's or Stokes's law): no line carries added mass and the medium is still, so its
+    record is of the variant whose drag takes each interior vertex's wetness and tangent from
+    the positions and whose sample never reaches the interior (kernels/fluid.py,
+    kick_drag_line). It moves as in the variant that samples them (forced: some line may carry
+    added mass), its dry vertices included: the same positions and accounts."""
+    from cosnet.kernels import fluid_variants
+    from cosnet.kernels.compiler import _reach
+    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
+
+    def run():
+        net = cosnet.Net()
+        a, b = net.add_node((0.0, 0.0, -1.0), fixed=True), net.add_node((4.0, 0.0, 0.6), fixed=True)
+        net.add_line(a, b, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
+                     section=cosnet.Circle(WIRE_R), elements=24)
+        coefficients = {"drag": (1.2, 0.008)} if law == "drag" else {"resistance": (2.0, 1.0)}
+        fluid = cosnet.Fluid(SEA, velocity=(0.0, 0.3, 0.0), surface=0.0, **coefficients)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+        sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
+        sim.run(until=0.05)
+        p = fluid.params(sim)
+        reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+        return sim, fluid, fluid_variants.options_of(p), reached
+
+    sim, fluid, options, reached = run()
+    assert options == (False, False, False, False) and "sample_still_line" not in reached
+    assert fluid.dissipated(sim) > 0.0
+    options_of = fluid_variants.options_of
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (options_of(p)[0], True, *options_of(p)[2:]))
+    full, full_fluid, full_options, full_reached = run()
+    assert full_options[1] is True and "sample_still_line" in full_reached
+    assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
+    assert full_fluid.dissipated(full) == pytest.approx(fluid.dissipated(sim), rel=1e-12, abs=1e-15)
+    assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
+
+
 def test_the_stable_step_counts_the_added_mass():
     # a light rod (400 kg/m^3) whose heavier rotary inertia leaves its translation setting the
     # step: in water with C_a = 1 across and along, every translational mass grows by 2.5
