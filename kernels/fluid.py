@@ -619,27 +619,10 @@ def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt
     Where no line carries added mass and the medium is still (a variant's constants), nothing
     but the drag reads the sample at the interior vertices: each takes its wetness and tangent
     here from the positions (c; the surface's height), which hold still through the kick, as
-    the sample would have found them (the sample skips them: sample_medium), four rows
-    neither written nor read back."""
+    the sample would have found them (the sample skips them: sample_medium)."""
     dissipated = supplied = 0.0
-    if not CARRIES and not MOVING:
-        if linear:
-            for k in range(n):
-                d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
-                                        True, False, decay, False, True)
-                dissipated += d
-                supplied += g
-        elif calm:
-            for k in range(n):
-                dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt,
-                                               an, at, False, True, decay, False, True)[0]
-        else:
-            for k in range(n):
-                d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
-                                        False, False, decay, False, True)
-                dissipated += d
-                supplied += g
-    elif keep and calm and not linear:   # (the default: Lagrange's added mass, Morison's drag, still water)
+    fresh = not CARRIES and not MOVING   # (a variant's constants: LLVM folds the test in each loop)
+    if keep and calm and not linear:   # (the default: Lagrange's added mass, Morison's drag, still water)
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, True, False)[0]
@@ -652,17 +635,17 @@ def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt
     elif linear:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
-                                    True, False, decay, False, False)
+                                    True, False, decay, False, fresh)
             dissipated += d
             supplied += g
     elif calm:
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
-                                           at, False, True, decay, False, False)[0]
+                                           at, False, True, decay, False, fresh)[0]
     else:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
-                                    False, False, decay, False, False)
+                                    False, False, decay, False, fresh)
             dissipated += d
             supplied += g
     return dissipated, supplied
