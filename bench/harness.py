@@ -70,7 +70,8 @@ def median_of_copies(builds, copies=3, rounds=5):
     the dry line's step, each copy keeping its own figure from round to round, and a table of
     one copy each moved by tens of points between runs in rows whose code had not changed.
     The best of rounds takes the machine at its best; the median of copies, the contender at
-    a usual placement."""
+    a usual placement (what a shared machine does from one run to the next remains: two runs
+    of the fluid's table on one commit still differed by tens of points in some rows)."""
     fns, owner = [], []
     for k, build in enumerate(builds):
         for _ in range(copies):

@@ -3,8 +3,7 @@
 Cost: a hanging chain of LINKS steel links (5 elements each, 0.2 m; or 50 elements, 2 m: a
 joint ten times sparser) whose junctions are welded, free hinges, ball joints, or hinges with a
 spring, a damper and friction; every net stepped at the welded chain's stable step, interleaved
-rounds (the median of three copies of each: harness.median_of_copies), one thread. Each row
-also gives the net's own stable step against the welded one's.
+rounds, one thread. Each row also gives the net's own stable step against the welded one's.
 
 Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings of 1 kg
 sliding on it with friction, each pulled down by a node load, in air and in water (the wire
@@ -28,7 +27,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import cosnet
-from harness import median_of_copies, table, write_json
+from harness import best_interleaved, table, write_json
 
 STEEL = cosnet.Material(E=2.1e11, poisson=0.3, density=7850.0)
 G = 9.81
@@ -55,17 +54,12 @@ def chain(links, joint, elements=5):
     return net
 
 
-def cost(links, rounds, elements=5, copies=3):
+def cost(links, rounds, elements=5):
     welded = cosnet.Simulation(chain(links, JOINTS["welded"], elements), [cosnet.Gravity()], threads=1)
     sims = {name: cosnet.Simulation(chain(links, make, elements), [cosnet.Gravity()], dt=welded.dt, force_dt=True,
                                     threads=1) for name, make in JOINTS.items()}
     steps = max(500, 1_500_000 // (links * elements))
-
-    def build(make):   # each copy a simulation of its own (harness.median_of_copies)
-        sim = cosnet.Simulation(chain(links, make, elements), [cosnet.Gravity()], dt=welded.dt, force_dt=True,
-                                threads=1)
-        return lambda: sim.run(steps=steps)
-    times = median_of_copies([lambda m=make: build(m) for make in JOINTS.values()], copies, rounds)
+    times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims.values()], rounds)
     base = times[0] / steps
     out = []
     for (name, sim), t in zip(sims.items(), times):
@@ -92,17 +86,14 @@ def wire_with_rings(rings, dt=None, water=False):
     return cosnet.Simulation(net, fluid + loads, threads=1, dt=dt, force_dt=dt is not None)
 
 
-def ring_cost(counts, rounds, copies=3):
+def ring_cost(counts, rounds):
     """us per step of the wire with each number of rings, dry and in water (the rings then move
     the wire by the inverse mass tensors the added mass makes), at the bare dry wire's step."""
-    dt = wire_with_rings(0).dt
+    bare = wire_with_rings(0)
     runs = [(water, n) for water in (False, True) for n in (0, *counts)]
+    sims = [bare if (water, n) == (False, 0) else wire_with_rings(n, bare.dt, water) for water, n in runs]
     steps = 20_000
-
-    def build(water, n):   # each copy a simulation of its own (harness.median_of_copies)
-        sim = wire_with_rings(n, dt, water)
-        return lambda: sim.run(steps=steps)
-    times = median_of_copies([lambda w=water, n=n: build(w, n) for water, n in runs], copies, rounds)
+    times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims], rounds)
     base = {water: t / steps for (water, n), t in zip(runs, times) if n == 0}
     return [{"medium": "water" if water else "air", "rings": n, "us_per_step": 1e6 * t / steps,
              "us_per_ring": 0.0 if n == 0 else 1e6 * (t / steps - base[water]) / n}
@@ -180,15 +171,15 @@ def accuracy(until, samples, stiffness):
 
 def main():
     quick = "--quick" in sys.argv
-    chains, copies, rounds = (((10, 5),), 1, 3) if quick else (((10, 5), (100, 5), (20, 50)), 3, 5)
-    runs = [r for n, e in chains for r in cost(n, rounds, e, copies)]
+    chains, rounds = (((10, 5),), 3) if quick else (((10, 5), (100, 5), (20, 50)), 9)
+    runs = [r for n, e in chains for r in cost(n, rounds, e)]
     table("joints: cost per step of a hanging chain, at the welded chain's step (one thread)",
           ["links", "elements per link", "junctions", "us/step", "over weld %", "us per joint",
            "own stable dt / weld's"],
           [[r["links"], r["elements_per_link"], r["junctions"], r["us_per_step"], r["over_weld_percent"],
             r["us_per_joint"], r["stable_dt_over_weld"]]
            for r in runs])
-    rings = ring_cost((1, 10) if quick else (1, 10, 50), rounds, copies)
+    rings = ring_cost((1, 10) if quick else (1, 10, 50), rounds)
     table("joints: cost per step of rings sliding on a 100-element wire (one thread, the bare wire's step)",
           ["medium", "rings", "us/step", "us per ring"],
           [[r["medium"], r["rings"], r["us_per_step"], r["us_per_ring"]] for r in rings])
