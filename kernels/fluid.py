@@ -96,8 +96,9 @@ class FluidParams(NamedTuple):
                              # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
                              # interior vertices the medium's inertia force (3), the upthrust, and
                              # the inverse masses across and along the line, added mass included
-                             # (kept in a still medium only where some line carries added mass:
-                             # the dry ones, model.vertex_inv_mass, are the same numbers)
+                             # (in a still medium where no line carries added mass the interior
+                             # vertices are not sampled: the drag takes their wetness and tangent
+                             # itself and the dry inverse masses, kick_drag_line)
     wet_inverse: np.ndarray  # (2, nv) 1 / (m + l a_n), 1 / (m + l a_t) of each interior vertex of a line in the
                              # medium: its inverse masses across and along the line where it is wet
     decay: np.ndarray        # (2, nv) scratch of the linear law: exp(-c h l / m) across and along the line at each
