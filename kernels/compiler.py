@@ -230,7 +230,13 @@ def compiling_elsewhere(dispatcher, sig) -> bool:
     now (holds its lock, compiling): a caller with other work may do that first, then load
     this one rather than wait for it."""
     path = compile_lock_path(dispatcher, sig)
-    if path is None or path in _held:
+    return path is not None and _held_elsewhere(path)
+
+
+def _held_elsewhere(path) -> bool:
+    """Whether another process holds the compile lock ``path`` (one this process holds is not
+    another's)."""
+    if path in _held:
         return False
     try:
         f = open(path, "ab")
@@ -427,16 +433,8 @@ def reaches_compiling_elsewhere(kernel) -> bool:
             # a lock is the index's name, a key's hash, .compiling (compile_lock_path)
             if not entry.endswith(".compiling") or entry.rsplit(".", 2)[0] not in names:
                 continue
-            path = os.path.join(folder, entry)
-            if path in _held:
-                continue
-            try:
-                f = open(path, "ab")
-            except OSError:
-                continue
-            with f:   # a free lock taken here is released as the file closes
-                if not _take(f):
-                    return True
+            if _held_elsewhere(os.path.join(folder, entry)):
+                return True
     return False
 
 

@@ -575,7 +575,7 @@ def drag_flow(vx, vy, vz, w, tx, ty, tz, S, vlen, vmass, im, i, kn, kt, an, at, 
         rt, rn = 1.0 + w * (decay[1][i] - 1.0), 1.0 + w * (decay[0][i] - 1.0)
         m = vmass[i]
         jt, jn = (m + vlen[i] * at) * (rt - 1.0), (m + vlen[i] * an) * (rn - 1.0)   # impulse per relative velocity
-    else:   # m (r - 1) = -w k s r; both r from one division (the step is bound by their throughput)
+    else:   # m (r - 1) = -w k s r; both r from one division
         ct, cn = wl * kt * abs(ut), wl * kn * sn
         wn, wt = (S[14][i], S[15][i]) if CARRIES else (im[i], im[i])
         at_, an_ = 1.0 + ct * wt, 1.0 + cn * wn
