@@ -3,7 +3,11 @@ against a plane (half-space), sphere, capsule, box or closed triangle mesh.
 
 Normal law. A vertex centre c at signed distance d from the surface (outward normal n)
 overlaps it by eps = r - d; the normal force is fn = max(0, k eps - gamma v.n) along n (the
-potential k eps^2 / 2 when gamma = 0).
+potential k eps^2 / 2 when gamma = 0). On a soft soil k, gamma and k_t are per unit of
+contact area, and each vertex's are those times its area s = 2 r l (l its Voronoi length): the
+law is homogeneous of degree one in the three, the friction's cone and anchors unchanged, so
+the vertex's force, dashpot force, plastic work and energy are s times those of the law with
+the constants per area (p.scale: s, or 1 where k is per vertex).
 
 Friction: elastic stick, plastic slip. Each contact keeps an anchor A (lab point) set where
 the contact began; the tangential spring displacement is delta = P (c - A), P the projection
@@ -81,6 +85,7 @@ class ObstacleParams(NamedTuple):
     vprev: np.ndarray        # (m,) int64 their neighbours along the line (themselves at ends)
     vnext: np.ndarray        # (m,) int64
     radius: np.ndarray       # (m,) sphere radius of each vertex
+    scale: np.ndarray        # (m,) each vertex's factor on k, gamma and k_t: 1, or on a soft soil its area (m^2)
     anchor: np.ndarray       # (m, 3) anchors of the tangential springs
     mode: np.ndarray         # (m,) int64 FREE, STICK or SLIDE
     dissipated: np.ndarray   # (1,) energy dissipated by friction (J)
@@ -257,16 +262,17 @@ def add_obstacle(p, model, state, loads):
     for q in range(k):
         j = held[0, q]
         i = p.verts[j]
+        s = p.scale[j]   # (the law's outputs scale with its constants: 1 leaves them as they are)
         p.mode[j] = held[1, q]
         anchor[j, 0], anchor[j, 1], anchor[j, 2] = w[A, q], w[A + 1, q], w[A + 2, q]
-        p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = w[D, q], w[D + 1, q], w[D + 2, q]
-        lost += w[LOST, q]   # 0 where nothing was lost: lost is never -0, so adding 0 leaves it as it is
+        p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = s * w[D, q], s * w[D + 1, q], s * w[D + 2, q]
+        lost += s * w[LOST, q]   # 0 where nothing was lost: lost is never -0, so adding 0 leaves it as it is
         if w[EPS, q] > 0.0:
             active += 1
             deepest = max(deepest, w[EPS, q] / p.radius[j])
-            f[i, 0] += w[F, q]
-            f[i, 1] += w[F + 1, q]
-            f[i, 2] += w[F + 2, q]
+            f[i, 0] += s * w[F, q]
+            f[i, 1] += s * w[F + 1, q]
+            f[i, 2] += s * w[F + 2, q]
     p.dissipated[0] += lost
     p.deepest[0] = deepest
     p.active[0] = active
@@ -322,7 +328,7 @@ def contact_law(w, mode, count, k, gamma, k_t, s_fwd, s_back, s_lat, k_fwd, k_ba
 @njit(**ENTRY)
 def obstacle_energy(p, state):
     """Return the stored energy: k eps^2 / 2 over the overlapping vertices plus the spring
-    energy k_t |delta|^2 / 2 of their anchors."""
+    energy k_t |delta|^2 / 2 of their anchors (each times the vertex's p.scale)."""
     x, anchor = state.x, p.anchor
     e = 0.0
     for j in range(p.verts.shape[0]):
@@ -331,9 +337,10 @@ def obstacle_energy(p, state):
         eps = p.radius[j] - d
         if not eps > 0.0:
             continue
-        e += 0.5 * p.k * eps * eps
+        s = p.scale[j]
+        e += s * (0.5 * p.k * eps * eps)
         if p.mode[j] != FREE:
             ax, ay, az = x[i, 0] - anchor[j, 0], x[i, 1] - anchor[j, 1], x[i, 2] - anchor[j, 2]
             an = ax * nx + ay * ny + az * nz
-            e += 0.5 * p.k_t * ((ax - an * nx) ** 2 + (ay - an * ny) ** 2 + (az - an * nz) ** 2)
+            e += s * (0.5 * p.k_t * ((ax - an * nx) ** 2 + (ay - an * ny) ** 2 + (az - an * nz) ** 2))
     return e

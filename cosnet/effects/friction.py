@@ -12,9 +12,10 @@ from ..engine.registry import Effect, Key
 
 def friction_keys(coefficient=nonnegative, static: str = "static friction coefficient",
                   kinetic: str = "kinetic friction coefficient, at most mu_s",
-                  normal: str = "normal penalty stiffness", damping: str = "normal damping") -> tuple:
+                  normal: str = "normal penalty stiffness", damping: str = "normal damping",
+                  k_required: bool = True) -> tuple:
     """(k, gamma, k_t, mu_s, mu_k) as Keys; ``coefficient`` converts mu_s and mu_k."""
-    return (Key("k", positive, STIFFNESS, required=True, doc=normal),
+    return (Key("k", positive, STIFFNESS, required=k_required, doc=normal),
             Key("gamma", nonnegative, DAMPING, doc=damping),
             Key("k_t", nonnegative, STIFFNESS, doc="tangential (stick) stiffness; default k"),
             Key("mu_s", coefficient, doc=static),

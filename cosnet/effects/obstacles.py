@@ -16,7 +16,8 @@ from ..core import checks
 from .contact import chosen_lines, smallest_mass
 from ..core.net import Line
 from ..engine.registry import Binding, Key
-from ..core.units import (LENGTH, choice, coefficients, direction, frame, positive, string, vec3)
+from ..core.units import (LENGTH, SOIL_DAMPING, SOIL_STIFFNESS, choice, coefficients, direction, frame, nonnegative,
+                          positive, string, vec3)
 from ..kernels.obstacles import SHAPES, SLIDE, ROWS, ObstacleParams
 from ..kernels.segments import VARIANTS, obstacle_record
 from ..kernels.layout import typed_call
@@ -157,11 +158,16 @@ class Obstacle(Frictional):
       "mesh":    file (read with meshio: STL, OBJ, PLY, ...) or points (n, 3) and triangles
                  (t, 3); it must be closed and manifold, and is wound outwards on loading
     k: normal stiffness (N/m) > 0; gamma: normal damping (N s/m) >= 0.
+    k_soil, gamma_soil: a plane only, instead of k and gamma: a soft soil (a seabed, as
+    MoorDyn's), whose stiffness (N/m^3) and damping (N s/m^3) are per unit of contact area;
+    each vertex's are these times its area 2 r l (r its section radius, l its Voronoi length),
+    and so is its tangential stiffness, k_t = k_soil 2 r l. A line lying on it sinks by its
+    weight per length over 2 r k_soil, the same all along.
     mu_s, mu_k: static and kinetic coefficients, a number or [forward, backward, lateral]
     (along the line's tangent, against it, across it); the one not given equals the other
     (neither: no friction); mu_k <= mu_s in each direction.
     k_t: tangential stiffness (N/m), default k (friction needs k_t > 0); the contact sticks
-    elastically within mu_s N / k_t of its anchor.
+    elastically within mu_s N / k_t of its anchor (on a soft soil, k_soil's per area).
     lines: the lines touching it (Line objects or names); None: all of them.
     """
 
@@ -170,7 +176,12 @@ class Obstacle(Frictional):
     keys = (Key("shape", choice(*SHAPES), required=True, doc="plane, sphere, capsule, box or mesh"),
             Key("lines", "lines", doc="names of the lines touching it (default: all)"),
             *friction_keys(coefficients, static="static coefficient, or [forward, backward, lateral]",
-                           kinetic="kinetic coefficient(s), at most mu_s"),
+                           kinetic="kinetic coefficient(s), at most mu_s",
+                           normal="normal penalty stiffness (or k_soil on a plane)",
+                           damping="normal damping; default 0", k_required=False),
+            Key("k_soil", positive, SOIL_STIFFNESS,
+                doc="plane, instead of k: a soft soil's stiffness per contact area (each vertex's times 2 r l)"),
+            Key("gamma_soil", nonnegative, SOIL_DAMPING, doc="with k_soil: its damping per contact area"),
             Key("point", vec3, LENGTH, doc="plane: a point of it"),
             Key("normal", direction, doc="plane: its outward normal"),
             Key("center", vec3, LENGTH, doc="sphere, box: centre"),
@@ -200,7 +211,7 @@ class Obstacle(Frictional):
         """What is wrong with the index tables of record ``p`` for ``model``, or None."""
         nv, m, nt = model.vertex_mass.shape[0], p.verts.shape[0], p.tri.shape[0]
         shapes = {"origin": (3,), "axis": (3,), "size": (3,), "rot": (3, 3), "mu_s": (3,), "mu_k": (3,),
-                  "vprev": (m,), "vnext": (m,), "radius": (m,), "anchor": (m, 3), "mode": (m,),
+                  "vprev": (m,), "vnext": (m,), "radius": (m,), "scale": (m,), "anchor": (m, 3), "mode": (m,),
                   "dissipated": (1,), "deepest": (1,), "active": (1,), "tri": (nt, 3, 3), "tri_normal": (nt, 3),
                   "grid_origin": (3,), "grid_dims": (3,), "damp": (m, 3)}
         ne = p.elems.shape[0]
@@ -218,16 +229,30 @@ class Obstacle(Frictional):
                 or offsets_error("obstacle.cell_start", p.cell_start, p.cell_tri.shape[0])
                 or index_error("obstacle.cell_tri", p.cell_tri, nt))
 
-    def __init__(self, shape: str, *, k: float, lines=None, gamma: float = 0.0, k_t=None,
+    def __init__(self, shape: str, *, k: float | None = None, lines=None, gamma: float | None = None, k_t=None,
                  mu_s=None, mu_k=None, point=None, normal=None, center=None, radius=None,
                  start=None, end=None, half_size=None, axes=None, file=None, points=None,
-                 triangles=None, name: str | None = None):
+                 triangles=None, name: str | None = None, k_soil: float | None = None,
+                 gamma_soil: float | None = None):
         if shape not in SHAPES:
             raise ValueError(f"Obstacle: shape must be one of {list(SHAPES)}, got {shape!r}")
         who = f"Obstacle {name!r} ({shape})" if name else f"Obstacle ({shape})"
         self.shape, self.name, self.who = shape, name, who
-        self.k = checks.positive(who, "k", k)
-        self.gamma = checks.nonnegative(who, "gamma", gamma)
+        self.soil = k_soil is not None
+        if self.soil:
+            if shape != "plane":
+                raise ValueError(f"{who}: k_soil (a soft soil) is a plane's, not a {shape}'s")
+            per_vertex = [key for key, val in (("k", k), ("gamma", gamma), ("k_t", k_t)) if val is not None]
+            if per_vertex:
+                raise ValueError(f"{who}: give k_soil and gamma_soil (per contact area), not {', '.join(per_vertex)} "
+                                 "(per vertex) beside them")
+            k, gamma = k_soil, gamma_soil if gamma_soil is not None else 0.0
+        elif gamma_soil is not None:
+            raise ValueError(f"{who}: gamma_soil needs k_soil")
+        elif k is None:
+            raise ValueError(f"{who}: needs k (N/m), or on a plane k_soil (N/m^3)")
+        self.k = checks.positive(who, "k_soil" if self.soil else "k", k)
+        self.gamma = checks.nonnegative(who, "gamma_soil" if self.soil else "gamma", 0.0 if gamma is None else gamma)
         if mu_s is None:   # only a kinetic coefficient: the contact holds up to the same
             mu_s = 0.0 if mu_k is None else mu_k
         self.mu_s = _coefficients(who, "mu_s", mu_s)
@@ -323,6 +348,9 @@ class Obstacle(Frictional):
                 prev.append(max(i - 1, v0))
                 nxt.append(min(i + 1, v1 - 1))
                 radius.append(line.section_at((i - v0) / n).radius)
+        # a soft soil's constants are per area: each vertex's contact area, its diameter times its length
+        scale = (2.0 * np.array(radius, float) * m.voronoi_rest_length[np.array(verts, np.int64)] if self.soil
+                 else np.ones(len(verts)))
         count = len(verts)
         tri = self.points[self.triangles] if self.shape == "mesh" else np.zeros((0, 3, 3))
         if tri.shape[0]:
@@ -338,7 +366,7 @@ class Obstacle(Frictional):
             SHAPES[self.shape], self.origin.copy(), self.axis.copy(), self.size.copy(), self.rot.copy(),
             np.ascontiguousarray(tri), normal, *grid, self.k, self.gamma, self.k_t,
             self.mu_s.copy(), self.mu_k.copy(), np.array(verts, np.int64), np.array(prev, np.int64),
-            np.array(nxt, np.int64), np.array(radius, float), np.zeros((count, 3)), np.zeros(count, np.int64),
+            np.array(nxt, np.int64), np.array(radius, float), scale, np.zeros((count, 3)), np.zeros(count, np.int64),
             np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.array(elems, np.int64).reshape(-1, 2),
             np.zeros((len(elems), 7)), np.zeros(len(elems), np.int64), np.zeros((len(elems), 2, 3)),
             np.zeros((count, 3)), np.zeros((ROWS, count)), np.zeros((2, count), np.int64)))
@@ -364,13 +392,26 @@ class Obstacle(Frictional):
 
     def omega2(self, p, on: Binding) -> float:
         """max(k, k_t) / m_min: the smallest free mass on the stiffer of the normal and
-        tangential springs (they act along orthogonal directions)."""
-        m_min = smallest_mass(on, self._lines(on))
-        return max(p.k, p.k_t) / m_min if m_min else 0.0
+        tangential springs (they act along orthogonal directions); on a soft soil, the largest
+        of a vertex's area over the free mass it pushes (its own, or its line end's node's),
+        times the constants per area."""
+        if not self.soil:
+            m_min = smallest_mass(on, self._lines(on))
+            return max(p.k, p.k_t) / m_min if m_min else 0.0
+        m = on.model
+        pushed = np.where(m.vertex_inv_mass[p.verts] > 0, m.vertex_mass[p.verts], 0.0)
+        for line in self._lines(on):   # a line end moves with its node
+            for nd, i in ((line.start, m.line_vertex_offsets[line.index]),
+                          (line.end, m.line_vertex_offsets[line.index + 1] - 1)):
+                if 0 < m.node_mass[nd.index] < math.inf:
+                    pushed[p.verts == i] = m.node_mass[nd.index]
+        free = pushed > 0
+        return max(p.k, p.k_t) * float(np.max(p.scale[free] / pushed[free])) if np.any(free) else 0.0
 
     def describe(self) -> str:
         lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]
         mu = lambda a: f"{a[0]:g}" if np.all(a == a[0]) else "[" + ", ".join(f"{x:g}" for x in a) + "]"  # noqa: E731
         named = f", name={self.name!r}" if self.name else ""
-        return (f"Obstacle({self.shape}{named}, k={self.k:g} N/m, gamma={self.gamma:g} N s/m, "
-                f"k_t={self.k_t:g} N/m, mu_s={mu(self.mu_s)}, mu_k={mu(self.mu_k)}, lines={lines})")
+        law = (f"k_soil={self.k:g} N/m^3, gamma_soil={self.gamma:g} N s/m^3, k_t={self.k_t:g} N/m^3 (per contact area)"
+               if self.soil else f"k={self.k:g} N/m, gamma={self.gamma:g} N s/m, k_t={self.k_t:g} N/m")
+        return f"Obstacle({self.shape}{named}, {law}, mu_s={mu(self.mu_s)}, mu_k={mu(self.mu_k)}, lines={lines})"
