@@ -3,10 +3,11 @@ one process: the fairlead's pull (mean, first-harmonic amplitude and phase over 
 periods) and the wall time per simulated second, each at its own step, at two resolutions.
 
 The line: 47 m of steel wire (r = 20 mm, EA = 1.26e8 N, EI = 1.26e4 N m^2) from an anchor on a
-frictionless seabed 20 m down to a fairlead at the surface 40 m away, in still water
-(rho = 1025, C_dn = 1.2, C_dt = 0.008, C_an = 1, C_at = 0). The fairlead surges 1 m at an 8 s
-period, ramped in over the first period. cosnet runs with fast_modes "auto" (its default for
-slender lines) and "resolve" (every mode of the line as it is).
+frictionless seabed 20 m down (MoorDyn's soil in both, KBOT and CBOT) to a fairlead at the
+surface 40 m away, in still water (rho = 1025, C_dn = 1.2, C_dt = 0.008, C_an = 1, C_at = 0).
+The fairlead surges 1 m at an 8 s period, ramped in over the first period. cosnet runs with
+fast_modes "auto" (its default for slender lines) and "resolve" (every mode of the line as it
+is).
 
 Each code starts from its own static equilibrium: cosnet from MoorPy's catenary relaxed under
 mass-proportional damping (SETTLE s at DAMPING /s, the pull then steady to 1e-4), MoorDyn by
@@ -45,6 +46,7 @@ DRAG, ADDED = (1.2, 0.008), (1.0, 0.0)
 SETTLE, DAMPING, SAMPLE = 20.0, 1.0, 1e-3
 INTERNAL = 1.0   # a row with the lines' internal damping at MoorDyn's ratio (BA = -1: critical)
 COUPLINGS = (1e-2, 2e-4)
+KBOT, CBOT = 3.0e6, 3.0e5   # the seabed's stiffness (N/m^3) and damping (N s/m^3) per contact area
 
 MOORDYN_INPUT = """--------------------- MoorDyn Input File ------------------------------------
 catenary wire under a surging fairlead
@@ -63,8 +65,8 @@ ID   LineType   AttachA  AttachB  UnstrLen  NumSegs  Outputs
 1    wire       1        2        {length}      {segs}       -
 ---------------------- OPTIONS -----------------------------------------
 {dt}     dtM
-3.0e6    kbot
-3.0e5    cbot
+{kbot}    kbot
+{cbot}    cbot
 {depth}     WtrDpth
 {rho}     WtrDnsty
 9.81     g
@@ -98,12 +100,12 @@ def run_cosnet(n: int, fast_modes: str = "auto", timed: bool = True, internal: f
     net.add_node((0.0, 0.0, -DEPTH), fixed=True)
     fair = net.add_node((SPAN, 0.0, 0.0), mass=1.0, inertia=(0.1, 0.1, 0.1))
     points = np.column_stack([guess["X"], np.zeros(n + 1), guess["Z"] - DEPTH])
-    line = net.add_line(net.nodes[0], fair, material=cosnet.Material(E=E, G=E / 2.6, density=RHO_S),
-                        section=cosnet.Circle(R), elements=n, points=points, rest_curvature=(0.0, 0.0, 0.0))
+    net.add_line(net.nodes[0], fair, material=cosnet.Material(E=E, G=E / 2.6, density=RHO_S),
+                 section=cosnet.Circle(R), elements=n, points=points, rest_curvature=(0.0, 0.0, 0.0))
 
-    def seabed():
-        return cosnet.Obstacle("plane", point=(0.0, 0.0, -DEPTH - R), normal=(0.0, 0.0, 1.0),
-                               k=3e6 * 2 * R * line.length / n)
+    def seabed():   # MoorDyn's soil: its kbot and cbot per contact area, the plane r below its seabed
+        return cosnet.Obstacle("plane", point=(0.0, 0.0, -DEPTH - R), normal=(0.0, 0.0, 1.0), k_soil=KBOT,
+                               gamma_soil=CBOT)
     still = cosnet.Simulation(net, [cosnet.Gravity(), cosnet.Fluid(SEA, buoyancy=True, surface=0.0), seabed(),
                                     cosnet.Drive(fair, position={"rate": [0.0, 0.0, 0.0]}), cosnet.Damping(DAMPING)],
                               fast_modes=fast_modes)
@@ -145,7 +147,7 @@ def run_moordyn(n: int, dt: float, coupling: float) -> dict:
     import moordyn
     text = MOORDYN_INPUT.format(d=2 * R, mass=RHO_S * AREA, ea=E * AREA, ei=E * math.pi * R ** 4 / 4,
                                 cd=DRAG[0], ca=ADDED[0], cdax=DRAG[1], caax=ADDED[1], depth=DEPTH, span=SPAN,
-                                length=47.0, segs=n, dt=dt, rho=SEA)
+                                length=47.0, segs=n, dt=dt, rho=SEA, kbot=KBOT, cbot=CBOT)
     folder = Path(tempfile.mkdtemp())
     (folder / "line.txt").write_text(text)
     saved = os.dup(1)
