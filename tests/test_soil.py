@@ -29,12 +29,13 @@ def soil(**kw):
 
 def lying(obstacle, height, dt=None):
     """A straight steel line of uneven elements along x, its axis at ``height`` over the
-    soil's surface, free at both ends, under gravity."""
+    soil's surface, free at both ends, under gravity (on ``obstacle``, unless None)."""
     net = cosnet.Net()
     pts = np.column_stack([XS, np.zeros_like(XS), np.full_like(XS, height)])
     a, b = net.add_node(pts[0]), net.add_node(pts[-1])
     line = net.add_line(a, b, material=STEEL, section=cosnet.Circle(R), elements=len(XS) - 1, points=pts)
-    return cosnet.Simulation(net, effects=[cosnet.Gravity(), obstacle], dt=dt), line, (a, b)
+    effects = [cosnet.Gravity()] + ([obstacle] if obstacle is not None else [])
+    return cosnet.Simulation(net, effects=effects, dt=dt), line, (a, b)
 
 
 def test_a_line_on_a_soft_soil_sinks_by_its_weight_per_length_at_every_vertex():
@@ -140,3 +141,18 @@ def test_bad_soil_is_refused_in_one_line(tmp_path):
     sim = build_scene(scene, path=tmp_path / "scene.toml").simulation()
     sim.run(until=0.01)
     assert np.all(np.isfinite(sim.state.x))
+
+
+def test_the_stable_step_counts_the_soil_at_its_stiffest_vertex():
+    """The soil adds max(k, k_t) times the largest of a vertex's area over the mass it pushes
+    to the bound on the highest frequency squared: 2 r k_soil / (rho A) on a line of one
+    section, whatever its elements' lengths (each vertex's area and mass both scale with its
+    Voronoi length, an end's too). (A soil stiff enough to weigh against the line's own
+    frequencies, so that the difference of the two bounds keeps its digits.)"""
+    from cosnet.kernels.stepping import stability_interval
+    stiff = 1e6 * K_SOIL
+    bare, _, _ = lying(None, R)
+    on_soil, _, _ = lying(soil(k_soil=stiff), R)
+    scale = on_soil.safety * stability_interval(on_soil.stepper)
+    added = scale ** 2 * (1 / on_soil.stable_dt() ** 2 - 1 / bare.stable_dt() ** 2)
+    assert added == pytest.approx(2 * R * stiff / PER_LENGTH, rel=1e-9)
