@@ -43,6 +43,11 @@ def effect_cases(net, a, b):
     }
     if hasattr(cosnet, "Contact"):
         cases["contact"] = [cosnet.Contact(k=1e5)]
+    # every vertex 1 mm into a plane under the rods: the per-vertex law and the soft soil's
+    # (its constants per contact area, each contact's results scaled by its area)
+    ground = dict(point=(0.0, 0.0, -0.009), normal=(0.0, 0.0, 1.0), mu_s=0.5, mu_k=0.4)
+    cases["plane, k per vertex"] = [cosnet.Obstacle("plane", k=1e5, gamma=10.0, **ground)]
+    cases["plane, soft soil"] = [cosnet.Obstacle("plane", k_soil=2.5e9, gamma_soil=2.5e5, **ground)]
     return cases
 
 
