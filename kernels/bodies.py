@@ -51,7 +51,7 @@ from .segments import VARIANTS
 
 # a body's shape and its targets are never meshes: the obstacles' kernels compiled without them
 # (kernels/specialise.py; the variant of a sphere, capsule or box obstacle)
-_ROUND = VARIANTS.with_options((True, False)).family   # ROUND, not MESHED
+_ROUND = VARIANTS.with_options((True, False, False)).family   # ROUND, not MESHED nor SOIL
 obstacle_distance, deepest_point = _ROUND["obstacle_distance"], _ROUND["deepest_point"]
 
 

@@ -7,7 +7,8 @@ potential k eps^2 / 2 when gamma = 0). On a soft soil k, gamma and k_t are per u
 contact area, and each vertex's are those times its area s = 2 r l (l its Voronoi length): the
 law is homogeneous of degree one in the three, the friction's cone and anchors unchanged, so
 the vertex's force, dashpot force, plastic work and energy are s times those of the law with
-the constants per area (p.scale: s, or 1 where k is per vertex).
+the constants per area (p.scale: s, or 1 where k is per vertex, whose variant leaves it
+unread: SOIL).
 
 Friction: elastic stick, plastic slip. Each contact keeps an anchor A (lab point) set where
 the contact began; the tangential spring displacement is delta = P (c - A), P the projection
@@ -53,7 +54,8 @@ SHAPES = {"plane": PLANE, "sphere": SPHERE, "capsule": CAPSULE, "box": BOX, "mes
 # own functions, and its record ObstacleParams, are the variant with every shape.
 ROUND = True    # a shape other than a plane: its elements meet it as well as its vertices
 MESHED = True   # a mesh: its triangles, their grid, the segment walking the grid
-OPTIONS = ("ROUND", "MESHED")
+SOIL = True     # a soft soil: its contacts' results scaled by their areas (p.scale; else by 1, left out)
+OPTIONS = ("ROUND", "MESHED", "SOIL")
 FAR = 1e300  # the distance of a vertex no mesh triangle is near
 FREE, STICK, SLIDE = 0, 1, 2  # contact modes
 # rows of ObstacleParams.rows, the vertex contacts' columns: centre, velocity, overlap, normal,
@@ -262,7 +264,7 @@ def add_obstacle(p, model, state, loads):
     for q in range(k):
         j = held[0, q]
         i = p.verts[j]
-        s = p.scale[j]   # (the law's outputs scale with its constants: 1 leaves them as they are)
+        s = p.scale[j] if SOIL else 1.0   # (the law's outputs scale with its constants)
         p.mode[j] = held[1, q]
         anchor[j, 0], anchor[j, 1], anchor[j, 2] = w[A, q], w[A + 1, q], w[A + 2, q]
         p.damp[j, 0], p.damp[j, 1], p.damp[j, 2] = s * w[D, q], s * w[D + 1, q], s * w[D + 2, q]
@@ -337,7 +339,7 @@ def obstacle_energy(p, state):
         eps = p.radius[j] - d
         if not eps > 0.0:
             continue
-        s = p.scale[j]
+        s = p.scale[j] if SOIL else 1.0
         e += s * (0.5 * p.k * eps * eps)
         if p.mode[j] != FREE:
             ax, ay, az = x[i, 0] - anchor[j, 0], x[i, 1] - anchor[j, 1], x[i, 2] - anchor[j, 2]

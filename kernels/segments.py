@@ -402,15 +402,17 @@ def _register(cls, kernels):
     account_kernel(cls)(kernels["account_obstacle_dashpots"])
 
 
-# the variants of the obstacle's kernels by shape (kernels.obstacles.OPTIONS): a plane's step
-# compiles none of the element contacts or the other shapes, a sphere's, capsule's or box's
-# none of the mesh
+# the variants of the obstacle's kernels by shape and law (kernels.obstacles.OPTIONS): a plane's
+# step compiles none of the element contacts or the other shapes, a sphere's, capsule's or
+# box's none of the mesh, and only a soft soil's scales its contacts by their areas
 VARIANTS = Variants(ObstacleParams, lambda: (obstacles, sys.modules[__name__]), OPTIONS, _register, __name__)
 
 
 def obstacle_record(p):
-    """``p`` (an ObstacleParams) as the record of the variant its shape needs, sharing its arrays."""
-    return VARIANTS.record(p, (p.shape != PLANE, p.shape == MESH))
+    """``p`` (an ObstacleParams) as the record of the variant its shape and law need, sharing
+    its arrays (the soil's where some contact's area is not 1: scaled by 1, the rest are
+    the same)."""
+    return VARIANTS.record(p, (p.shape != PLANE, p.shape == MESH, bool(np.any(p.scale != 1.0))))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it
