@@ -410,8 +410,8 @@ VARIANTS = Variants(ObstacleParams, lambda: (obstacles, sys.modules[__name__]), 
 
 def obstacle_record(p):
     """``p`` (an ObstacleParams) as the record of the variant its shape and law need, sharing
-    its arrays (the soil's where some contact's area is not 1: scaled by 1, the rest are
-    the same)."""
+    its arrays: a soil's where some vertex's area is not 1 (scaling by 1 would change
+    nothing)."""
     return VARIANTS.record(p, (p.shape != PLANE, p.shape == MESH, bool(np.any(p.scale != 1.0))))
 
 

@@ -400,11 +400,13 @@ class Obstacle(Frictional):
             return max(p.k, p.k_t) / m_min if m_min else 0.0
         m = on.model
         pushed = np.where(m.vertex_inv_mass[p.verts] > 0, m.vertex_mass[p.verts], 0.0)
+        row = np.full(m.vertex_mass.shape[0], -1, np.int64)
+        row[p.verts] = np.arange(p.verts.shape[0])
         for line in self._lines(on):   # a line end moves with its node
             for nd, i in ((line.start, m.line_vertex_offsets[line.index]),
                           (line.end, m.line_vertex_offsets[line.index + 1] - 1)):
-                if 0 < m.node_mass[nd.index] < math.inf:
-                    pushed[p.verts == i] = m.node_mass[nd.index]
+                if 0 < m.node_mass[nd.index] < math.inf and row[i] >= 0:
+                    pushed[row[i]] = m.node_mass[nd.index]
         free = pushed > 0
         return max(p.k, p.k_t) * float(np.max(p.scale[free] / pushed[free])) if np.any(free) else 0.0
 
