@@ -2,8 +2,9 @@
 MoorDyn's seabed): a line lying on it sinks by its weight per length over 2 r k_soil at every
 vertex, however its elements are spaced; it heaves on the soil as the damped oscillator of
 stiffness 2 r k_soil and damping 2 r gamma_soil per length, energy conserved at order 2
-without the damping; each vertex's force is MoorDyn's (kbot pen - cbot v) d l; bad input is
-refused in one line."""
+without the damping; on a slope it holds below mu_s on springs that give the same at every
+vertex and slides at g (sin - mu_k cos) above; each vertex's force is MoorDyn's
+(kbot pen - cbot v) d l; the stable step counts it; bad input is refused in one line."""
 
 import math
 
@@ -18,6 +19,7 @@ R, G = 0.01, 9.81
 PER_LENGTH = STEEL.density * math.pi * R * R     # kg/m
 K_SOIL, GAMMA_SOIL = 3e6, 3e3                    # N/m^3, N s/m^3
 SINK = PER_LENGTH * G / (2 * R * K_SOIL)         # m: the weight per length over the soil's stiffness per length
+CRITICAL = 2 * math.sqrt(2 * R * K_SOIL * PER_LENGTH) / (2 * R)   # N s/m^3: the heave's critical damping
 # uneven elements: each vertex's mass and contact area differ, their ratio does not
 XS = np.cumsum([0.0, 0.05, 0.2, 0.1, 0.3, 0.05, 0.15, 0.25, 0.1])
 
@@ -27,20 +29,19 @@ def soil(**kw):
     return cosnet.Obstacle("plane", point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), **kw)
 
 
-def lying(obstacle, height, dt=None):
+def lying(obstacle, height, dt=None, g=(0.0, 0.0, -G)):
     """A straight steel line of uneven elements along x, its axis at ``height`` over the
-    soil's surface, free at both ends, under gravity (on ``obstacle``, unless None)."""
+    soil's surface, free at both ends, under gravity g (on ``obstacle``, unless None)."""
     net = cosnet.Net()
     pts = np.column_stack([XS, np.zeros_like(XS), np.full_like(XS, height)])
     a, b = net.add_node(pts[0]), net.add_node(pts[-1])
     line = net.add_line(a, b, material=STEEL, section=cosnet.Circle(R), elements=len(XS) - 1, points=pts)
-    effects = [cosnet.Gravity()] + ([obstacle] if obstacle is not None else [])
+    effects = [cosnet.Gravity(g)] + ([obstacle] if obstacle is not None else [])
     return cosnet.Simulation(net, effects=effects, dt=dt), line, (a, b)
 
 
 def test_a_line_on_a_soft_soil_sinks_by_its_weight_per_length_at_every_vertex():
-    critical = 2 * math.sqrt(2 * R * K_SOIL * PER_LENGTH) / (2 * R)
-    sim, line, _ = lying(soil(gamma_soil=critical), R)
+    sim, line, _ = lying(soil(gamma_soil=CRITICAL), R)
     sim.run(until=0.3)
     sink = R - sim.line_positions(line)[:, 2]
     assert np.abs(sink / SINK - 1).max() < 1e-9
@@ -93,6 +94,31 @@ def test_without_damping_the_soil_conserves_energy_at_order_two():
         errors.append(np.abs(energy - energy[0]).max() / heaving)
         assert errors[-1] == pytest.approx((omega * dt) ** 2 / 4, rel=0.1)
     assert errors[0] / errors[1] > 3.5
+
+
+def on_slope(theta, mu_s, mu_k, until):
+    """The line on a soil tilted by theta towards +x (gravity turned), sunk by its weight's
+    normal share so that its contacts are loaded from the start; return how far its centre
+    moved along x."""
+    ob = soil(gamma_soil=CRITICAL, mu_s=mu_s, mu_k=mu_k)   # (the stick springs damped critically)
+    sim, line, _ = lying(ob, R - SINK * math.cos(theta), g=(G * math.sin(theta), 0.0, -G * math.cos(theta)))
+    x0 = sim.line_positions(line)[:, 0].mean()
+    sim.run(until=until)
+    return sim.line_positions(line)[:, 0].mean() - x0, ob.sliding(sim)
+
+
+def test_friction_on_a_soft_soil_holds_below_mu_s_and_slides_at_mu_k():
+    """The soil scales each contact's spring, dashpot and normal force alike, so stick and
+    slip are decided as on a stiff plane: held at 20 degrees (tan 0.36 < mu_s 0.5), sliding
+    at 30 degrees (tan 0.58) with g (sin - mu_k cos)."""
+    theta = math.radians(20)
+    moved, sliding = on_slope(theta, 0.5, 0.3, 0.05)
+    # held by the stick springs, which give the slope's pull over k_t = k_soil 2 r l at every vertex
+    assert moved == pytest.approx(SINK * math.sin(theta), rel=1e-2) and sliding == 0
+    theta, until = math.radians(30), 0.05
+    moved, sliding = on_slope(theta, 0.5, 0.3, until)
+    assert moved == pytest.approx(0.5 * G * (math.sin(theta) - 0.3 * math.cos(theta)) * until ** 2, rel=1e-2)
+    assert sliding == len(XS)
 
 
 def test_each_vertex_feels_moordyns_seabed_force():
