@@ -140,7 +140,7 @@ def test_each_vertex_feels_moordyns_seabed_force():
     assert np.all(f[:, :2] == 0.0)
 
 
-def test_bad_soil_is_refused_in_one_line(tmp_path):
+def test_bad_soil_is_refused_in_one_line_and_a_scene_declares_it(tmp_path):
     with pytest.raises(ValueError, match=r"k_soil \(a soft soil\) is a plane's, not a sphere's"):
         cosnet.Obstacle("sphere", center=(0, 0, 0), radius=1.0, k_soil=K_SOIL)
     with pytest.raises(ValueError, match=r"give k_soil and gamma_soil .* not k, gamma \(per vertex\)"):
@@ -165,8 +165,10 @@ def test_bad_soil_is_refused_in_one_line(tmp_path):
     assert "\n" not in str(e.value) and "[[effects]] #1 (obstacle) k_soil: must be positive" in str(e.value)
     scene["effects"][0].update(k_soil=3e6, gamma_soil=3e5)
     sim = build_scene(scene, path=tmp_path / "scene.toml").simulation()
-    sim.run(until=0.01)
-    assert np.all(np.isfinite(sim.state.x))
+    ob = next(e for e in sim.effects if isinstance(e, cosnet.Obstacle))
+    p = ob.params(sim)
+    assert ob.soil and (p.k, p.gamma, p.k_t) == (3e6, 3e5, 0.0)   # per area; no friction, no stick spring
+    assert np.allclose(p.scale, 2 * R * sim.model.voronoi_rest_length[p.verts], rtol=1e-15, atol=0.0)
 
 
 def test_the_stable_step_counts_the_soil_at_its_stiffest_vertex():
