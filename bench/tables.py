@@ -371,9 +371,14 @@ class Rows(list):
     """A JSON list; ``where(key=value, ...)`` is its one element with those values."""
 
     def where(self, **match):
-        found = [r for r in self if all(r.get(k) == v for k, v in match.items())]
+        return self.one(lambda r: all(r.get(k) == v for k, v in match.items()), match)
+
+    def one(self, test, said=None):
+        """Its one element for which test(element) holds (``said``: how an error names the
+        test). (A page's ``[...][0]`` would read to the site's builder as a link to a label.)"""
+        found = [r for r in self if test(r)]
         if len(found) != 1:
-            raise LookupError(f"{len(found)} rows match {match}")
+            raise LookupError(f"{len(found)} rows match {said if said is not None else 'the test'}")
         return found[0]
 
     def each(self, key):
