@@ -46,17 +46,32 @@ def chosen_lines(sim, lines, who: str) -> list[Line]:
     return chosen_parts(sim, lines, "line", who)
 
 
-def smallest_mass(sim, lines) -> float:
-    """The smallest free mass a contact force on these lines can push: an interior vertex, or
-    the composite node of a line end (0 when there is none)."""
+def pushed_masses(sim, lines) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, masses): the vertices of these lines a contact force can push and the free
+    mass each pushes: an interior vertex its own, a line end its node's composite mass (where
+    the node is neither fixed nor massless)."""
     m = sim.model
-    masses = []
+    verts, masses = [], []
     for line in lines:
-        v = slice(m.line_vertex_offsets[line.index] + 1, m.line_vertex_offsets[line.index + 1] - 1)
-        masses.extend(m.vertex_mass[v][m.vertex_inv_mass[v] > 0])
-        masses.extend(m.node_mass[nd.index] for nd in (line.start, line.end)
-                      if 0 < m.node_mass[nd.index] < math.inf)
-    return float(min(masses)) if masses else 0.0
+        lo, hi = int(m.line_vertex_offsets[line.index]), int(m.line_vertex_offsets[line.index + 1])
+        inner = np.arange(lo + 1, hi - 1)
+        inner = inner[m.vertex_inv_mass[inner] > 0]
+        verts.append(inner)
+        masses.append(m.vertex_mass[inner])
+        for nd, i in ((line.start, lo), (line.end, hi - 1)):
+            if 0 < m.node_mass[nd.index] < math.inf:
+                verts.append(np.array([i]))
+                masses.append(np.array([m.node_mass[nd.index]]))
+    if not verts:
+        return np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(verts).astype(np.int64), np.concatenate(masses).astype(float)
+
+
+def smallest_mass(sim, lines) -> float:
+    """The smallest free mass a contact force on these lines can push (pushed_masses; 0 when
+    there is none)."""
+    masses = pushed_masses(sim, lines)[1]
+    return float(masses.min()) if masses.size else 0.0
 
 
 class Contact(Frictional):

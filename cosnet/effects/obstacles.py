@@ -13,7 +13,7 @@ from .friction import Frictional, friction_keys
 from ..core import samples
 from ..engine.bounds import index_error, offsets_error
 from ..core import checks
-from .contact import chosen_lines, smallest_mass
+from .contact import chosen_lines, pushed_masses, smallest_mass
 from ..core.net import Line
 from ..engine.registry import Binding, Key
 from ..core.units import (LENGTH, SOIL_DAMPING, SOIL_STIFFNESS, choice, coefficients, direction, frame, nonnegative,
@@ -398,17 +398,12 @@ class Obstacle(Frictional):
         if not self.soil:
             m_min = smallest_mass(on, self._lines(on))
             return max(p.k, p.k_t) / m_min if m_min else 0.0
-        m = on.model
-        pushed = np.where(m.vertex_inv_mass[p.verts] > 0, m.vertex_mass[p.verts], 0.0)
-        row = np.full(m.vertex_mass.shape[0], -1, np.int64)
+        verts, masses = pushed_masses(on, self._lines(on))
+        if not verts.size:
+            return 0.0
+        row = np.full(on.model.vertex_mass.shape[0], -1, np.int64)   # each vertex's contact row
         row[p.verts] = np.arange(p.verts.shape[0])
-        for line in self._lines(on):   # a line end moves with its node
-            for nd, i in ((line.start, m.line_vertex_offsets[line.index]),
-                          (line.end, m.line_vertex_offsets[line.index + 1] - 1)):
-                if 0 < m.node_mass[nd.index] < math.inf and row[i] >= 0:
-                    pushed[row[i]] = m.node_mass[nd.index]
-        free = pushed > 0
-        return max(p.k, p.k_t) * float(np.max(p.scale[free] / pushed[free])) if np.any(free) else 0.0
+        return max(p.k, p.k_t) * float(np.max(p.scale[row[verts]] / masses))
 
     def describe(self) -> str:
         lines = "all" if self.lines is None else [getattr(x, "name", x) for x in self.lines]
