@@ -30,8 +30,8 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CARRIES, NODES, FluidParams, calm_medium, end_arm, has_added_mass, kick_changes, kick_drag_vertices,
-                    node_free, sample_rows, split, still_medium, turns)
+from .fluid import (CALM, CARRIES, CURRENT, NODES, FluidParams, calm_now, end_arm, has_added_mass, kick_changes,
+                    kick_drag_vertices, node_free, sample_rows, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
@@ -147,10 +147,10 @@ def add_inner_turning(f, v, D, S, ci, vlen, vmass, E, h, first, n, da, up, calm,
             w, a = turning_vertex(f, v, D, S, ci, vlen, vmass, i, da, up, False)
             power += w
             E[0][i], E[1][i], E[2][i] = h * a[0], h * a[1], h * a[2]
-    elif calm:
+    elif CALM and calm:   # (a variant's options prune the loops it cannot run: fluid.calm_now)
         for k in range(n):
             power += turning_vertex(f, v, D, S, ci, vlen, vmass, first + uint(k), da, up, True)[0]
-    else:
+    elif CURRENT:
         for k in range(n):
             power += turning_vertex(f, v, D, S, ci, vlen, vmass, first + uint(k), da, up, False)[0]
     return power
@@ -201,7 +201,7 @@ def add_turning_forces(p, model, state, loads, h):
     G, D = turning_rows(p)
     S, v, f = sample_rows(p), columns(state.v), columns(loads.f)
     ci, vlen = p.chord_inverse, model.voronoi_rest_length
-    calm = calm_medium(p)
+    calm = calm_now(p)
     # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
     # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
     # evaluation a kick instead of two (a line end: its node's motion; its translation on,

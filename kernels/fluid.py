@@ -48,9 +48,12 @@ INVERSE_ROW = 14         # along the line (two), which the rings' impulses read 
 
 # Compile-time options (kernels/specialise.py): a fluid's record is of the variant its data needs
 # (kernels/fluid_variants.py), whose kernels leave out the parts that cannot act. This module's
-# own functions, and its record FluidParams, are the variant with every part. Two options, the
-# parts that cost most to compile: finer ones (the drag law, upthrust, the turning fluid apart
-# from the added mass, buoys apart) each save less than the variants they multiply cost.
+# own functions, and its record FluidParams, are the variant with every part. The parts that cost
+# most to compile: finer ones (upthrust, the turning fluid apart from the added mass, buoys
+# apart) each save less than the variants they multiply cost. The drag's loops come a law and a
+# medium at a time (DRAG, RESISTANCE; CALM, CURRENT: a pair each, one on for a scene's data, both
+# in the variant with every part, which tests them at run time): a scene runs one or two of the
+# drag's five loops and of the turning fluid's three, and compiled all of them.
 MOVING = True        # the medium may move: waves, a profile over height, a factor over time
 CARRIES = True       # some line carries an added mass (and its fluid may turn: added_mass.py), or some
                      # node has a buoy (a volume of its own, with or without an added mass)
@@ -59,7 +62,11 @@ WAVES = True         # the moving medium has waves (their passes, kernels/waves.
 NODES = True         # some node is the medium's to move (fixed and driven ones are not): the passes over the
                      # nodes, seconds of compiling that a line between pins or a mooring line from an anchor to
                      # a driven fairlead has no use for
-OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES")
+DRAG = True          # the drag may be Morison's law (p.law)
+RESISTANCE = True    # it may be the linear law
+CALM = True          # the medium may be at rest everywhere and always (calm_medium)
+CURRENT = True       # it may flow somewhere, or at some time
+OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT")
 
 
 class FluidParams(NamedTuple):
@@ -623,27 +630,28 @@ def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt
     the sample would have found them (the sample skips them: sample_medium)."""
     dissipated = supplied = 0.0
     fresh = not CARRIES and not MOVING   # (a variant's constants: LLVM folds the test in each loop)
-    if keep and calm and not linear:   # (the default: Lagrange's added mass, Morison's drag, still water)
+    # (each loop's guard names the options under which it can run: a variant compiles those alone)
+    if CALM and DRAG and keep and calm and not linear:   # (the default: Lagrange's, Morison's, still water)
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, True, False)[0]
-    elif keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
+    elif (CURRENT or RESISTANCE) and keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     linear, calm, decay, True, False)
             dissipated += d
             supplied += g
-    elif linear:
+    elif RESISTANCE and linear:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     True, False, decay, False, fresh)
             dissipated += d
             supplied += g
-    elif calm:
+    elif CALM and DRAG and calm:
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, False, fresh)[0]
-    else:
+    elif CURRENT and DRAG:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     False, False, decay, False, fresh)
@@ -656,6 +664,20 @@ def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt
 def calm_medium(p):
     """Whether the medium is at rest everywhere and always (a still medium without a current)."""
     return still_medium(p) and p.current[0] == 0.0 and p.current[1] == 0.0 and p.current[2] == 0.0
+
+
+@njit(**CACHED, inline="always")
+def calm_now(p):
+    """Whether the drag's and the turning fluid's passes take the medium at rest (calm_medium),
+    by the variant's options where they tell it: their loops for the other case are then never
+    compiled (kick_drag_line, added_mass.add_inner_turning)."""
+    return not CURRENT or (CALM and calm_medium(p))
+
+
+@njit(**CACHED, inline="always")
+def linear_law(p):
+    """Whether the drag is the linear law (p.law), by the variant's options where they tell it."""
+    return not DRAG or (RESISTANCE and p.law == LINEAR)
 
 
 @njit(**CACHED, inline="always")
@@ -696,7 +718,7 @@ def kick_drag_vertices(p, model, state, loads, h):
     v, f, S, c = columns(state.v), columns(loads.f), sample_rows(p), columns(state.x)
     vlen, vmass, im = model.voronoi_rest_length, model.vertex_mass, model.vertex_inv_mass
     nl = model.line_vertex_offsets.shape[0] - 1
-    if p.law == LINEAR and p.decay_h[0] != h:
+    if RESISTANCE and linear_law(p) and p.decay_h[0] != h:
         # the linear law's decay of a wet vertex's relative velocity over the flow, exp(-c h l / m)
         # (m with the added mass of that direction), depends on h alone: a run of equal kicks
         # takes its exponentials once instead of two a vertex a kick
@@ -709,7 +731,7 @@ def kick_drag_vertices(p, model, state, loads, h):
         p.decay_h[0] = h
     decay = (p.decay[0], p.decay[1])
     D = kick_changes(p)
-    calm = calm_medium(p)
+    calm = calm_now(p)
     dissipated = supplied = 0.0
     for j in range(p.lines.shape[0]):
         l = p.lines[j]
@@ -717,7 +739,7 @@ def kick_drag_vertices(p, model, state, loads, h):
             continue
         lo, hi = model.line_vertex_offsets[l], model.line_vertex_offsets[l + 1]
         first, n = uint(lo + 1), hi - lo - 2
-        kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], p.law == LINEAR
+        kn, kt, an, at, linear = h * p.drag_n[j], h * p.drag_t[j], p.added_n[j], p.added_t[j], linear_law(p)
         d, g = kick_drag_line(v, f, im, 0.5 * h, D, S, c, p.surface, vlen, vmass, first, n, kn, kt, an, at, linear,
                               calm, decay, turns(p, j))
         dissipated += d

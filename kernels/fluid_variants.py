@@ -21,11 +21,13 @@ VARIANTS = Variants(FluidParams, lambda: (fluid, fluid_step, added_mass), OPTION
 
 def options_of(p) -> tuple:
     """The options record ``p``'s data needs, one per entry of OPTIONS, True where that part
-    of the medium may act (by the kernels' own tests, run in Python)."""
+    of the medium may act (by the kernels' own tests, run in Python): of each pair (the drag's
+    law, a medium at rest or flowing) the one its data has."""
     moving = not fluid.still_medium.py_func(p)
     carries = fluid.has_added_mass.py_func(p) or p.buoy_node.shape[0] > 0
     nodes = p.buoy_node.shape[0] > 0 or bool(np.any(p.node_skip == 0.0))   # (fixed nodes are skipped too)
-    return moving, carries, p.wave_a.shape[0] > 0, nodes
+    linear, calm = p.law == fluid.LINEAR, not moving and not np.any(p.current)   # (fluid.calm_medium)
+    return moving, carries, p.wave_a.shape[0] > 0, nodes, not linear, linear, calm, not calm
 
 
 def fluid_record(p):

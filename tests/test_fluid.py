@@ -607,7 +607,7 @@ def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes
     sim, fluid, options, reached = run()
     assert options[3] is False and not reached & NODE_PASSES, reached & NODE_PASSES
     options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (*options_of(p)[:3], True))
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (*options_of(p)[:3], True, *options_of(p)[4:]))
     full, full_fluid, full_options, full_reached = run()
     assert full_options[3] is True and {"drag_nodes", "kick_drag_nodes", "sample_node_masses"} <= full_reached
     assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
@@ -642,13 +642,53 @@ def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypa
         return sim, fluid, fluid_variants.options_of(p), reached
 
     sim, fluid, options, reached = run()
-    assert options == (False, False, False, False) and "sample_still_line" not in reached
+    assert options[:4] == (False, False, False, False) and "sample_still_line" not in reached
     assert fluid.dissipated(sim) > 0.0
     options_of = fluid_variants.options_of
     monkeypatch.setattr(fluid_variants, "options_of", lambda p: (options_of(p)[0], True, *options_of(p)[2:]))
     full, full_fluid, full_options, full_reached = run()
     assert full_options[1] is True and "sample_still_line" in full_reached
     assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
+    assert full_fluid.dissipated(full) == pytest.approx(fluid.dissipated(sim), rel=1e-12, abs=1e-15)
+    assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
+
+
+@pytest.mark.parametrize("law", ["drag", "resistance"])
+@pytest.mark.parametrize("current", [0.0, 0.3])
+@pytest.mark.parametrize("added_mass_law", ["lagrange", "morison"])
+def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(monkeypatch, law, current,
+                                                                             added_mass_law):
+    """A wire between pins, half out of the water, swinging with added mass across it (its fluid
+    turning with it, Lagrange's, or not, Morison's), in water at rest or in a current, with
+    either drag law: its record is of the variant with that law and that medium alone, whose
+    drag and turning passes compile only their loops (kernels/fluid.py, calm_now, linear_law).
+    It moves as in the variant with both laws and both media, which tests them as it runs: the
+    same positions and accounts to round-off (LLVM rounds the same loops a little differently
+    beside the others), and velocities as near as positions so near make them at the wire's
+    fastest axial rate, 2 c / l (c = sqrt(E / rho), l an element's length)."""
+    from cosnet.kernels import fluid_variants
+
+    def run():
+        net = cosnet.Net()
+        a, b = net.add_node((0.0, 0.0, -1.0), fixed=True), net.add_node((4.0, 0.0, 0.6), fixed=True)
+        net.add_line(a, b, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
+                     section=cosnet.Circle(WIRE_R), elements=24)
+        coefficients = {"drag": (1.2, 0.008)} if law == "drag" else {"resistance": (2.0, 1.0)}
+        fluid = cosnet.Fluid(SEA, velocity=(0.0, current, 0.0), surface=0.0, added_mass=(1.0, 0.0), buoyancy=True,
+                             added_mass_law=added_mass_law, **coefficients)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+        sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
+        sim.run(until=0.05)
+        return sim, fluid, fluid_variants.options_of(fluid.params(sim))
+
+    sim, fluid, options = run()
+    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0)
+    assert fluid.dissipated(sim) > 0.0
+    options_of = fluid_variants.options_of
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (*options_of(p)[:4], True, True, True, True))
+    full, full_fluid, _ = run()
+    dx, dv = np.abs(full.state.x - sim.state.x).max(), np.abs(full.state.v - sim.state.v).max()
+    assert dx < 1e-12 and dv < 2.0 * math.sqrt(WIRE_E / WIRE_DENSITY) / (math.hypot(4.0, 1.6) / 24) * 1e-12, (dx, dv)
     assert full_fluid.dissipated(full) == pytest.approx(fluid.dissipated(sim), rel=1e-12, abs=1e-15)
     assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
 
