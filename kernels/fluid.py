@@ -66,7 +66,10 @@ DRAG = True          # the drag may be Morison's law (p.law)
 RESISTANCE = True    # it may be the linear law
 CALM = True          # the medium may be at rest everywhere and always (calm_medium)
 CURRENT = True       # it may flow somewhere, or at some time
-OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT")
+ARMS = True          # some node the medium moves has a line end off its centre of mass: the drag's moment turns
+                     # it, in a pass over the nodes of its own (fluid_step.drag_nodes) that a net of point
+                     # junctions (knots, shackles, a towed weight) has no use for
+OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS")
 
 
 class FluidParams(NamedTuple):

@@ -13,7 +13,7 @@ from numba import njit
 from .backend import ENTRY, STEP
 from .compiler import CACHED, INNER
 from .compose import flow_kernel
-from .fluid import (CARRIES, MORISON, MOVING, NODES, FluidParams, add_split, buoy_of, carrying_span,
+from .fluid import (ARMS, CARRIES, MORISON, MOVING, NODES, FluidParams, add_split, buoy_of, carrying_span,
                     end_arm, ends_entrained, entrained_line, has_added_mass, node_free, push_vertices,
                     sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force)
 from .layout import columns, uint
@@ -322,7 +322,7 @@ def kick_drag_nodes(p, model, state, node_f, h):
     added = has_added_mass(p)
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
-        if not node_free(p, model, nd) or not point_junction(model, nd):
+        if not node_free(p, model, nd) or (ARMS and not point_junction(model, nd)):
             continue
         vn, s = state.node_v[nd], 0.5 * h * model.node_inv_mass[nd]
         ax, ay, az = s * node_f[nd, 0], s * node_f[nd, 1], s * node_f[nd, 2]
@@ -460,7 +460,7 @@ def flow_fluid(p, model, state, h):
                 sample_buoys(p, state, state.clock[0])
     if after == 1:
         push_medium(p, model, state, h, still)
-    if NODES:
+    if NODES and ARMS:
         drag_nodes(p, model, state, h)
     if after == 0:
         push_medium(p, model, state, h, still)

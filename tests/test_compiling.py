@@ -449,8 +449,9 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
     """A fluid's record is of the variant its data needs (kernels/specialise.py): the kernels of
     a Stokes-flow fluid in a still medium, without added mass or buoys, leave out the parts
     that cannot act, so they are never typed. Typed afresh here (not from the cache), its flow
-    and inertia kernels reach the drag and none of the added mass, its turning fluid, the buoys
-    or the moving medium. A variant record pickles by name, as a sweep's worker or a step's
+    and inertia kernels reach the drag (the free ends' inside the kick) and none of the added
+    mass, its turning fluid, the buoys, the moving medium or the pass over nodes whose line ends
+    have arms. A variant record pickles by name, as a sweep's worker or a step's
     cache index reads it."""
     import pickle
 
@@ -479,9 +480,9 @@ def test_a_fluid_compiles_only_the_parts_its_data_can_use():
                **variant.family}
     rec = typeof(p)
     typed = {n for n, f in kernels.items() if any(rec in sig for sig in f.overloads)}
-    assert {"sample_medium", "kick_drag_vertices", "drag_nodes"} <= typed
+    assert {"sample_medium", "kick_drag_vertices", "kick_drag_nodes"} <= typed
     assert not typed & {"sample_buoys", "push_vertices", "sample_node_masses", "node_mass_matrix", "entrained_energy",
-                        "nodes_entrained", "buoys_entrained", "add_turning_forces"}, typed
+                        "nodes_entrained", "buoys_entrained", "add_turning_forces", "drag_nodes"}, typed
 
 
 def _reached(kernel, *argtypes) -> str:

@@ -210,6 +210,7 @@ def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_tw
     # moves with the body's centre of mass (it adds to the body's mass, not to its rotary
     # inertia), and the energy counts it so: at the ends' own speeds (the spin's w x r
     # included) the balance was off by a constant 0.76 J, the same at every step
+    from cosnet.kernels import fluid_variants
     mat = cosnet.Material(E=1e8, G=4e7, density=3000.0)
 
     def balance(dt):
@@ -224,6 +225,7 @@ def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_tw
                              added_mass_law=law)
         sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], dt=dt, force_dt=True)
         sim.state.node_w[0] = (5.0, -3.0, 8.0)
+        assert fluid_variants.options_of(fluid.params(sim), sim.model)[-1]   # (ARMS: fluid_step.drag_nodes)
         e0 = sim.energy()
         sim.run(until=0.2)
         assert sim.dissipated() > 0.04 * abs(e0) and sim.supplied() > 0.05 * sim.dissipated()
@@ -602,17 +604,56 @@ def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes
         sim.run(until=0.2)
         p = fluid.params(sim)
         reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
-        return sim, fluid, fluid_variants.options_of(p), reached
+        return sim, fluid, fluid_variants.options_of(p, sim.model), reached
 
     sim, fluid, options, reached = run()
     assert options[3] is False and not reached & NODE_PASSES, reached & NODE_PASSES
     options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (*options_of(p)[:3], True, *options_of(p)[4:]))
+    monkeypatch.setattr(fluid_variants, "options_of",   # (NODES, and ARMS: some node may have one)
+                        lambda p, m: (*options_of(p, m)[:3], True, *options_of(p, m)[4:-1], True))
     full, full_fluid, full_options, full_reached = run()
     assert full_options[3] is True and {"drag_nodes", "kick_drag_nodes", "sample_node_masses"} <= full_reached
     assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
     assert full_fluid.dissipated(full) == pytest.approx(fluid.dissipated(sim), rel=1e-12, abs=1e-15)
     assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
+
+
+def test_knots_without_arms_need_no_pass_of_their_own(monkeypatch):
+    """Two lines between pins joined at a free knot, swinging in water with added mass: every
+    node the medium moves is a point junction, so its record is of the variant without the
+    pass over the nodes whose line ends have arms (fluid_step.drag_nodes; the knot takes its
+    drag inside the kick, kick_drag_nodes). It moves as in the variant with that pass, which
+    finds no such node as it runs: the same positions, velocities and accounts."""
+    from cosnet.kernels import fluid_variants
+    from cosnet.kernels.compiler import _reach
+    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
+
+    def run():
+        net = cosnet.Net()
+        a, b = net.add_node((0.0, 0.0, -3.0), fixed=True), net.add_node((4.0, 0.0, -3.0), fixed=True)
+        knot = net.add_node((2.0, 0.0, -3.5), mass=0.3, inertia=(1e-3, 1e-3, 1e-3))
+        for end in (a, b):
+            net.add_line(end, knot, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
+                         section=cosnet.Circle(WIRE_R), elements=8)
+        fluid = cosnet.Fluid(SEA, velocity=(0.0, 0.3, 0.0), drag=(1.2, 0.008), added_mass=(1.0, 0.0), buoyancy=True,
+                             surface=0.0)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+        sim.state.node_v[2] = (0.0, 0.5, 0.2)
+        sim.run(until=0.05)
+        p = fluid.params(sim)
+        reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+        return sim, fluid, fluid_variants.options_of(p, sim.model), reached
+
+    sim, fluid, options, reached = run()
+    assert options[3] and not options[-1] and "kick_drag_nodes" in reached and "drag_nodes" not in reached
+    assert fluid.dissipated(sim) > 0.0
+    options_of = fluid_variants.options_of
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p, m: (*options_of(p, m)[:-1], True))
+    full, full_fluid, _, full_reached = run()
+    assert "drag_nodes" in full_reached
+    assert np.array_equal(full.state.x, sim.state.x) and np.array_equal(full.state.v, sim.state.v)
+    assert np.array_equal(full.state.node_v, sim.state.node_v)
+    assert full_fluid.dissipated(full) == fluid.dissipated(sim) and full_fluid.supplied(full) == fluid.supplied(sim)
 
 
 @pytest.mark.parametrize("law", ["drag", "resistance"])
@@ -639,13 +680,13 @@ def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypa
         sim.run(until=0.05)
         p = fluid.params(sim)
         reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
-        return sim, fluid, fluid_variants.options_of(p), reached
+        return sim, fluid, fluid_variants.options_of(p, sim.model), reached
 
     sim, fluid, options, reached = run()
     assert options[:4] == (False, False, False, False) and "sample_still_line" not in reached
     assert fluid.dissipated(sim) > 0.0
     options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (options_of(p)[0], True, *options_of(p)[2:]))
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p, m: (options_of(p, m)[0], True, *options_of(p, m)[2:]))
     full, full_fluid, full_options, full_reached = run()
     assert full_options[1] is True and "sample_still_line" in full_reached
     assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
@@ -679,13 +720,13 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
         sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
         sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
         sim.run(until=0.05)
-        return sim, fluid, fluid_variants.options_of(fluid.params(sim))
+        return sim, fluid, fluid_variants.options_of(fluid.params(sim), sim.model)
 
     sim, fluid, options = run()
-    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0)
+    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0, False)
     assert fluid.dissipated(sim) > 0.0
     options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p: (*options_of(p)[:4], True, True, True, True))
+    monkeypatch.setattr(fluid_variants, "options_of", lambda p, m: (*options_of(p, m)[:4], *[True] * 5))
     full, full_fluid, _ = run()
     dx, dv = np.abs(full.state.x - sim.state.x).max(), np.abs(full.state.v - sim.state.v).max()
     assert dx < 1e-12 and dv < 2.0 * math.sqrt(WIRE_E / WIRE_DENSITY) / (math.hypot(4.0, 1.6) / 24) * 1e-12, (dx, dv)

@@ -409,7 +409,7 @@ class Fluid(Effect):
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)),
                            node_mass=np.zeros((nn, 6)),
                            chord_inverse=np.zeros(nv), node_rate=np.zeros((nn, 3)))
-        p = fluid_record(p)   # of the variant that compiles only the parts its data can use
+        p = fluid_record(p, on.model)   # of the variant that compiles only the parts its data can use
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             typed_call(VARIANTS.of(p).kernel("sample_fluid"), p, on.model, on.state)
