@@ -69,7 +69,11 @@ CURRENT = True       # it may flow somewhere, or at some time
 ARMS = True          # some node the medium moves has a line end off its centre of mass: the drag's moment turns
                      # it, in a pass over the nodes of its own (fluid_step.drag_nodes) that a net of point
                      # junctions (knots, shackles, a towed weight) has no use for
-OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS")
+TURNS = True         # some line's entrained fluid may turn with it (Lagrange's law, the added mass differing
+                     # across and along the line: added_mass.add_turning_forces)
+HOLDS = True         # some line in the medium may not turn its fluid (Morison's law, the same added mass both
+                     # ways, or none): of this pair too, a scene's variant has the one its data has
+OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS", "TURNS", "HOLDS")
 
 
 class FluidParams(NamedTuple):
@@ -634,27 +638,28 @@ def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt
     dissipated = supplied = 0.0
     fresh = not CARRIES and not MOVING   # (a variant's constants: LLVM folds the test in each loop)
     # (each loop's guard names the options under which it can run: a variant compiles those alone)
-    if CALM and DRAG and keep and calm and not linear:   # (the default: Lagrange's, Morison's, still water)
+    if CALM and DRAG and TURNS and keep and calm and not linear:   # (the default: Lagrange's, Morison's, still water)
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, True, False)[0]
-    elif (CURRENT or RESISTANCE) and keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
+    elif (CURRENT or RESISTANCE) and TURNS and keep:
+        # (the test inside the loops cost a fifth of them: LLVM left it there)
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     linear, calm, decay, True, False)
             dissipated += d
             supplied += g
-    elif RESISTANCE and linear:
+    elif RESISTANCE and HOLDS and linear:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     True, False, decay, False, fresh)
             dissipated += d
             supplied += g
-    elif CALM and DRAG and calm:
+    elif CALM and DRAG and HOLDS and calm:
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, False, fresh)[0]
-    elif CURRENT and DRAG:
+    elif CURRENT and DRAG and HOLDS:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     False, False, decay, False, fresh)
@@ -701,8 +706,8 @@ def kick_changes(p):
 @njit(**CACHED, inline="always")
 def turns(p, j):
     """Whether row j's added mass differs across and along its line (its fluid turns with it:
-    kernels/added_mass.py)."""
-    return p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0
+    kernels/added_mass.py), by the variant's options where they tell it."""
+    return TURNS and (not HOLDS or (p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0))
 
 
 @njit(**INNER)

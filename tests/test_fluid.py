@@ -225,7 +225,7 @@ def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_tw
                              added_mass_law=law)
         sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], dt=dt, force_dt=True)
         sim.state.node_w[0] = (5.0, -3.0, 8.0)
-        assert fluid_variants.options_of(fluid.params(sim), sim.model)[-1]   # (ARMS: fluid_step.drag_nodes)
+        assert fluid_variants.options_of(fluid.params(sim), sim.model)[8]   # (ARMS: fluid_step.drag_nodes)
         e0 = sim.energy()
         sim.run(until=0.2)
         assert sim.dissipated() > 0.04 * abs(e0) and sim.supplied() > 0.05 * sim.dissipated()
@@ -576,6 +576,15 @@ def test_a_mooring_line_under_a_surging_fairlead_swings_as_moordyn_does(monkeypa
         assert abs(mine[k]["phase"] - theirs[k]["phase"]) < 0.02 * 2 * math.pi
 
 
+def forcing(monkeypatch, *names):
+    """Have every fluid's record be of the variant with the options ``names`` on (kernels/fluid.py
+    OPTIONS) beside those its data has."""
+    from cosnet.kernels import fluid, fluid_variants
+    options_of, on = fluid_variants.options_of, {fluid.OPTIONS.index(name) for name in names}
+    monkeypatch.setattr(fluid_variants, "options_of",
+                        lambda p, model=None: tuple(o or k in on for k, o in enumerate(options_of(p, model))))
+
+
 NODE_PASSES = {"drag_nodes", "kick_drag_nodes", "push_nodes", "add_node_upthrust", "divide_node_loads",
                "sample_node_masses", "nodes_entrained"}
 
@@ -608,9 +617,7 @@ def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes
 
     sim, fluid, options, reached = run()
     assert options[3] is False and not reached & NODE_PASSES, reached & NODE_PASSES
-    options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of",   # (NODES, and ARMS: some node may have one)
-                        lambda p, m: (*options_of(p, m)[:3], True, *options_of(p, m)[4:-1], True))
+    forcing(monkeypatch, "NODES", "ARMS")   # (and some node may have an arm)
     full, full_fluid, full_options, full_reached = run()
     assert full_options[3] is True and {"drag_nodes", "kick_drag_nodes", "sample_node_masses"} <= full_reached
     assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
@@ -645,10 +652,9 @@ def test_knots_without_arms_need_no_pass_of_their_own(monkeypatch):
         return sim, fluid, fluid_variants.options_of(p, sim.model), reached
 
     sim, fluid, options, reached = run()
-    assert options[3] and not options[-1] and "kick_drag_nodes" in reached and "drag_nodes" not in reached
+    assert options[3] and not options[8] and "kick_drag_nodes" in reached and "drag_nodes" not in reached
     assert fluid.dissipated(sim) > 0.0
-    options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p, m: (*options_of(p, m)[:-1], True))
+    forcing(monkeypatch, "ARMS")
     full, full_fluid, _, full_reached = run()
     assert "drag_nodes" in full_reached
     assert np.array_equal(full.state.x, sim.state.x) and np.array_equal(full.state.v, sim.state.v)
@@ -685,8 +691,7 @@ def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypa
     sim, fluid, options, reached = run()
     assert options[:4] == (False, False, False, False) and "sample_still_line" not in reached
     assert fluid.dissipated(sim) > 0.0
-    options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p, m: (options_of(p, m)[0], True, *options_of(p, m)[2:]))
+    forcing(monkeypatch, "CARRIES")
     full, full_fluid, full_options, full_reached = run()
     assert full_options[1] is True and "sample_still_line" in full_reached
     assert np.abs(full.state.x - sim.state.x).max() < 1e-12 and np.abs(full.state.v - sim.state.v).max() < 1e-10
@@ -694,16 +699,17 @@ def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypa
     assert full_fluid.supplied(full) == pytest.approx(fluid.supplied(sim), rel=1e-12, abs=1e-15)
 
 
-@pytest.mark.parametrize("law", ["drag", "resistance"])
-@pytest.mark.parametrize("current", [0.0, 0.3])
-@pytest.mark.parametrize("added_mass_law", ["lagrange", "morison"])
+@pytest.mark.parametrize("law, current, added_mass_law", [   # a case for each of kick_drag_line's loops
+    ("drag", 0.0, "lagrange"), ("drag", 0.3, "lagrange"), ("resistance", 0.0, "morison"), ("drag", 0.0, "morison"),
+    ("drag", 0.3, "morison")])
 def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(monkeypatch, law, current,
                                                                              added_mass_law):
     """A wire between pins, half out of the water, swinging with added mass across it (its fluid
     turning with it, Lagrange's, or not, Morison's), in water at rest or in a current, with
-    either drag law: its record is of the variant with that law and that medium alone, whose
-    drag and turning passes compile only their loops (kernels/fluid.py, calm_now, linear_law).
-    It moves as in the variant with both laws and both media, which tests them as it runs: the
+    either drag law: its record is of the variant with that law, that medium and that fluid
+    alone, whose drag and turning passes compile only their loops (kernels/fluid.py: calm_now,
+    linear_law, turns). It moves as in the variant with both of each, which tests them as it
+    runs: the
     same positions and accounts to round-off (LLVM rounds the same loops a little differently
     beside the others), and velocities as near as positions so near make them at the wire's
     fastest axial rate, 2 c / l (c = sqrt(E / rho), l an element's length)."""
@@ -723,10 +729,11 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
         return sim, fluid, fluid_variants.options_of(fluid.params(sim), sim.model)
 
     sim, fluid, options = run()
-    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0, False)
+    lagrange = added_mass_law == "lagrange"
+    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0, False, lagrange,
+                           not lagrange)
     assert fluid.dissipated(sim) > 0.0
-    options_of = fluid_variants.options_of
-    monkeypatch.setattr(fluid_variants, "options_of", lambda p, m: (*options_of(p, m)[:4], *[True] * 5))
+    forcing(monkeypatch, "DRAG", "RESISTANCE", "CALM", "CURRENT", "TURNS", "HOLDS")
     full, full_fluid, _ = run()
     dx, dv = np.abs(full.state.x - sim.state.x).max(), np.abs(full.state.v - sim.state.v).max()
     assert dx < 1e-12 and dv < 2.0 * math.sqrt(WIRE_E / WIRE_DENSITY) / (math.hypot(4.0, 1.6) / 24) * 1e-12, (dx, dv)
