@@ -48,12 +48,13 @@ INVERSE_ROW = 14         # along the line (two), which the rings' impulses read 
 
 # Compile-time options (kernels/specialise.py): a fluid's record is of the variant its data needs
 # (kernels/fluid_variants.py), whose kernels leave out the parts that cannot act. This module's
-# own functions, and its record FluidParams, are the variant with every part. The parts that cost
-# most to compile: finer ones (upthrust, the turning fluid apart from the added mass, buoys
-# apart) each save less than the variants they multiply cost. The drag's loops come a law and a
-# medium at a time (DRAG, RESISTANCE; CALM, CURRENT: a pair each, one on for a scene's data, both
-# in the variant with every part, which tests them at run time): a scene runs one or two of the
-# drag's five loops and of the turning fluid's three, and compiled all of them.
+# own functions, and its record FluidParams, are the variant with every part. Options for the
+# parts that cost most to compile, and for the loops a scene cannot run: of the drag's five
+# loops and the turning fluid's three a scene runs one or two, so the drag's law, a medium at
+# rest or flowing, and a fluid turning with its line or not are pairs (DRAG, RESISTANCE; CALM,
+# CURRENT; TURNS, HOLDS), the one its data has on in a scene's variant, both in the variant with
+# every part, which tests them at run time. Finer ones (upthrust, buoys apart) each save less
+# than the variants they multiply cost.
 MOVING = True        # the medium may move: waves, a profile over height, a factor over time
 CARRIES = True       # some line carries an added mass (and its fluid may turn: added_mass.py), or some
                      # node has a buoy (a volume of its own, with or without an added mass)
