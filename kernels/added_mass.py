@@ -30,8 +30,8 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CALM, CARRIES, CURRENT, HOLDS, NODES, TURNS, FluidParams, calm_now, end_arm, has_added_mass,
-                    kick_changes, kick_drag_vertices, node_free, sample_rows, split, still_medium, turns)
+from .fluid import (CALM, CARRIES, CURRENT, NODES, FluidParams, calm_now, end_arm, has_added_mass, kick_changes,
+                    kick_drag_vertices, node_free, sample_rows, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
@@ -313,14 +313,15 @@ def kick_fluid(p, model, state, arg):
             add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
                          model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
     if CARRIES:
-        if TURNS and p.turning.shape[1] > 0:
+        if p.turning.shape[1] > 0:
             add_turning_forces(p, model, state, loads, h)
         for j in range(p.lines.shape[0]):
             l = p.lines[j]
-            if HOLDS and 0 <= l < nl and (p.added_n[j] != 0.0 or p.added_t[j] != 0.0) and not turns(p, j):
-                divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
-                            model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
-                            1.0 if p.buoyancy[j] != 0.0 else 0.0)
+            if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0) or turns(p, j):
+                continue
+            divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
+                        model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
+                        1.0 if p.buoyancy[j] != 0.0 else 0.0)
         if NODES and has_added_mass(p):
             divide_node_loads(p, model, loads)
     kick_drag_vertices(p, model, state, loads, h)

@@ -50,11 +50,12 @@ INVERSE_ROW = 14         # along the line (two), which the rings' impulses read 
 # (kernels/fluid_variants.py), whose kernels leave out the parts that cannot act. This module's
 # own functions, and its record FluidParams, are the variant with every part. Options for the
 # parts that cost most to compile, and for the loops a scene cannot run: of the drag's five
-# loops and the turning fluid's three a scene runs one or two, so the drag's law, a medium at
-# rest or flowing, and a fluid turning with its line or not are pairs (DRAG, RESISTANCE; CALM,
-# CURRENT; TURNS, HOLDS), the one its data has on in a scene's variant, both in the variant with
-# every part, which tests them at run time. Finer ones (upthrust, buoys apart) each save less
-# than the variants they multiply cost.
+# loops and the turning fluid's three a scene runs one or two, so the drag's law and a medium at
+# rest or flowing are pairs (DRAG, RESISTANCE; CALM, CURRENT), the one its data has on in a
+# scene's variant, both in the variant with every part, which tests them at run time. Finer ones
+# (upthrust, buoys apart, lines whose fluid turns with them apart from the others) each save
+# less than the variants they multiply cost: the last, half a second of a cold start's
+# compiling, cost the test suite's fluid files a quarter of their time.
 MOVING = True        # the medium may move: waves, a profile over height, a factor over time
 CARRIES = True       # some line carries an added mass (and its fluid may turn: added_mass.py), or some
                      # node has a buoy (a volume of its own, with or without an added mass)
@@ -70,11 +71,7 @@ CURRENT = True       # it may flow somewhere, or at some time
 ARMS = True          # some node the medium moves has a line end off its centre of mass: the drag's moment turns
                      # it, in a pass over the nodes of its own (fluid_step.drag_nodes) that a net of point
                      # junctions (knots, shackles, a towed weight) has no use for
-TURNS = True         # some line's entrained fluid may turn with it (Lagrange's law, the added mass differing
-                     # across and along the line: added_mass.add_turning_forces)
-HOLDS = True         # some line in the medium may not turn its fluid (Morison's law, the same added mass both
-                     # ways, or none): of this pair too, a scene's variant has the one its data has
-OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS", "TURNS", "HOLDS")
+OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS")
 
 
 class FluidParams(NamedTuple):
@@ -639,28 +636,27 @@ def kick_drag_line(v, f, im, hh, D, S, c, surface, vlen, vmass, first, n, kn, kt
     dissipated = supplied = 0.0
     fresh = not CARRIES and not MOVING   # (a variant's constants: LLVM folds the test in each loop)
     # (each loop's guard names the options under which it can run: a variant compiles those alone)
-    if CALM and DRAG and TURNS and keep and calm and not linear:   # (the default: Lagrange's, Morison's, still water)
+    if CALM and DRAG and keep and calm and not linear:   # (the default: Lagrange's, Morison's, still water)
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, True, False)[0]
-    elif (CURRENT or RESISTANCE) and TURNS and keep:
-        # (the test inside the loops cost a fifth of them: LLVM left it there)
+    elif (CURRENT or RESISTANCE) and keep:   # (the test inside the loops cost a fifth of them: LLVM left it there)
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     linear, calm, decay, True, False)
             dissipated += d
             supplied += g
-    elif RESISTANCE and HOLDS and linear:
+    elif RESISTANCE and linear:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     True, False, decay, False, fresh)
             dissipated += d
             supplied += g
-    elif CALM and DRAG and HOLDS and calm:
+    elif CALM and DRAG and calm:
         for k in range(n):
             dissipated += kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an,
                                            at, False, True, decay, False, fresh)[0]
-    elif CURRENT and DRAG and HOLDS:
+    elif CURRENT and DRAG:
         for k in range(n):
             d, g = kick_drag_vertex(v, f, im, hh, D, S, c, surface, vlen, vmass, first + uint(k), kn, kt, an, at,
                                     False, False, decay, False, fresh)
@@ -707,8 +703,8 @@ def kick_changes(p):
 @njit(**CACHED, inline="always")
 def turns(p, j):
     """Whether row j's added mass differs across and along its line (its fluid turns with it:
-    kernels/added_mass.py), by the variant's options where they tell it."""
-    return TURNS and (not HOLDS or (p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0))
+    kernels/added_mass.py)."""
+    return p.added_n[j] != p.added_t[j] and p.turning.shape[1] > 0
 
 
 @njit(**INNER)

@@ -22,8 +22,8 @@ VARIANTS = Variants(FluidParams, lambda: (fluid, fluid_step, added_mass), OPTION
 def options_of(p, model=None) -> tuple:
     """The options record ``p``'s data needs, one per entry of OPTIONS, True where that part
     of the medium may act (by the kernels' own tests, run in Python): of each pair (the drag's
-    law, a medium at rest or flowing, lines whose fluid turns or not) the one its data has. The
-    nodes' arms are the model's: without it (``model`` None), some node may have one."""
+    law, a medium at rest or flowing) the one its data has. The nodes' arms are the model's:
+    without it (``model`` None), some node may have one."""
     moving = not fluid.still_medium.py_func(p)
     carries = fluid.has_added_mass.py_func(p) or p.buoy_node.shape[0] > 0
     nodes = p.buoy_node.shape[0] > 0 or bool(np.any(p.node_skip == 0.0))   # (fixed nodes are skipped too)
@@ -31,9 +31,7 @@ def options_of(p, model=None) -> tuple:
     arms = model is None or bool(np.any(np.any(model.attach_offset != 0.0, axis=1)
                                         & (model.node_inv_mass > 0.0)[model.attach_node]
                                         & (p.node_skip == 0.0)[model.attach_node]))   # (fluid_step.point_junction)
-    turning = p.turning.shape[1] > 0 and p.added_n != p.added_t   # (each row's: fluid.turns)
-    return (moving, carries, p.wave_a.shape[0] > 0, nodes, not linear, linear, calm, not calm, arms,
-            bool(np.any(turning)), not np.all(turning))
+    return moving, carries, p.wave_a.shape[0] > 0, nodes, not linear, linear, calm, not calm, arms
 
 
 def fluid_record(p, model=None):

@@ -708,8 +708,7 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
     turning with it, Lagrange's, or not, Morison's), in water at rest or in a current, with
     either drag law: its record is of the variant with that law, that medium and that fluid
     alone, whose drag and turning passes compile only their loops (kernels/fluid.py: calm_now,
-    linear_law, turns). It moves as in the variant with both of each, which tests them as it
-    runs: the
+    linear_law). It moves as in the variant with both of each, which tests them as it runs: the
     same positions and accounts to round-off (LLVM rounds the same loops a little differently
     beside the others), and velocities as near as positions so near make them at the wire's
     fastest axial rate, 2 c / l (c = sqrt(E / rho), l an element's length)."""
@@ -729,11 +728,9 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
         return sim, fluid, fluid_variants.options_of(fluid.params(sim), sim.model)
 
     sim, fluid, options = run()
-    lagrange = added_mass_law == "lagrange"
-    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0, False, lagrange,
-                           not lagrange)
+    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0, False)
     assert fluid.dissipated(sim) > 0.0
-    forcing(monkeypatch, "DRAG", "RESISTANCE", "CALM", "CURRENT", "TURNS", "HOLDS")
+    forcing(monkeypatch, "DRAG", "RESISTANCE", "CALM", "CURRENT")
     full, full_fluid, _ = run()
     dx, dv = np.abs(full.state.x - sim.state.x).max(), np.abs(full.state.v - sim.state.v).max()
     assert dx < 1e-12 and dv < 2.0 * math.sqrt(WIRE_E / WIRE_DENSITY) / (math.hypot(4.0, 1.6) / 24) * 1e-12, (dx, dv)
