@@ -210,7 +210,6 @@ def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_tw
     # moves with the body's centre of mass (it adds to the body's mass, not to its rotary
     # inertia), and the energy counts it so: at the ends' own speeds (the spin's w x r
     # included) the balance was off by a constant 0.76 J, the same at every step
-    from cosnet.kernels import fluid_variants
     mat = cosnet.Material(E=1e8, G=4e7, density=3000.0)
 
     def balance(dt):
@@ -225,7 +224,7 @@ def test_a_body_spinning_in_a_current_on_its_lines_keeps_its_balance_at_order_tw
                              added_mass_law=law)
         sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], dt=dt, force_dt=True)
         sim.state.node_w[0] = (5.0, -3.0, 8.0)
-        assert fluid_variants.options_of(fluid.params(sim), sim.model)[8]   # (ARMS: fluid_step.drag_nodes)
+        assert options_named(fluid.params(sim), sim.model)["ARMS"]   # (fluid_step.drag_nodes)
         e0 = sim.energy()
         sim.run(until=0.2)
         assert sim.dissipated() > 0.04 * abs(e0) and sim.supplied() > 0.05 * sim.dissipated()
@@ -585,6 +584,12 @@ def forcing(monkeypatch, *names):
                         lambda p, model=None: tuple(o or k in on for k, o in enumerate(options_of(p, model))))
 
 
+def options_named(p, model) -> dict:
+    """The options of the variant a fluid's record ``p`` on ``model`` is of, by name."""
+    from cosnet.kernels import fluid, fluid_variants
+    return dict(zip(fluid.OPTIONS, fluid_variants.options_of(p, model)))
+
+
 NODE_PASSES = {"drag_nodes", "kick_drag_nodes", "push_nodes", "add_node_upthrust", "divide_node_loads",
                "sample_node_masses", "nodes_entrained"}
 
@@ -631,7 +636,6 @@ def test_knots_without_arms_need_no_pass_of_their_own(monkeypatch):
     pass over the nodes whose line ends have arms (fluid_step.drag_nodes; the knot takes its
     drag inside the kick, kick_drag_nodes). It moves as in the variant with that pass, which
     finds no such node as it runs: the same positions, velocities and accounts."""
-    from cosnet.kernels import fluid_variants
     from cosnet.kernels.compiler import _reach
     from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
 
@@ -649,10 +653,10 @@ def test_knots_without_arms_need_no_pass_of_their_own(monkeypatch):
         sim.run(until=0.05)
         p = fluid.params(sim)
         reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
-        return sim, fluid, fluid_variants.options_of(p, sim.model), reached
+        return sim, fluid, options_named(p, sim.model), reached
 
     sim, fluid, options, reached = run()
-    assert options[3] and not options[8] and "kick_drag_nodes" in reached and "drag_nodes" not in reached
+    assert options["NODES"] and not options["ARMS"] and "kick_drag_nodes" in reached and "drag_nodes" not in reached
     assert fluid.dissipated(sim) > 0.0
     forcing(monkeypatch, "ARMS")
     full, full_fluid, _, full_reached = run()
@@ -706,14 +710,12 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
                                                                              added_mass_law):
     """A wire between pins, half out of the water, swinging with added mass across it (its fluid
     turning with it, Lagrange's, or not, Morison's), in water at rest or in a current, with
-    either drag law: its record is of the variant with that law, that medium and that fluid
-    alone, whose drag and turning passes compile only their loops (kernels/fluid.py: calm_now,
-    linear_law). It moves as in the variant with both of each, which tests them as it runs: the
+    either drag law: its record is of the variant with that law and that medium alone, whose
+    drag and turning passes compile only their loops (kernels/fluid.py: calm_now, linear_law).
+    It moves as in the variant with both of each, which tests them as it runs: the
     same positions and accounts to round-off (LLVM rounds the same loops a little differently
     beside the others), and velocities as near as positions so near make them at the wire's
     fastest axial rate, 2 c / l (c = sqrt(E / rho), l an element's length)."""
-    from cosnet.kernels import fluid_variants
-
     def run():
         net = cosnet.Net()
         a, b = net.add_node((0.0, 0.0, -1.0), fixed=True), net.add_node((4.0, 0.0, 0.6), fixed=True)
@@ -725,10 +727,11 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
         sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
         sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
         sim.run(until=0.05)
-        return sim, fluid, fluid_variants.options_of(fluid.params(sim), sim.model)
+        return sim, fluid, options_named(fluid.params(sim), sim.model)
 
     sim, fluid, options = run()
-    assert options[4:] == (law == "drag", law == "resistance", current == 0.0, current != 0.0, False)
+    assert [options[k] for k in ("DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS")] == [
+        law == "drag", law == "resistance", current == 0.0, current != 0.0, False]
     assert fluid.dissipated(sim) > 0.0
     forcing(monkeypatch, "DRAG", "RESISTANCE", "CALM", "CURRENT")
     full, full_fluid, _ = run()
