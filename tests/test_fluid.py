@@ -584,6 +584,22 @@ def forcing(monkeypatch, *names):
                         lambda p, model=None: tuple(o or k in on for k, o in enumerate(options_of(p, model))))
 
 
+def swinging_wire(law, **medium):
+    """(simulation, fluid): a steel wire of 24 elements between pins, from 1 m under the surface
+    to 0.6 m over it, swung sideways and run for 0.05 s in water with Morison's drag (``law``
+    "drag") or Stokes's resistance ("resistance") and the fluid's keys ``medium``."""
+    net = cosnet.Net()
+    a, b = net.add_node((0.0, 0.0, -1.0), fixed=True), net.add_node((4.0, 0.0, 0.6), fixed=True)
+    net.add_line(a, b, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
+                 section=cosnet.Circle(WIRE_R), elements=24)
+    coefficients = {"drag": (1.2, 0.008)} if law == "drag" else {"resistance": (2.0, 1.0)}
+    fluid = cosnet.Fluid(SEA, surface=0.0, **coefficients, **medium)
+    sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
+    sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
+    sim.run(until=0.05)
+    return sim, fluid
+
+
 def options_named(p, model) -> dict:
     """The options of the variant a fluid's record ``p`` on ``model`` is of, by name."""
     from cosnet.kernels import fluid, fluid_variants
@@ -679,15 +695,7 @@ def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypa
     from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
 
     def run():
-        net = cosnet.Net()
-        a, b = net.add_node((0.0, 0.0, -1.0), fixed=True), net.add_node((4.0, 0.0, 0.6), fixed=True)
-        net.add_line(a, b, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
-                     section=cosnet.Circle(WIRE_R), elements=24)
-        coefficients = {"drag": (1.2, 0.008)} if law == "drag" else {"resistance": (2.0, 1.0)}
-        fluid = cosnet.Fluid(SEA, velocity=(0.0, 0.3, 0.0), surface=0.0, **coefficients)
-        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
-        sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
-        sim.run(until=0.05)
+        sim, fluid = swinging_wire(law, velocity=(0.0, 0.3, 0.0))
         p = fluid.params(sim)
         reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
         return sim, fluid, fluid_variants.options_of(p, sim.model), reached
@@ -716,17 +724,10 @@ def test_a_variant_of_one_law_and_one_medium_moves_as_the_one_with_every_part(mo
     same positions and accounts to round-off (LLVM rounds the same loops a little differently
     beside the others), and velocities as near as positions so near make them at the wire's
     fastest axial rate, 2 c / l (c = sqrt(E / rho), l an element's length)."""
+
     def run():
-        net = cosnet.Net()
-        a, b = net.add_node((0.0, 0.0, -1.0), fixed=True), net.add_node((4.0, 0.0, 0.6), fixed=True)
-        net.add_line(a, b, material=cosnet.Material(E=WIRE_E, G=WIRE_E / 2.6, density=WIRE_DENSITY),
-                     section=cosnet.Circle(WIRE_R), elements=24)
-        coefficients = {"drag": (1.2, 0.008)} if law == "drag" else {"resistance": (2.0, 1.0)}
-        fluid = cosnet.Fluid(SEA, velocity=(0.0, current, 0.0), surface=0.0, added_mass=(1.0, 0.0), buoyancy=True,
-                             added_mass_law=added_mass_law, **coefficients)
-        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid])
-        sim.state.v[:, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, sim.state.v.shape[0]))
-        sim.run(until=0.05)
+        sim, fluid = swinging_wire(law, velocity=(0.0, current, 0.0), added_mass=(1.0, 0.0), buoyancy=True,
+                                   added_mass_law=added_mass_law)
         return sim, fluid, options_named(fluid.params(sim), sim.model)
 
     sim, fluid, options = run()
