@@ -137,7 +137,12 @@ def _copy_inlined_ir_once():
     half of the inliner's copying, a few percent of a cold start). Within the inliner, a block
     that is not one of the given IR's own is handed back as it is: the first copy, made from
     the given IR's blocks, is made as before; only the second, made from the first's, is
-    left out."""
+    left out. And the first is one copy of the function, not one per block: numba copies each
+    block apart, and with each the scope all the function's blocks share, every variable of
+    the function once per block (the blocks' copies then held equal scopes, which the
+    inliner compared in full to find there was one). With one memo for the call, the copied
+    blocks share one copied scope and variable, as the given ones do (towed_cable's
+    compilation in one process: the inliner's copying 2.3 -> 0.7 s)."""
     from numba.core import inline_closurecall
     cls = getattr(inline_closurecall, "InlineWorker", None)
     inline_ir = getattr(cls, "inline_ir", None)
@@ -146,11 +151,12 @@ def _copy_inlined_ir_once():
             or not _inliner_callers_discard_the_copy():
         return
     given: set = set()   # ids of the blocks of the IR being inlined (inline_ir is not re-entered)
+    shared: dict = {}    # the deep copy's memo while it copies them
 
     def deepcopy(x, memo=None):
         if given and id(x) not in given:
             return x
-        return copy.deepcopy(x, memo)
+        return copy.deepcopy(x, shared if memo is None and given else memo)
 
     def copies_once(self, caller_ir, block, i, callee_ir, callee_freevars, arg_typs=None):
         given.update(id(b) for b in callee_ir.blocks.values())
@@ -158,6 +164,7 @@ def _copy_inlined_ir_once():
             return inline_ir(self, caller_ir, block, i, callee_ir, callee_freevars, arg_typs=arg_typs)
         finally:
             given.clear()
+            shared.clear()
     copies_once.copies_once = True
     cls.inline_ir = copies_once
     inline_closurecall.copy = types.SimpleNamespace(deepcopy=deepcopy, copy=copy.copy)
