@@ -380,28 +380,33 @@ def buoys_entrained(p, model, state):
     return e
 
 
-@njit(**ENTRY)
-def fluid_entrained_energy(p, model, state):
-    """Return entrained_energy(p, model, state), callable from Python (Fluid.potential)."""
-    return entrained_energy(p, model, state)
+SAMPLE, SAMPLE_NODES, ENTRAINED = 0, 1, 2   # what fluid_entry does
 
 
 @njit(**ENTRY)
-def sample_fluid(p, model, state):
-    """Update p.sample given the positions and the clock, as a kick's first half flow does
-    (the added mass a simulation holds before its first step)."""
+def fluid_entry(p, model, state, task):
+    """Do ``task`` and return its value (0.0 for an update), callable from Python:
+    - SAMPLE: update p.sample given the positions and the clock, as a kick's first half flow
+      does (the added mass a simulation holds before its first step);
+    - SAMPLE_NODES: update p.node_mass given the sample, as a kick's first half flow does: the
+      nodes' mass matrices that rings, eyelets and sheaves move them by before the first step
+      (cosnet/effects/carried.py);
+    - ENTRAINED: return entrained_energy(p, model, state) (Fluid.potential).
+    (One entry for the three: each entry's Python wrapper unboxes the three records, which
+    cost more compiling than the calls behind it; a variant without added mass or buoys
+    compiles neither the nodes' masses nor the entrained energy.)"""
+    if task == ENTRAINED:
+        if CARRIES:
+            return entrained_energy(p, model, state)
+        return 0.0
+    if task == SAMPLE_NODES:
+        if CARRIES and NODES:
+            sample_node_masses(p, model, state)
+        return 0.0
     sample_medium(p, model, state)
     if CARRIES:
         sample_buoys(p, state, state.clock[0])
-
-
-@njit(**ENTRY)
-def sample_fluid_nodes(p, model, state):
-    """Update p.node_mass given the sample, as a kick's first half flow does: the nodes' mass
-    matrices that rings, eyelets and sheaves move them by before the first step (their own
-    entry, which scenes without those do not compile: cosnet/effects/carried.py)."""
-    if CARRIES and NODES:
-        sample_node_masses(p, model, state)
+    return 0.0
 
 
 @njit(**CACHED, inline="always")

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..engine.registry import Binding, carried_by
 from ..kernels.fluid import INVERSE_ROW, TANGENT_ROW
+from ..kernels.fluid_step import SAMPLE_NODES
 from ..kernels.fluid_variants import VARIANTS
 from ..kernels.layout import typed_call
 
@@ -26,7 +27,7 @@ def carried_rows(on: Binding, who: str, lines, nodes, weight) -> dict:
                     carried=np.zeros((0, 0)), carried_node_mass=np.zeros((0, 6)))
     _, fluid, vertex, node = found
     if node.any():   # the nodes' mass matrices as the first kick will hold them (the catch and first drift read them)
-        typed_call(VARIANTS.of(fluid).kernel("sample_fluid_nodes"), fluid, m, on.state)
+        typed_call(VARIANTS.of(fluid).kernel("fluid_entry"), fluid, m, on.state, SAMPLE_NODES)
     return dict(carried_vertex=vertex.astype(np.int64), carried_node=(node & (weight > 0)).astype(np.int64),
                 carried=fluid.sample, carried_node_mass=fluid.node_mass)
 

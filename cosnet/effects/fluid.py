@@ -16,6 +16,7 @@ from .drives import driven_nodes
 from .loads import Gravity, checked_table
 from ..kernels.added_mass import TURNING_ROWS
 from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams
+from ..kernels.fluid_step import ENTRAINED, SAMPLE
 from ..kernels.fluid_variants import VARIANTS, fluid_record
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect, Key
@@ -412,7 +413,7 @@ class Fluid(Effect):
         p = fluid_record(p, on.model)   # of the variant that compiles only the parts its data can use
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
-            typed_call(VARIANTS.of(p).kernel("sample_fluid"), p, on.model, on.state)
+            typed_call(VARIANTS.of(p).kernel("fluid_entry"), p, on.model, on.state, SAMPLE)
         return p
 
     @staticmethod
@@ -475,12 +476,12 @@ class Fluid(Effect):
             return 0.0
         kernels = VARIANTS.of(p)
         if held:
-            return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
+            return typed_call(kernels.kernel("fluid_entry"), p, on.model, on.state, ENTRAINED)
         # sampled in place and put back: the step's own record keeps typed_call's held entry
         kept = p.sample.copy(), p.buoy_sample.copy()
         try:
-            typed_call(kernels.kernel("sample_fluid"), p, on.model, on.state)
-            return typed_call(kernels.kernel("fluid_entrained_energy"), p, on.model, on.state)
+            typed_call(kernels.kernel("fluid_entry"), p, on.model, on.state, SAMPLE)
+            return typed_call(kernels.kernel("fluid_entry"), p, on.model, on.state, ENTRAINED)
         finally:
             p.sample[...], p.buoy_sample[...] = kept
 
@@ -545,10 +546,10 @@ class Fluid(Effect):
         return float(p.supplied[0]) + self.entrained(p, on, held=False) - self.entrained(p, on, held=True)
 
     def start(self, sim):
-        """Sample the medium at the positions a run starts from (kernels/fluid_step.sample_fluid):
+        """Sample the medium at the positions a run starts from (kernels/fluid_step.fluid_entry):
         the added mass the first kick's account starts from."""
         p = self.params(sim)
-        typed_call(VARIANTS.of(p).kernel("sample_fluid"), p, sim.model, sim.state)
+        typed_call(VARIANTS.of(p).kernel("fluid_entry"), p, sim.model, sim.state, SAMPLE)
 
     def state_arrays(self, sim) -> dict:
         p = self.params(sim)
