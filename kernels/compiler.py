@@ -13,6 +13,7 @@ from llvmlite import binding as llvm
 from numba.core import codegen
 
 from . import typing_memo  # noqa: F401  (numba's typing remembers what it found)
+from . import linking  # noqa: F401  (no machine code for kernels only ever linked into others)
 
 
 def _use_own_copies():

@@ -41,6 +41,7 @@ from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
 from .backend import ENTRY, STEP, inline_twin
+from .linking import addressed
 from .compiler import (compiling_elsewhere, extend_cache_key, keyed_twin, reaches_compiling_elsewhere,
                        stable_cache_key)
 from .slots import (SLOT_ADDRESS, SLOT_COLUMNS, SLOT_HOOK, SLOT_PROCESS, SLOT_RECORD, call_effect, call_slot,
@@ -175,7 +176,7 @@ def slot_wrapper(kernel, hook):
                 raise RuntimeError("kernel slot not bound to the kernel of its hook")
             model, state, _, _ = deref(core)
             kernel(pinned(record), model, state, h)
-    held = _WRAPPERS[(registered, hook)] = stable_cache_key(njit(**STEP)(call))
+    held = _WRAPPERS[(registered, hook)] = stable_cache_key(njit(**STEP)(addressed(call)))
     held.slot_name = name   # the wrappers share one function name: their keys name their kernel
     stamp = _source_stamp(kernel)
     if stamp is None:
@@ -327,6 +328,7 @@ def core_kernel(kernel):
     calling it there (ptrs: slots.step_pointers' result)."""
     row = len(CORE)
     CORE.append(kernel)
+    addressed(kernel.py_func)   # (its machine code is what the slot calls: kernels/linking.py)
     what = kernel.py_func.__qualname__
 
     @intrinsic

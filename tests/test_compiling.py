@@ -648,7 +648,7 @@ def test_every_kernel_sets_what_numba_would_take_from_its_first_caller():
 
 # Runs a wire in water (drag, added mass turning with it, upthrust) for 300 steps and prints
 # a digest of its state arrays, after whether numba's typing remembers (kernels/typing_memo.py).
-WET_WIRE = r"""
+WET_WIRE_BUILT = r"""
 import hashlib
 import cosnet
 from numba.core.types.functions import BaseFunction
@@ -661,12 +661,26 @@ net.add_line(a, b, material=cosnet.Material(E=1e9, poisson=0.3, density=7850.0),
 fluid = cosnet.Fluid(1025.0, velocity=(0.4, 0.1, 0.0), drag=(1.2, 0.008), added_mass=(1.0, 0.2),
                      buoyancy=True, surface=0.0)
 sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], threads=1)
+"""
+WET_WIRE_RUN = r"""
 sim.run(steps=300)
 digest = hashlib.sha256()
 for name, array in sim.state._asdict().items():
     digest.update(name.encode())
     digest.update(array.tobytes())
 print(remembers, digest.hexdigest(), flush=True)
+"""
+WET_WIRE = WET_WIRE_BUILT + WET_WIRE_RUN
+
+# After the wet wire: whether the fluid's sample_medium (linked into the sample called from
+# Python and into the step's flow) has machine code of its own, how often it came from the
+# cache, and how many libraries were compiled for their address late (kernels/linking.py).
+LINKED = r"""
+from cosnet.kernels import fluid_variants, linking
+kernel = fluid_variants.VARIANTS.of(fluid.params(sim)).family["sample_medium"]
+(cres,) = kernel.overloads.values()
+print(not getattr(cres.library, "_cosnet_linked_only", False), sum(kernel.stats.cache_hits.values()),
+      linking.promoted[0], flush=True)
 """
 
 
@@ -692,3 +706,32 @@ def test_remembered_typing_compiles_the_same_code(tmp_path):
     from numba.core.inline_closurecall import InlineWorker   # and the inliner copies once here
     assert getattr(InlineWorker.inline_ir, "copies_once", False)
     assert len(digest) == 64 and digest == here["digest"].hexdigest()
+
+
+def test_a_kernel_only_linked_is_cached_as_ir_and_links_as_compiled(tmp_path):
+    """kernels/linking.py: a kernel only ever linked into others gets no machine code of its
+    own and is cached as its LLVM IR, and a step that links it from the cache runs as one that
+    compiled it. A process builds the wet wire, which compiles the fluid's sample (called from
+    Python) and with it sample_medium into an empty cache; a second runs the wire from that
+    cache, sample_medium read back as IR and linked into the step's flow, compiled there: its
+    state after 300 steps is this process's, bit for bit. In neither has sample_medium
+    machine code, and no kernel the step calls through its address was left without it and
+    compiled late (linking.promoted)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    runs = []
+    for script in (WET_WIRE_BUILT + LINKED, WET_WIRE + LINKED):
+        proc = spawn([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                     text=True)
+        try:
+            stdout, stderr = proc.communicate(timeout=600)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        assert proc.returncode == 0, stderr[-2000:]
+        runs.append(stdout.split())
+    here: dict = {}
+    exec(WET_WIRE, here)
+    assert runs[0][-3:] == ["False", "0", "0"]          # compiled: IR only
+    assert runs[1][-3:] == ["False", "1", "0"]          # read back from the cache: IR only
+    assert runs[1][-4] == here["digest"].hexdigest()
