@@ -684,6 +684,26 @@ print(not getattr(cres.library, "_cosnet_linked_only", False), sum(kernel.stats.
 """
 
 
+def _python(script: str, env: dict):
+    """A Python process running ``script`` in ``env``, its output piped."""
+    return spawn([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _output(proc, meanwhile=None) -> str:
+    """The output of process ``proc`` (_python) once it ends, ``meanwhile`` called here first;
+    the process killed if either fails or it runs over ten minutes, its exit code asserted 0."""
+    try:
+        if meanwhile is not None:
+            meanwhile()
+        stdout, stderr = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, stderr[-2000:]
+    return stdout
+
+
 def test_remembered_typing_compiles_the_same_code(tmp_path):
     """kernels/typing_memo.py changes how long numba types, not what it compiles: a wire in
     water compiled cold with numba's typing as it is (a process with an empty cache of its
@@ -691,17 +711,8 @@ def test_remembered_typing_compiles_the_same_code(tmp_path):
     whose typing remembers (its step compiled here or loaded from the suite's cache, which
     the memo compiled: a second cold compile with it would show nothing more)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache0"), COSNET_TYPING_MEMO="0")
-    proc = spawn([sys.executable, "-c", WET_WIRE], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        here: dict = {}
-        exec(WET_WIRE, here)
-        stdout, stderr = proc.communicate(timeout=600)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 0, stderr[-2000:]
-    remembers, digest = stdout.split()[-2:]
+    here: dict = {}
+    remembers, digest = _output(_python(WET_WIRE, env), lambda: exec(WET_WIRE, here)).split()[-2:]
     assert (remembers, here["remembers"]) == ("False", True)
     from numba.core.inline_closurecall import InlineWorker   # and the inliner copies once here
     assert getattr(InlineWorker.inline_ir, "copies_once", False)
@@ -718,18 +729,7 @@ def test_a_kernel_only_linked_is_cached_as_ir_and_links_as_compiled(tmp_path):
     machine code, and no kernel the step calls through its address was left without it and
     compiled late (linking.promoted)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
-    runs = []
-    for script in (WET_WIRE_BUILT + LINKED, WET_WIRE + LINKED):
-        proc = spawn([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                     text=True)
-        try:
-            stdout, stderr = proc.communicate(timeout=600)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
-        assert proc.returncode == 0, stderr[-2000:]
-        runs.append(stdout.split())
+    runs = [_output(_python(script, env)).split() for script in (WET_WIRE_BUILT + LINKED, WET_WIRE + LINKED)]
     here: dict = {}
     exec(WET_WIRE, here)
     assert runs[0][-3:] == ["False", "0", "0"]          # compiled: IR only
