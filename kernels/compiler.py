@@ -499,7 +499,9 @@ def _cache_options() -> dict:
     cache keys ignore such options, so the checked builds get a directory of their own
     ("...-boundscheck"): a normal run never loads a checked kernel, nor a debug run an
     unchecked one. Likewise a build at another LLVM optimisation level (NUMBA_OPT) than
-    numba's default 3 ("...-opt1"): a run at full speed never loads a less optimised kernel."""
+    numba's default 3 ("...-opt1"): a run at full speed never loads a less optimised kernel.
+    And a build linking as numba does (COSNET_LINK_ONLY=0, kernels/linking.py), whose steps
+    differ in their last bits ("...-numba-linking")."""
     from numba.misc.appdirs import AppDirs
     here = os.path.dirname(os.path.abspath(__file__))
     digest = hashlib.sha256()
@@ -511,8 +513,9 @@ def _cache_options() -> dict:
     base = numba.config.CACHE_DIR or AppDirs("numba", appauthor=False).user_cache_dir
     level = getattr(numba.config.OPT, "_raw_value", numba.config.OPT)   # 0..3 or "max"
     opt = "" if level == 3 else f"-opt{level}"
+    own = "-numba-linking" if os.environ.get("COSNET_LINK_ONLY", "1") == "0" else ""
     numba.config.CACHE_DIR = os.path.join(base, f"cosnet-{digest.hexdigest()[:16]}"
-                                          + ("-boundscheck" if check else "") + opt)
+                                          + ("-boundscheck" if check else "") + opt + own)
     return dict(cache=True, boundscheck=True) if check else dict(cache=True)
 
 

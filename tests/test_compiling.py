@@ -735,3 +735,17 @@ def test_a_kernel_only_linked_is_cached_as_ir_and_links_as_compiled(tmp_path):
     assert runs[0][-3:] == ["False", "0", "0"]          # compiled: IR only
     assert runs[1][-3:] == ["False", "1", "0"]          # read back from the cache: IR only
     assert runs[1][-4] == here["digest"].hexdigest()
+
+
+def test_numba_linking_keeps_its_own_cache(tmp_path):
+    """COSNET_LINK_ONLY=0 leaves numba's code generation as it is (kernels/linking.py), whose
+    steps differ in their last bits: its kernels go to a cache directory of their own, and
+    this process's kernels, linked as IR, to another."""
+    script = ("import numba; from cosnet.kernels import compiler; "
+              "from numba.core.typed_passes import BaseNativeLowering; "
+              "print(getattr(BaseNativeLowering.run_pass, 'links_only', False), numba.config.CACHE_DIR)")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), COSNET_LINK_ONLY="0")
+    links_only, cache = _output(_python(script, env)).split()[-2:]
+    import numba
+    assert links_only == "False" and cache.endswith("-numba-linking")
+    assert cache[:-len("-numba-linking")] == os.path.join(str(tmp_path), os.path.basename(numba.config.CACHE_DIR))
