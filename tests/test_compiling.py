@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from procs import spawn, started, wait_until
+from procs import started, wait_until
 
 KERNEL = """
 from numba import njit
@@ -684,22 +684,15 @@ print(not getattr(cres.library, "_cosnet_linked_only", False), sum(kernel.stats.
 """
 
 
-def _python(script: str, env: dict):
-    """A Python process running ``script`` in ``env``, its output piped."""
-    return spawn([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-
-
-def _output(proc, meanwhile=None) -> str:
-    """The output of process ``proc`` (_python) once it ends, ``meanwhile`` called here first;
-    the process killed if either fails or it runs over ten minutes, its exit code asserted 0."""
-    try:
+def _output(script: str, env: dict, meanwhile=None) -> str:
+    """The output of a Python process running ``script`` in ``env``, ``meanwhile`` called here
+    while it runs; the process killed if either fails or it runs over ten minutes (started),
+    its exit code asserted 0."""
+    with started([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                 text=True) as proc:
         if meanwhile is not None:
             meanwhile()
         stdout, stderr = proc.communicate(timeout=600)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 0, stderr[-2000:]
     return stdout
 
@@ -712,7 +705,7 @@ def test_remembered_typing_compiles_the_same_code(tmp_path):
     the memo compiled: a second cold compile with it would show nothing more)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache0"), COSNET_TYPING_MEMO="0")
     here: dict = {}
-    remembers, digest = _output(_python(WET_WIRE, env), lambda: exec(WET_WIRE, here)).split()[-2:]
+    remembers, digest = _output(WET_WIRE, env, lambda: exec(WET_WIRE, here)).split()[-2:]
     assert (remembers, here["remembers"]) == ("False", True)
     from numba.core.inline_closurecall import InlineWorker   # and the inliner copies once here
     assert getattr(InlineWorker.inline_ir, "copies_once", False)
@@ -729,7 +722,7 @@ def test_a_kernel_only_linked_is_cached_as_ir_and_links_as_compiled(tmp_path):
     machine code, and no kernel the step calls through its address was left without it and
     compiled late (linking.promoted)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
-    runs = [_output(_python(script, env)).split() for script in (WET_WIRE_BUILT + LINKED, WET_WIRE + LINKED)]
+    runs = [_output(script, env).split() for script in (WET_WIRE_BUILT + LINKED, WET_WIRE + LINKED)]
     here: dict = {}
     exec(WET_WIRE, here)
     assert runs[0][-3:] == ["False", "0", "0"]          # compiled: IR only
@@ -745,7 +738,7 @@ def test_numba_linking_keeps_its_own_cache(tmp_path):
               "from numba.core.typed_passes import BaseNativeLowering; "
               "print(getattr(BaseNativeLowering.run_pass, 'links_only', False), numba.config.CACHE_DIR)")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), COSNET_LINK_ONLY="0")
-    links_only, cache = _output(_python(script, env)).split()[-2:]
+    links_only, cache = _output(script, env).split()[-2:]
     import numba
     assert links_only == "False" and cache.endswith("-numba-linking")
     assert cache[:-len("-numba-linking")] == os.path.join(str(tmp_path), os.path.basename(numba.config.CACHE_DIR))

@@ -600,6 +600,14 @@ def swinging_wire(law, **medium):
     return sim, fluid
 
 
+def passes_reached(p) -> set:
+    """The names of the functions the kick's and the flow's kernels of a fluid's record ``p``
+    reach (compiled or inlined)."""
+    from cosnet.kernels.compiler import _reach
+    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
+    return {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+
+
 def options_named(p, model) -> dict:
     """The options of the variant a fluid's record ``p`` on ``model`` is of, by name."""
     from cosnet.kernels import fluid, fluid_variants
@@ -617,8 +625,6 @@ def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes
     numba prunes them: compiler._reach). It moves as in the variant with them, where they find
     no node to act on: the same positions and accounts over a surge of the fairlead."""
     from cosnet.kernels import fluid_variants
-    from cosnet.kernels.compiler import _reach
-    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
 
     def run():
         net = cosnet.Net()
@@ -633,7 +639,7 @@ def test_a_line_whose_ends_the_medium_does_not_move_needs_no_pass_over_the_nodes
         sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid, surge])
         sim.run(until=0.2)
         p = fluid.params(sim)
-        reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+        reached = passes_reached(p)
         return sim, fluid, fluid_variants.options_of(p, sim.model), reached
 
     sim, fluid, options, reached = run()
@@ -652,8 +658,6 @@ def test_knots_without_arms_need_no_pass_of_their_own(monkeypatch):
     pass over the nodes whose line ends have arms (fluid_step.drag_nodes; the knot takes its
     drag inside the kick, kick_drag_nodes). It moves as in the variant with that pass, which
     finds no such node as it runs: the same positions, velocities and accounts."""
-    from cosnet.kernels.compiler import _reach
-    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
 
     def run():
         net = cosnet.Net()
@@ -668,7 +672,7 @@ def test_knots_without_arms_need_no_pass_of_their_own(monkeypatch):
         sim.state.node_v[2] = (0.0, 0.5, 0.2)
         sim.run(until=0.05)
         p = fluid.params(sim)
-        reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+        reached = passes_reached(p)
         return sim, fluid, options_named(p, sim.model), reached
 
     sim, fluid, options, reached = run()
@@ -691,13 +695,11 @@ def test_drag_alone_in_still_water_takes_the_wetness_and_tangent_itself(monkeypa
     kick_drag_line). It moves as in the variant that samples them (forced: some line may carry
     added mass), its dry vertices included: the same positions and accounts."""
     from cosnet.kernels import fluid_variants
-    from cosnet.kernels.compiler import _reach
-    from cosnet.kernels.compose import FLOW_KERNELS, INERTIAS
 
     def run():
         sim, fluid = swinging_wire(law, velocity=(0.0, 0.3, 0.0))
         p = fluid.params(sim)
-        reached = {d.py_func.__name__ for k in (INERTIAS[type(p)], FLOW_KERNELS[type(p)]) for d in _reach(k)[1]}
+        reached = passes_reached(p)
         return sim, fluid, fluid_variants.options_of(p, sim.model), reached
 
     sim, fluid, options, reached = run()
