@@ -25,6 +25,7 @@ environment leaves numba's code generation as it is.
 
 import os
 
+from llvmlite import binding
 from numba.core import codegen, typed_passes
 
 _ADDRESSED: set = set()   # the Python functions whose compiled code is called through its address
@@ -105,7 +106,6 @@ def _keep_linked_only_libraries_out_of_the_jit():
         name, kind, data = state
         if kind != "bitcode" or not issubclass(cls, codegen.JITCodeLibrary):
             return unserialize(cls, codegen_, state)
-        from llvmlite import binding
         self = codegen_.create_library(name)
         self._cosnet_linked_only = True
         self._final_module = binding.parse_bitcode(data)
