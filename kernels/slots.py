@@ -31,6 +31,7 @@ from numba.core import cgutils, types
 from numba.extending import intrinsic
 
 from .backend import ENTRY, STEP
+from .by_reference import unaliased
 
 SLOT_ADDRESS, SLOT_KEY, SLOT_PROCESS, SLOT_RECORD, SLOT_HOOK = 0, 1, 2, 3, 4   # the columns of a slot
 SLOT_COLUMNS = 5
@@ -92,6 +93,7 @@ def deref(typingctx, pointer):
         raise TypeError(f"deref: a pointer expected, got {pointer}")
 
     def codegen(context, builder, signature, args):
+        unaliased(builder, args[0])
         return context.data_model_manager[pointer.dtype].load_from_data_pointer(builder, args[0])
     return pointer.dtype(pointer), codegen
 
@@ -192,6 +194,7 @@ def pinned(typingctx, pointer):
     tag = record_tag(record)
 
     def codegen(context, builder, signature, args):
+        unaliased(builder, args[0])
         base = builder.bitcast(args[0], cgutils.voidptr_t)
         held = builder.load(builder.bitcast(base, _I64.as_pointer()))
         with cgutils.if_unlikely(builder, builder.icmp_signed("!=", held, _I64(tag))):
