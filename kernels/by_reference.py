@@ -25,8 +25,10 @@ call passes as a saving of inlining it), so that LLVM inlines what it inlined be
 record pointers of the slot kernels are noalias (unaliased), so that what is loaded through
 them may be kept across the stores into arrays.
 
-What the code computes is unchanged; its layout is not, and the kernels' cache directory is
-keyed by this file as by every kernel's source (compiler._cache_options)."""
+The arithmetic is the same, but LLVM may inline and combine it otherwise than before, so a
+step's results may differ from before in their last bits (they are the same cold and warm:
+tests/test_reproducible.py); the calling convention changes, and the kernels' cache directory
+is keyed by this file as by every kernel's source (compiler._cache_options)."""
 
 from llvmlite import ir
 from numba.core import cgutils, lowering, types
