@@ -2,15 +2,19 @@
 function as one pointer (kernels/by_reference.py), to the memory it was loaded from where that
 holds it unchanged, else to a copy: a function reads the record it was given wherever the
 value came from (an argument, a tuple, a variable assigned on two branches or again in a
-loop), and the function's LLVM signature holds one pointer for it."""
+loop), and the function's LLVM signature holds one pointer for it; a call passing memory
+that may not hold its value (a variable stored twice, a pointer not defined on every path to
+the call) is refused at compile time."""
 
 import re
 
 import numpy as np
+import pytest
+from llvmlite import ir
 from numba import njit
 
 import cosnet
-from cosnet.kernels.by_reference import BIG, by_reference, leaves
+from cosnet.kernels.by_reference import BIG, _notes, by_reference, check_passed, leaves
 from cosnet.kernels.compiler import INNER
 from numba import typeof
 
@@ -94,3 +98,39 @@ def test_a_variable_given_two_values_passes_each():
     assert either(a, b, True) == ma and either(a, b, False) == mb
     assert in_turn(a, b) == ma + mb
     assert in_turn(b, a) == mb + ma
+
+
+def _diamond():
+    """A function entry -> (left | right) -> join, with a record slot stored in both arms."""
+    module = ir.Module()
+    record = ir.LiteralStructType([ir.DoubleType(), ir.DoubleType()])
+    fn = ir.Function(module, ir.FunctionType(ir.VoidType(), [record.as_pointer(), ir.IntType(1)]), "f")
+    entry, left, right, join = (fn.append_basic_block(n) for n in ("entry", "left", "right", "join"))
+    b = ir.IRBuilder(entry)
+    slot = b.alloca(record)
+    b.cbranch(fn.args[1], left, right)
+    b.position_at_end(left)
+    inner = b.gep(fn.args[0], [ir.Constant(ir.IntType(32), 0)])   # a pointer defined in one arm only
+    b.store(b.load(inner), slot)
+    b.branch(join)
+    b.position_at_end(right)
+    b.store(b.load(fn.args[0]), slot)
+    b.branch(join)
+    b.position_at_end(join)
+    b.ret_void()
+    return fn, slot, inner, join
+
+
+def test_a_call_passing_memory_it_may_not_hold_is_refused():
+    """check_passed: a variable stored twice, or a pointer that does not dominate the call,
+    raises; the argument itself, which dominates every block, passes."""
+    fn, slot, inner, join = _diamond()
+    notes = _notes(fn)
+    notes["passed"].append(([], fn.args[0], join))
+    check_passed(fn)
+    notes["passed"].append(([], inner, join))
+    with pytest.raises(RuntimeError, match="may be undefined"):
+        check_passed(fn)
+    notes["passed"][:] = [([slot], fn.args[0], join)]
+    with pytest.raises(RuntimeError, match="stored more than once"):
+        check_passed(fn)
