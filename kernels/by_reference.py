@@ -15,7 +15,9 @@ stored, so that memory holds it while the call runs. The value is traced to such
 through the variable slots numba keeps (only a variable assigned once in the function:
 numba's definitions) and through the tuples it builds and takes apart; any other value is
 copied. Smaller records (the state, the loads, a body's shape, which a contact loop builds
-for each target) stay flattened: a copy in a loop cost more than their arguments.
+for each target) stay flattened: a copy in a loop cost more than their arguments; so does a
+record whose class says ``by_value`` (a rigid body's contacts: its loop read the record
+again after each contact's writes).
 
 After each function is lowered, every call passing memory is checked (the variable it came
 through stored once, the pointer defined where the call is reached only through it): a call
@@ -49,10 +51,11 @@ def leaves(fe_type) -> int:
 
 
 def by_reference(fe_type) -> bool:
-    """Whether ``fe_type`` is one of cosnet's records passed by reference."""
+    """Whether ``fe_type`` is one of cosnet's records passed by reference: of BIG leaves or
+    more, and not declared ``by_value`` by its class."""
     cls = getattr(fe_type, "instance_class", None)
     return (cls is not None and getattr(cls, "__module__", "").startswith("cosnet.")
-            and leaves(fe_type) >= BIG)
+            and not getattr(cls, "by_value", False) and leaves(fe_type) >= BIG)
 
 
 def _notes(function) -> dict:

@@ -7,6 +7,7 @@ that may not hold its value (a variable stored twice, a pointer not defined on e
 the call) is refused at compile time."""
 
 import re
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from llvmlite import ir
 from numba import njit
 
 import cosnet
+from cosnet.kernels.bodies import BodyParams
 from cosnet.kernels.by_reference import BIG, _notes, by_reference, check_passed, leaves
 from cosnet.kernels.compiler import INNER
 from numba import typeof
@@ -134,3 +136,15 @@ def test_a_call_passing_memory_it_may_not_hold_is_refused():
     notes["passed"][:] = [([slot], fn.args[0], join)]
     with pytest.raises(RuntimeError, match="stored more than once"):
         check_passed(fn)
+
+
+def test_a_record_class_may_keep_its_records_flattened():
+    """A large record of cosnet's passes by reference unless its class says ``by_value`` (a
+    rigid body's contacts: cosnet.kernels.bodies.BodyParams)."""
+    wide = NamedTuple("Wide", [(f"a{i}", np.ndarray) for i in range(20)])
+    wide.__module__ = "cosnet.kernels.example"
+    kept = type("Kept", (wide,), {"by_value": True, "__module__": "cosnet.kernels.example"})
+    arrays = [np.zeros(3) for _ in range(20)]
+    assert leaves(typeof(wide(*arrays))) == 20 * 7 >= BIG
+    assert by_reference(typeof(wide(*arrays))) and not by_reference(typeof(kept(*arrays)))
+    assert BodyParams.by_value
