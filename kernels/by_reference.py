@@ -93,6 +93,17 @@ def _held_by(notes, value, slots, depth=0):
     return None
 
 
+def _stored(function) -> dict:
+    """{id(pointer): [values]} of what ``function`` stores through each pointer, numba's
+    zero-filling of a variable's slot (a constant) left out."""
+    stores: dict = {}
+    for block in function.blocks:
+        for ins in block.instructions:
+            if isinstance(ins, ir.StoreInstr) and not isinstance(ins.operands[0], ir.Constant):
+                stores.setdefault(id(ins.operands[1]), []).append(ins.operands[0])
+    return stores
+
+
 def unaliased(builder, pointer):
     """Mark noalias the argument of the function being built that ``pointer`` (a value of it,
     directly or through a variable slot) is: memory reached through it is only read, and
@@ -101,10 +112,7 @@ def unaliased(builder, pointer):
     into arrays."""
     value = pointer
     if isinstance(value, ir.LoadInstr) and isinstance(value.operands[0], ir.AllocaInstr):
-        slot = value.operands[0]
-        stored = [ins.operands[0] for b in builder.function.blocks for ins in b.instructions
-                  if isinstance(ins, ir.StoreInstr) and ins.operands[1] is slot
-                  and not isinstance(ins.operands[0], ir.Constant)]
+        stored = _stored(builder.function).get(id(value.operands[0]), [])
         value = stored[0] if len(stored) == 1 else None
     if isinstance(value, ir.Argument) and isinstance(value.type, ir.PointerType):
         value.add_attribute("noalias")
@@ -185,14 +193,10 @@ def check_passed(function):
     notes = getattr(function, "_cosnet_records", None)
     if not notes or not notes["passed"]:
         return
-    stores = {}
-    for block in function.blocks:
-        for ins in block.instructions:
-            if isinstance(ins, ir.StoreInstr) and not isinstance(ins.operands[0], ir.Constant):
-                stores[id(ins.operands[1])] = stores.get(id(ins.operands[1]), 0) + 1
+    stores = _stored(function)
     dom = None
     for slots, pointer, block in notes["passed"]:
-        if any(stores.get(id(s), 0) != 1 for s in slots):
+        if any(len(stores.get(id(s), [])) != 1 for s in slots):
             raise RuntimeError(f"{function.name}: a record variable passed by reference is stored more than once")
         if isinstance(pointer, ir.Instruction) and pointer.parent is not block:
             dom = dom or _dominators(function)
