@@ -42,7 +42,9 @@ from .rotations import quat_rotate
 from .waves import add_elevation, add_kinematics, component, sample_depths, stretched, wave_phase
 
 MORISON, LINEAR = 0, 1   # p.law: drag k |u| u per length, or c u per length (Stokes flow)
-SAMPLE_ROWS = 16         # rows of p.sample (FluidParams)
+SAMPLE_ROWS = 17         # rows of p.sample (FluidParams)
+SOAKED_ROW = 16          # its row that says, at a line's first vertex, whether the line lay wholly under a still
+                         # surface at its last sample (sample_medium)
 TANGENT_ROW = 7          # its rows of a vertex's unit tangent (three) and of its inverse masses across and
 INVERSE_ROW = 14         # along the line (two), which the rings' impulses read too (kernels/sliding.py)
 
@@ -107,7 +109,9 @@ class FluidParams(NamedTuple):
     sample: np.ndarray       # (SAMPLE_ROWS, nv) scratch: at each vertex of the lines in the medium, as the
                              # kick's first half flow found it: wet (1 or 0), U, A, tangent, then at
                              # interior vertices the medium's inertia force (3), the upthrust, and
-                             # the inverse masses across and along the line, added mass included
+                             # the inverse masses across and along the line, added mass included; row
+                             # SOAKED_ROW at a line's first vertex 1 where it lay wholly under a still
+                             # surface (its rows 0 and 13-15 then as such a sample writes them)
                              # (in a still medium where no line carries added mass the interior
                              # vertices are not sampled: the drag takes their wetness and tangent
                              # itself and the dry inverse masses, kick_drag_line)
@@ -324,15 +328,12 @@ def still_medium(p):
 
 
 @njit(**PASS)
-def sample_upthrust(z, S, elen, lo, e0, n, up, surface):
+def sample_upthrust(z, S, elen, lo, e0, n, up, surface, under):
     """Update row 13 of the sample (S) at the n interior vertices lo+1.. of a line whose
     elements start at e0 by their shares of the upthrust (up per length; vertex_force),
-    given the heights z. A line wholly under the surface, the common case, takes a
-    branch-free loop; one that crosses it, wet_shares element by element."""
-    under = 0.0
-    for k in range(n + 2):
-        under += 1.0 if z[lo + uint(k)] <= surface else 0.0
-    if under == n + 2:
+    given the heights z. A line wholly under the surface (``under``: line_under), the common
+    case, takes a branch-free loop; one that crosses it, wet_shares element by element."""
+    if under:
         for k in range(n):
             S[13][lo + uint(k + 1)] = 0.5 * up * (elen[e0 + uint(k)] + elen[e0 + uint(k + 1)])
         return
@@ -340,6 +341,15 @@ def sample_upthrust(z, S, elen, lo, e0, n, up, surface):
         i = lo + uint(k + 1)
         S[13][i] = up * (elen[e0 + uint(k)] * wet_shares(z[lo + uint(k)], z[i], surface)[1]
                          + elen[e0 + uint(k + 1)] * wet_shares(z[i], z[lo + uint(k + 2)], surface)[0])
+
+
+@njit(**PASS)
+def line_under(z, lo, n, surface):
+    """Return whether the n vertices lo.. of a line lie under the surface (z: the heights)."""
+    under = 0.0
+    for k in range(n):
+        under += 1.0 if z[lo + uint(k)] <= surface else 0.0
+    return under == n
 
 
 @njit(**PASS)
@@ -405,31 +415,40 @@ def sample_still(z, S, lo, n, surface, c0, c1, c2):
 
 
 @njit(**CACHED, inline="always")
-def still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, i, surface, an, at, entrained):
+def still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, i, surface, an, at, entrained, soaked):
     """Update the wetness, tangent (and ci, 1 / its chord's length) and inverse masses of
-    interior vertex i in a still medium (sample_still_line); return the change of 1/2 v^T M_a v
-    they make (0 unless ``entrained``)."""
+    interior vertex i in a still medium (sample_still_line), the tangent alone where
+    ``soaked``; return the change of 1/2 v^T M_a v they make (0 unless ``entrained``)."""
     before = entrained_at(v, S, vlen, i, an, at) if entrained else 0.0
-    w = 1.0 if c[2][i] <= surface else 0.0
-    S[0][i] = w
+    if not soaked:
+        w = 1.0 if c[2][i] <= surface else 0.0
+        S[0][i] = w
+        S[14][i], S[15][i] = wet_inverses(dry, wet0, wet1, i, w)
     S[7][i], S[8][i], S[9][i], ci[i] = unit_chord(c, i - uint(1), i + uint(1))
-    S[14][i], S[15][i] = wet_inverses(dry, wet0, wet1, i, w)
     return entrained_at(v, S, vlen, i, an, at) - before if entrained else 0.0
 
 
 @njit(**PASS)
-def sample_still_line(v, c, S, ci, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained):
+def sample_still_line(v, c, S, ci, vlen, dry, wet0, wet1, first, n, surface, an, at, entrained, soaked):
     """Update rows 0 (wetness), 7-9 (tangent) and 14-15 (inverse masses, as sample_masses) of
     the sample (S) at the n interior vertices first.. of a line in a still medium, in one pass
-    (c: the position columns, v: the velocity columns); return the change of the entrained
-    fluid's kinetic energy at the present velocities (0 unless ``entrained``: a loop each way)."""
+    (c: the position columns, v: the velocity columns), rows 7-9 alone where ``soaked`` (the
+    line under the surface now and at its last sample: rows 0 and 14-15 already hold what
+    this would write); return the change of the entrained fluid's kinetic energy at the
+    present velocities (0 unless ``entrained``: a loop each way)."""
     de = 0.0
-    if CARRIES and entrained:
+    if CARRIES and entrained and soaked:
         for k in range(n):
-            de += still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True)
+            de += still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True, True)
+    elif CARRIES and entrained:
+        for k in range(n):
+            de += still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, True, False)
+    elif soaked:
+        for k in range(n):
+            still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, False, True)
     else:
         for k in range(n):
-            still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, False)
+            still_vertex(v, c, S, ci, vlen, dry, wet0, wet1, first + uint(k), surface, an, at, False, False)
     return de
 
 
@@ -441,8 +460,11 @@ def sample_medium(p, model, state):
     written where a line's first vertex does not hold them (a new sample; a new current).
     Return the change of the entrained fluid's kinetic energy at the lines' vertices (line
     ends at the nodes the medium moves included) at the present velocities, in a still medium
-    (0 otherwise: flow_fluid measures it around the sample). (Loops over vertices without
-    calls or branches, which LLVM vectorises.)"""
+    (0 otherwise: flow_fluid measures it around the sample). A line under a still surface at
+    this sample and at the last (row SOAKED_ROW at its first vertex) has its wetness, inverse
+    masses and upthrust as that sample wrote them, the same numbers: its tangents alone are
+    written (a wire or a net wholly submerged, the common case, writes four rows a vertex
+    fewer a kick). (Loops over vertices without calls or branches, which LLVM vectorises.)"""
     x = state.x
     c, S, v = columns(x), sample_rows(p), columns(state.v)
     t = state.clock[0]
@@ -466,6 +488,10 @@ def sample_medium(p, model, state):
         for i in (lo, hi - 1):
             tan, p.chord_inverse[i] = line_tangent(x, i, lo, hi)
             S[7][i], S[8][i], S[9][i] = tan[0], tan[1], tan[2]
+        under = False
+        if CARRIES or MOVING or p.buoyancy[j] != 0.0:
+            under = line_under(c[2], uint(lo), hi - lo, surface)
+        soaked = under and p.sample[SOAKED_ROW, lo] == 1.0 and (not MOVING or still)
         if not MOVING or still:
             if not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0 and S[5][lo] == 0.0
                     and S[6][lo] == 0.0):
@@ -475,16 +501,17 @@ def sample_medium(p, model, state):
                     S[0][i] = 1.0 if c[2][i] <= surface else 0.0
             if CARRIES or MOVING:   # (else the drag alone reads the interior, and takes it itself: kick_drag_line)
                 de += sample_still_line(v, c, S, p.chord_inverse, vlen, dry, wet0, wet1, uint(lo + 1), hi - lo - 2,
-                                        surface, an, at, an != 0.0 or at != 0.0)
+                                        surface, an, at, an != 0.0 or at != 0.0, soaked)
             if CARRIES and ends:
                 de += ends_entrained(p, model, state, S, vlen, l, lo, hi, an, at)
         else:
             sample_chords(c, S, p.chord_inverse, uint(lo), hi - lo - 2)
             sample_moving(p, c, S, lo, hi, t)
             sample_masses(S, dry, wet0, wet1, uint(lo + 1), hi - lo - 2)
-        if p.buoyancy[j] != 0.0:
+        if p.buoyancy[j] != 0.0 and not soaked:
             sample_upthrust(c[2], S, model.element_rest_length, uint(lo), uint(model.line_element_offsets[l]),
-                            hi - lo - 2, p.buoyancy[j], surface)
+                            hi - lo - 2, p.buoyancy[j], surface, under)
+        p.sample[SOAKED_ROW, lo] = 1.0 if under and (not MOVING or still) else 0.0
         if MOVING and not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
             sample_inertia(S, vlen, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
     return de
