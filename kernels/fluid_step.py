@@ -13,8 +13,8 @@ from numba import njit
 from .backend import ENTRY, STEP
 from .compiler import CACHED, INNER
 from .compose import flow_kernel
-from .fluid import (ARMS, CARRIES, MORISON, MOVING, NODES, FluidParams, add_split, buoy_of, carrying_span,
-                    end_arm, ends_entrained, entrained_line, has_added_mass, node_free, push_vertices,
+from .fluid import (ARMS, CARRIES, MOVING, NODES, FluidParams, add_split, buoy_of, calm_now, carrying_span, end_arm,
+                    ends_entrained, entrained_line, has_added_mass, linear_law, node_free, push_vertices,
                     sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force)
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
@@ -186,7 +186,7 @@ def end_drag(p, j, tan, lv, ux, uy, uz):
     """Return the drag matrix (c_n, c_t - c_n): drag = -(c_n (1 - t t^T) + c_t t t^T) u on a
     line end of row j with relative velocity u, tangent t and Voronoi length lv."""
     cn, ct = lv * p.drag_n[j], lv * p.drag_t[j]
-    if p.law == MORISON:
+    if not linear_law(p):   # (a variant of one law folds the test)
         ut = ux * tan[0] + uy * tan[1] + uz * tan[2]
         nx, ny, nz = ux - ut * tan[0], uy - ut * tan[1], uz - ut * tan[2]
         cn *= math.sqrt(nx * nx + ny * ny + nz * nz)
@@ -227,14 +227,16 @@ def point_junction(model, nd):
 
 
 @njit(**INNER)
-def drag_node(p, model, state, nd, h, added):
+def drag_node(p, model, state, nd, h, added, calm):
     """Update free node nd's velocity by one linearly implicit step of the drag on its wet
     line ends, (M + h D) v' = M v + h sum D_a (U_a - w x r_a) (D_a the drag matrix at the
     step's start, M the mass with the added mass (``added``); a buoy's own drag
     1/2 rho C_d A f |u| at its centre added to D), and its angular velocity by the drag's
     torque about the centre of mass at v'; return (the energy dissipated, the work the medium
     supplied). (One pass over the node's line ends: the torque and the medium's work at v'
-    are linear in v', and their coefficients are summed with the drag's.)"""
+    are linear in v', and their coefficients are summed with the drag's. ``calm``: the medium
+    at rest, U = 0, its sampled velocity not read: where a variant's options tell it
+    (fluid.calm_now), the terms in U fold away.)"""
     vn = state.node_v[nd]
     d = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     b0 = b1 = b2 = 0.0   # sum D_a (U_a - w x r_a)
@@ -247,6 +249,8 @@ def drag_node(p, model, state, nd, h, added):
         j, wet, r, tan, lv, um, _ = node_end(p, model, state, model.node_attach_list[k])
         if not wet:
             continue
+        if calm:
+            um = (0.0, 0.0, 0.0)
         arm = r[0] != 0.0 or r[1] != 0.0 or r[2] != 0.0   # (a point junction's ends: no arm, no moment)
         spin = arm_spin(state, nd, r) if arm else (0.0, 0.0, 0.0)
         gx, gy, gz = um[0] - spin[0], um[1] - spin[1], um[2] - spin[2]   # U - w x r
@@ -299,11 +303,11 @@ def drag_nodes(p, model, state, h):
     """Update the velocities of the free nodes whose line ends have arms (drag_node; the
     point junctions take theirs inside the kick: kick_drag_nodes), p.dissipated and
     p.supplied by its work."""
-    added = has_added_mass(p)
+    added, calm = has_added_mass(p), calm_now(p)
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if node_free(p, model, nd) and not point_junction(model, nd):
-            d, g = drag_node(p, model, state, nd, h, added)
+            d, g = drag_node(p, model, state, nd, h, added, calm)
             dissipated += d
             supplied += g
     p.dissipated[0] += dissipated
@@ -319,7 +323,7 @@ def kick_drag_nodes(p, model, state, node_f, h):
     flows on both sides of the kick took two. (Where a line end has an arm, the drag's
     moment turns the node, and its half kick would need the node's rotation's: drag_nodes.)
     p.dissipated and p.supplied by its work."""
-    added = has_added_mass(p)
+    added, calm = has_added_mass(p), calm_now(p)
     dissipated = supplied = 0.0
     for nd in range(model.node_mass.shape[0]):
         if not node_free(p, model, nd) or (ARMS and not point_junction(model, nd)):
@@ -327,7 +331,7 @@ def kick_drag_nodes(p, model, state, node_f, h):
         vn, s = state.node_v[nd], 0.5 * h * model.node_inv_mass[nd]
         ax, ay, az = s * node_f[nd, 0], s * node_f[nd, 1], s * node_f[nd, 2]
         vn[0], vn[1], vn[2] = vn[0] + ax, vn[1] + ay, vn[2] + az
-        d, g = drag_node(p, model, state, nd, h, added)
+        d, g = drag_node(p, model, state, nd, h, added, calm)
         vn[0], vn[1], vn[2] = vn[0] - ax, vn[1] - ay, vn[2] - az
         dissipated += d
         supplied += g
