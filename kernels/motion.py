@@ -107,7 +107,25 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
     h to the given order (2: Strang with Cayley angles, as the elements turn; 4: Yoshida's
-    triple jump of the exact Strang splitting)."""
+    triple jump of the exact Strang splitting). A body with two equal inertias (a knot or a
+    point mass with its line ends: symmetric about one axis) needs no splitting: its kinetic
+    energy is a Casimir's plus a term in the odd axis's momentum, whose flows commute
+    (spin_element), so it turns by the two flows, with Cayley angles at order 2, exactly at
+    order 4."""
+    i0, i1, i2 = inv_j[0], inv_j[1], inv_j[2]
+    if i0 == i1 or i1 == i2 or i0 == i2:
+        axis, common = (2, i0) if i0 == i1 else ((0, i1) if i1 == i2 else (1, i0))
+        s = h * common
+        cayley = order != 4
+        if cayley:
+            ew, ex, ey, ez = quat_cayley(s * p[0], s * p[1], s * p[2])
+        else:
+            ew, ex, ey, ez = quat_exp(s * p[0], s * p[1], s * p[2])
+        qw, qx, qy, qz = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez)
+        r = spin_about_axis(qw, qx, qy, qz, p[0], p[1], p[2], inv_j[axis] - common, axis, h, cayley)
+        q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
+        p[0], p[1], p[2] = r[4], r[5], r[6]
+        return
     r = (q[0], q[1], q[2], q[3], p[0], p[1], p[2])
     if order == 4:
         for c in (YOSHIDA_1, YOSHIDA_0, YOSHIDA_1):
