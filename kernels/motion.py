@@ -307,8 +307,13 @@ def place_line_end(a, model, state):
     """Update state.x, state.v at line end a given its node: r_lambda = r + D xi (1.1)."""
     nd = model.attach_node[a]
     vt = model.attach_vertex[a]
-    qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
     o = model.attach_offset[a]
+    if o[0] == 0.0 and o[1] == 0.0 and o[2] == 0.0:   # (a point junction's end: the node's own motion)
+        for k in range(3):
+            state.x[vt, k] = state.node_x[nd, k]
+            state.v[vt, k] = state.node_v[nd, k]
+        return
+    qw, qx, qy, qz = state.node_q[nd, 0], state.node_q[nd, 1], state.node_q[nd, 2], state.node_q[nd, 3]
     w = state.node_w[nd]
     rx, ry, rz = quat_rotate(qw, qx, qy, qz, o[0], o[1], o[2])
     cx, cy, cz = cross(w[0], w[1], w[2], o[0], o[1], o[2])
