@@ -106,8 +106,9 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
 @njit(**INNER)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
-    h to the given order (2: Strang with Cayley angles, as the elements turn; 4: Yoshida's
-    triple jump of the exact Strang splitting). A body with two equal inertias (a knot or a
+    h to the given order; a body of three different inertias by a splitting (2: Strang with
+    Cayley angles, as the elements turn; 4: Yoshida's triple jump of the exact Strang
+    splitting). A body with two equal inertias (a knot or a
     point mass with its line ends: symmetric about one axis) needs no splitting: its kinetic
     energy is a Casimir's plus a term in the odd axis's momentum, whose flows commute
     (spin_element), so it turns by the two flows, with Cayley angles at order 2, exactly at

@@ -281,7 +281,7 @@ def test_a_line_rising_through_the_surface_moves_as_if_sampled_whole_at_every_ki
     # and upthrust from the first (kernels/fluid.sample_medium, row SOAKED_ROW): a buoyant rod
     # released under water, rising wholly submerged and then through the surface, moves bit for
     # bit as the same rod whose every sample writes every row (the row cleared before each
-    # step), with the same accounts
+    # step), with the same accounts (the work supplied to round-off)
     from cosnet.kernels.fluid import SOAKED_ROW
 
     def run(whole):
