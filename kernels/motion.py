@@ -103,27 +103,37 @@ def spin_strang(qw, qx, qy, qz, p0, p1, p2, i0, i1, i2, h, cayley):
     return r
 
 
+@njit(**INLINE)
+def spin_two_flows(qw, qx, qy, qz, p0, p1, p2, common, odd, axis, h, cayley):
+    """Return (q, p), q not normalised, after the free rotation for time h of a body whose
+    inverse inertias are ``common`` about two axes and common + odd about ``axis``: the
+    Casimir flow exp(h common p) (p unchanged), then the flow of odd p_axis^2/2 about that
+    axis (spin_about_axis). The two flows commute, so this is the body's whole flow: exact,
+    or by Cayley angles where ``cayley`` (the exact flow of a kinetic energy differing by
+    O(h^2), no trig)."""
+    s = h * common
+    if cayley:
+        ew, ex, ey, ez = quat_cayley(s * p0, s * p1, s * p2)
+    else:
+        ew, ex, ey, ez = quat_exp(s * p0, s * p1, s * p2)
+    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez)
+    return spin_about_axis(qw, qx, qy, qz, p0, p1, p2, odd, axis, h, cayley)
+
+
 @njit(**INNER)
 def spin_free_body(q, p, inv_j, h, order):
     """Update quaternion q (4,) and body momentum p (3,) by the free rigid-body flow for time
     h to the given order; a body of three different inertias by a splitting (2: Strang with
     Cayley angles, as the elements turn; 4: Yoshida's triple jump of the exact Strang
     splitting). A body with two equal inertias (a knot or a
-    point mass with its line ends: symmetric about one axis) needs no splitting: its kinetic
-    energy is a Casimir's plus a term in the odd axis's momentum, whose flows commute
-    (spin_element), so it turns by the two flows, with Cayley angles at order 2, exactly at
-    order 4."""
+    point mass with its line ends: symmetric about one axis) needs no splitting: it turns by
+    its two commuting flows (spin_two_flows), with Cayley angles at order 2, exactly at order
+    4, as a round element does (spin_element)."""
     i0, i1, i2 = inv_j[0], inv_j[1], inv_j[2]
     if i0 == i1 or i1 == i2 or i0 == i2:
         axis, common = (2, i0) if i0 == i1 else ((0, i1) if i1 == i2 else (1, i0))
-        s = h * common
-        cayley = order != 4
-        if cayley:
-            ew, ex, ey, ez = quat_cayley(s * p[0], s * p[1], s * p[2])
-        else:
-            ew, ex, ey, ez = quat_exp(s * p[0], s * p[1], s * p[2])
-        qw, qx, qy, qz = quat_mul(q[0], q[1], q[2], q[3], ew, ex, ey, ez)
-        r = spin_about_axis(qw, qx, qy, qz, p[0], p[1], p[2], inv_j[axis] - common, axis, h, cayley)
+        r = spin_two_flows(q[0], q[1], q[2], q[3], p[0], p[1], p[2], common, inv_j[axis] - common, axis, h,
+                           order != 4)
         q[0], q[1], q[2], q[3] = quat_normalize(r[0], r[1], r[2], r[3])
         p[0], p[1], p[2] = r[4], r[5], r[6]
         return
@@ -160,12 +170,10 @@ def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
 def spin_round(qw, qx, qy, qz, p0, p1, p2, i1, d2, h):
     """Return (q, p) after the order-2 free-rotation flow of a round section (J1 = J2): the
     Casimir flow by the Cayley angle of h p / J1 (p unchanged), then the flow of d2 p3^2/2
-    about e3 by its Cayley angle (spin_about_axis; no branch, no trig)."""
-    ew, ex, ey, ez = quat_cayley(h * i1 * p0, h * i1 * p1, h * i1 * p2)
-    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez)
+    about e3 by its Cayley angle (spin_two_flows; no branch, no trig)."""
     r = (qw, qx, qy, qz, p0, p1, p2)
-    for axis, frac in AXIS_3:
-        r = spin_about_axis(r[0], r[1], r[2], r[3], r[4], r[5], r[6], d2, axis, frac * h, True)
+    for axis, _ in AXIS_3:   # (a plain int: see STRANG_123)
+        r = spin_two_flows(qw, qx, qy, qz, p0, p1, p2, i1, d2, axis, h, True)
     qw, qx, qy, qz = quat_normalize(r[0], r[1], r[2], r[3])
     return qw, qx, qy, qz, r[4], r[5], r[6]
 
