@@ -491,7 +491,8 @@ def sample_medium(p, model, state):
         under = False
         if CARRIES or MOVING or p.buoyancy[j] != 0.0:
             under = line_under(c[2], uint(lo), hi - lo, surface)
-        soaked = under and p.sample[SOAKED_ROW, lo] == 1.0 and (not MOVING or still)
+        held = under and (not MOVING or still)   # under a still surface now
+        soaked = held and p.sample[SOAKED_ROW, lo] == 1.0   # and at the last sample
         if not MOVING or still:
             if not (S[1][lo] == c0 and S[2][lo] == c1 and S[3][lo] == c2 and S[4][lo] == 0.0 and S[5][lo] == 0.0
                     and S[6][lo] == 0.0):
@@ -511,7 +512,7 @@ def sample_medium(p, model, state):
         if p.buoyancy[j] != 0.0 and not soaked:
             sample_upthrust(c[2], S, model.element_rest_length, uint(lo), uint(model.line_element_offsets[l]),
                             hi - lo - 2, p.buoyancy[j], surface, under)
-        p.sample[SOAKED_ROW, lo] = 1.0 if under and (not MOVING or still) else 0.0
+        p.sample[SOAKED_ROW, lo] = 1.0 if held else 0.0
         if MOVING and not still and (p.inertia_n[j] != 0.0 or p.inertia_t[j] != 0.0):   # (still: rows 10-12 stay 0)
             sample_inertia(S, vlen, uint(lo + 1), hi - lo - 2, p.inertia_n[j], p.inertia_t[j])
     return de
