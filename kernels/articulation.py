@@ -35,7 +35,16 @@ universal joint likewise (settle_universal; a ball joint so settled measured no 
 three coordinates' exact derivative costs about what an evaluation does). A loose ball joint,
 nothing on R but the boundary point, needs no iteration: it balances where that point is
 unstrained, R in closed form (loose_turn), and passes no torque; with a cone, so while that
-balance lies within it. The
+balance lies within it. A hinge free of friction, damper and spring table (a pin, with or
+without a linear spring and limits) settles first in vector lanes (settle_hinges): every
+joint of the net takes settle_hinge's first evaluation there, both of its Newton steps
+computed and the one settle_hinge would take selected, with no branch, and one whose
+evaluation is its balance (its step ends the iteration or is carried) is done; the others
+go through the scalar path as before. The lanes read each joint's constants from rows of
+one number a joint (lane_tables): read from the record's rows of three, whose length is no
+constant to LLVM, the loop ran in lanes only under a run-time test that a row holds one
+number, and so never did. The joints' own arithmetic is settle_hinge's (hinge_terms,
+hinge_torques). The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
 (tens of seconds for this module). coordinate_balance, called three times in each Newton step,
@@ -50,13 +59,13 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .backend import ENTRY
+from .backend import ENTRY, PASS
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
-    rotation_of, solve_sym3
+    rotation_of, small_rotation, solve_sym3
 from .specialise import Variants
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
@@ -64,13 +73,24 @@ NEWTON_STEPS = 40                  # at most; a balance converges in a few
 NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
 ONE_STEP = 1e-7                    # rad: a hinge's or universal joint's exact Newton step below it is taken
                                    # without evaluating again, its loads carried to first order (error O(step^2))
+# rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
+# on its node (X's components) and end element, and the first in the lab
+OK, PHI, NODE, TAU_E, LAB = 0, 1, 2, 5, 8
+LANE_ROWS = 11
+SETTLED, AHEAD = 1.0, 2.0   # in row OK
+# rows of p.lane_constants (lane_tables): the joints' constants settle_hinges reads, a row for
+# each number (the module's docstring says why)
+C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_FREE, C_IL, C_U0, C_FRAME, C_START = \
+    0, 3, 6, 7, 8, 9, 10, 11, 12, 15, 19
+LANE_CONSTANTS = 20
 
 # Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
 # needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
 # functions, and its record ArticulationParams, are the variant with both.
 BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a cone, one friction torque
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
-OPTIONS = ("BALLS", "HELD")
+LANES = True    # some joint is a hinge free of friction, damper and spring table (settle_hinges)
+OPTIONS = ("BALLS", "HELD", "LANES")
 
 
 class ArticulationParams(NamedTuple):
@@ -98,6 +118,9 @@ class ArticulationParams(NamedTuple):
     reaction: np.ndarray    # (k, 3) torque of the line on the node through the joint, lab
     last: np.ndarray        # (1,) clock of the last evaluation
     dissipated: np.ndarray  # (1,) energy the dampers and friction took (J)
+    lanes: np.ndarray       # (LANE_ROWS, k) scratch: each joint's first evaluation (settle_hinges)
+    lane_constants: np.ndarray  # (LANE_CONSTANTS, k) the joints' constants by rows (lane_tables)
+    lane_ends: np.ndarray   # (2, k) int64 each joint's node and end element (lane_tables)
 
 
 @njit(**INNER)
@@ -138,20 +161,31 @@ def joint_turn(p, j, phi):
 
 
 @njit(**INNER)
-def boundary_rotation(f, q, start, r):
-    """Return (theta, cc, turn, small, rel) at a joint's boundary Voronoi point given the end
-    frame F (quaternion f), the end element's q, whether the joint is at the line's start, and
-    R (quaternion): theta the rotation vector from its left frame to its right one (G = F R to
-    E at a line's start, E to G at its end), cc of the inverse Jacobians (bend_torques), turn
-    = left^T right (quaternion, w >= 0), whether |theta| < 0.2 (relative_quat), rel = G^T E."""
+def boundary_quat(f, q, start, r):
+    """Return (turn, small, rel) at a joint's boundary Voronoi point given the end frame F
+    (quaternion f), the end element's q, whether the joint is at the line's start, and R
+    (quaternion): turn = left^T right (quaternion, w >= 0; its left frame G = F R and right
+    one E at a line's start, E and G at its end), whether its angle is below 0.2 rad
+    (relative_quat), rel = G^T E. (Selects, not branches: settle_hinges runs it in vector
+    lanes.)"""
     g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
-    if start:
-        rw, rx, ry, rz, small = relative_quat(g[0], g[1], g[2], g[3], q[0], q[1], q[2], q[3])
-    else:
-        rw, rx, ry, rz, small = relative_quat(q[0], q[1], q[2], q[3], g[0], g[1], g[2], g[3])
-    tx, ty, tz, cc = rotation_of(rw, rx, ry, rz, small)
+    lw, lx, ly, lz = (g[0] if start else q[0]), (g[1] if start else q[1]), (g[2] if start else q[2]), \
+        (g[3] if start else q[3])
+    bw, bx, by, bz = (q[0] if start else g[0]), (q[1] if start else g[1]), (q[2] if start else g[2]), \
+        (q[3] if start else g[3])
+    rw, rx, ry, rz, small = relative_quat(lw, lx, ly, lz, bw, bx, by, bz)
     rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
-    return (tx, ty, tz), cc, (rw, rx, ry, rz), small, rel
+    return (rw, rx, ry, rz), small, rel
+
+
+@njit(**INNER)
+def boundary_rotation(f, q, start, r):
+    """Return (theta, cc, turn, small, rel) at a joint's boundary Voronoi point (boundary_quat's
+    arguments): theta the rotation vector from its left frame to its right one and cc of the
+    inverse Jacobians (bend_torques), with boundary_quat's values."""
+    turn, small, rel = boundary_quat(f, q, start, r)
+    tx, ty, tz, cc = rotation_of(turn[0], turn[1], turn[2], turn[3], small)
+    return (tx, ty, tz), cc, turn, small, rel
 
 
 @njit(**INNER)
@@ -396,13 +430,24 @@ def boundary_turn(f, q, start, il, u0, bend, r):
     (tx, ty, tz), cc, (rw, rx, ry, rz), small, rel = boundary_rotation(f, q, start, r)
     t2 = tx * tx + ty * ty + tz * tz
     if small:
-        c2 = 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
+        c2 = small_rate(t2)
     else:   # d/d t^2 of cc = 1/t^2 - w/(2 t s), s = sin(t/2) = |r_vec|, w = cos(t/2)
         s2 = rx * rx + ry * ry + rz * rz
         ts = math.sqrt(t2 * s2)
         c2 = -1.0 / (t2 * t2) + 1.0 / (8.0 * t2 * s2) + rw / (4.0 * t2 * ts)
-    m = (bend[0] * (tx * il - u0[0]), bend[1] * (ty * il - u0[1]), bend[2] * (tz * il - u0[2]))
-    return (tx, ty, tz), cc, c2, m, rel, (-1.0 if start else 1.0)
+    return (tx, ty, tz), cc, c2, boundary_moment((tx, ty, tz), il, u0, bend), rel, (-1.0 if start else 1.0)
+
+
+@njit(**INNER)
+def small_rate(t2):
+    """Return d cc / d |theta|^2 (bend_torques' cc) at |theta|^2 = t2 below 0.04, by series."""
+    return 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
+
+
+@njit(**INNER)
+def boundary_moment(t, il, u0, bend):
+    """Return the boundary point's moment m = B (theta/L - u0) (3.22), il = 1/L."""
+    return bend[0] * (t[0] * il - u0[0]), bend[1] * (t[1] * il - u0[1]), bend[2] * (t[2] * il - u0[2])
 
 
 @njit(**INLINE)
@@ -461,14 +506,13 @@ def settle_hinge(point, a, c, ang, tq, x, prev, fric):
     for it in range(NEWTON_STEPS):
         r = quat_exp(x * a[0], x * a[1], x * a[2])
         t, cc, c2, m, rel, e = boundary_turn(f, q, start, il, u0, bend, r)
-        w = inverse_jacobian(t, cc, e, a)
-        bw = bend_rate(il, bend, w)
-        g, spring, slope = axis_balance(c, ang, tq, -e * dot3(w, m), x, prev, fric)
-        lead = dot3(w, bw) + spring
+        w, bw, torque, lead, soft = hinge_terms(t, cc, c2, e, m, a, il, bend)
+        g, spring, slope = axis_balance(c, ang, tq, torque, x, prev, fric)
+        lead += spring
         step = min(max(x + g / lead, c[3]), c[4]) - x
         carried = 0.0
         if abs(step) > NEWTON_TOL and it < NEWTON_STEPS - 1:
-            stiff = dot3(jacobian_rate(t, cc, c2, e, w, a), m) + lead
+            stiff = soft + lead
             if slope < 0.0 or not stiff > 0.0:   # (far from a balance the elastic part may soften)
                 x += step
                 continue
@@ -477,13 +521,76 @@ def settle_hinge(point, a, c, ang, tq, x, prev, fric):
                 x += step
                 continue
             carried = step
-        te = inverse_jacobian(t, cc, e, m)
-        te = (e * te[0], e * te[1], e * te[2])
-        if carried != 0.0:
-            d = carried_torque(t, cc, c2, e, m, w, bw, carried)
-            te = (te[0] + d[0], te[1] + d[1], te[2] + d[2])
-        return x + carried, node_torque(r, rel, te), te
+        node, te = hinge_torques(t, cc, c2, e, m, w, bw, carried, r, rel)
+        return x + carried, node, te
     return x, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
+
+
+@njit(**INNER)
+def hinge_terms(t, cc, c2, e, m, a, il, bend):
+    """Return (w, bw, q, lead, soft) of a hinge of axis a given boundary_turn's values at its
+    boundary point (il = 1/L, bend B): w = J a, bw = B w / L, the line's generalised torque
+    q = -e w . m on the hinge, and the two terms of its derivative (settle_hinge): the
+    leading one w^T B w / L and the rest, D_w J a . m."""
+    w = inverse_jacobian(t, cc, e, a)
+    bw = bend_rate(il, bend, w)
+    return w, bw, -e * dot3(w, m), dot3(w, bw), dot3(jacobian_rate(t, cc, c2, e, w, a), m)
+
+
+@njit(**INNER)
+def hinge_torques(t, cc, c2, e, m, w, bw, carried, r, rel):
+    """Return (node torque, tau_E) of a hinge at its balance given its terms there
+    (boundary_turn, hinge_terms), tau_E = e J m carried along a last Newton step of
+    ``carried`` to first order (carried_torque) and the node's its opposite (node_torque)."""
+    te = inverse_jacobian(t, cc, e, m)
+    d = carried_torque(t, cc, c2, e, m, w, bw, carried)
+    te = (e * te[0] + d[0], e * te[1] + d[1], e * te[2] + d[2])
+    return node_torque(r, rel, te), te
+
+
+@njit(**PASS)
+def settle_hinges(p, model, state, dt, out):
+    """Update out (LANE_ROWS, k) for every joint by settle_hinge's first evaluation, taken
+    without a branch so that the joints go through it in vector lanes: row OK is 1.0 where
+    that evaluation is the balance (a hinge whose balance has neither a damper, friction nor
+    a spring table, whose boundary point turns by less than 0.2 rad, and whose Newton step
+    from its carried coordinate ends the iteration or is taken without evaluating again:
+    settle_hinge): SETTLED, and rows PHI, NODE (3), TAU_E (3) and LAB (3) hold its
+    coordinate, the torques on the node and the end element and the first in the lab (its
+    reaction); where that hinge's exact Newton step is too long to carry, AHEAD, and row PHI
+    holds where the step goes, settle_hinge's next point (add_articulations goes on from
+    there); elsewhere 0.0, and the rows anything, NaN included."""
+    C, ends = p.lane_constants, p.lane_ends
+    phi, rate = p.phi.reshape(3 * p.attach.shape[0]), p.rate.reshape(3 * p.attach.shape[0])
+    for j in range(p.attach.shape[0]):
+        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+        ax, ay, az = C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]
+        lo, hi, k0, rest = C[C_LOWER, j], C[C_UPPER, j], C[C_SPRING, j], C[C_REST, j]
+        x = min(max(phi[3 * j] + dt * rate[3 * j], lo), hi)
+        r = quat_exp(x * ax, x * ay, x * az)
+        start = C[C_START, j] != 0.0
+        turn, small, rel = boundary_quat(f, q, start, r)
+        tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
+        t, es = (tx, ty, tz), (-1.0 if start else 1.0)
+        il, b = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
+        m = boundary_moment(t, il, (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]), b)
+        c2 = small_rate(tx * tx + ty * ty + tz * tz)
+        w, bw, torque, lead, soft = hinge_terms(t, cc, c2, es, m, (ax, ay, az), il, b)
+        g = torque - k0 * (x - rest)
+        lead += k0
+        step = min(max(x + g / lead, lo), hi) - x
+        stiff = soft + lead
+        exact = min(max(x + g / stiff, lo), hi) - x
+        done = not abs(step) > NEWTON_TOL
+        carried = 0.0 if done else exact
+        node, te = hinge_torques(t, cc, c2, es, m, w, bw, carried, r, rel)
+        fits = C[C_FREE, j] != 0.0 and small and (done or stiff > 0.0)
+        out[OK, j] = (SETTLED if done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
+        out[PHI, j] = x + carried
+        out[NODE, j], out[NODE + 1, j], out[NODE + 2, j] = node
+        out[TAU_E, j], out[TAU_E + 1, j], out[TAU_E + 2, j] = te
+        out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
 
 
 @njit(**INNER)
@@ -696,11 +803,33 @@ def add_articulations(p, model, state, loads):
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0   # (no rate, no damper's work, over no time)
     p.last[0] = state.clock[0]
     spent = 0.0
+    L = p.lanes
+    if LANES:
+        settle_hinges(p, model, state, dt, L)
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
-        f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
-        phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
         e = model.attach_element[a]
+        if LANES and L[OK, j] == SETTLED:   # a hinge's other coordinates stay 0
+            loads.tau[e, 0] += L[TAU_E, j]
+            loads.tau[e, 1] += L[TAU_E + 1, j]
+            loads.tau[e, 2] += L[TAU_E + 2, j]
+            loads.end_tau[a, 0] += L[NODE, j]
+            loads.end_tau[a, 1] += L[NODE + 1, j]
+            loads.end_tau[a, 2] += L[NODE + 2, j]
+            p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = L[LAB, j], L[LAB + 1, j], L[LAB + 2, j]
+            p.rate[j, 0] = (L[PHI, j] - p.phi[j, 0]) * inv_dt
+            p.phi[j, 0] = L[PHI, j]
+            p.sliding[j, 0] = 0.0
+            continue
+        f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
+        if LANES and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
+            ax = p.axis_a[j]
+            x, (tx, ty, tz), te = settle_hinge(boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]),
+                                               axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
+                                               L[PHI, j], p.phi[j, 0], 0.0)
+            phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (0.0, 0.0, 0.0), (True, False, False)
+        else:
+            phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
         loads.tau[e, 0] += te[0]
         loads.tau[e, 1] += te[1]
         loads.tau[e, 2] += te[2]
@@ -768,7 +897,24 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    return VARIANTS.record(p, (balls, held))
+    return VARIANTS.record(p, (balls, held, bool(np.any(p.lane_constants[C_FREE] != 0.0))))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it
+
+
+def lane_tables(p, model):
+    """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges)."""
+    C, a = p.lane_constants, p.attach
+    C[C_AXIS:C_AXIS + 3] = p.axis_a.T
+    C[C_BEND:C_BEND + 3] = p.bend.T
+    C[C_LOWER], C[C_UPPER], C[C_SPRING], C[C_REST] = p.lower[:, 0], p.upper[:, 0], p.stiffness[:, 0], p.rest[:, 0]
+    tables = p.table_offsets[1::3] - p.table_offsets[0:-1:3]
+    C[C_FREE] = (p.dofs == HINGE) & (p.damping[:, 0] == 0.0) & (p.static[:, 0] == 0.0) & \
+        (p.kinetic[:, 0] == 0.0) & (tables == 0)
+    kv = model.attach_vertex[a]
+    C[C_IL] = model.voronoi_inv_rest_length[kv]
+    C[C_U0:C_U0 + 3] = model.voronoi_rest_curvature[kv].T
+    C[C_FRAME:C_FRAME + 4] = model.attach_frame[a].T
+    C[C_START] = a % 2 == 0
+    p.lane_ends[0], p.lane_ends[1] = model.attach_node[a], model.attach_element[a]

@@ -338,6 +338,46 @@ def test_welded_end_has_no_joint_state():
         cosnet.joint_state(sim, arm)
 
 
+@pytest.mark.parametrize("joint", [dict(), dict(stiffness=0.5, rest=0.2, limits=(-0.25, 0.3))],
+                         ids=["pins", "springs and limits"])
+def test_pins_settled_in_vector_lanes_move_as_the_iteration_settles_them(joint):
+    """A hanging chain of twelve links on hinges free of friction, damper and spring table (its
+    joints at line starts and at line ends) settles them in vector lanes; the same chain whose
+    hinges carry a spring table of zero torque settles them by the scalar iteration. They move
+    alike to round-off, as the joints swing, and with springs and limits as these act. At the
+    last evaluation the lanes took every pin's first Newton step (and settled it there, or,
+    the step too long to carry, the iteration went on from it)."""
+    def chain(extra):
+        net = cosnet.Net()
+        nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
+        lines = []
+        for i in range(12):
+            nodes.append(net.add_node((0.15 * (i + 1), 0.0, 0.0)))
+            hinge = cosnet.Hinge(axis=Y, **joint, **extra)
+            if i % 2:   # drawn from its far node: the joint at its end
+                lines.append(net.add_line(nodes[i + 1], nodes[i], material=SOFT, section=SECTION, elements=4,
+                                          end_joint=hinge))
+            else:
+                lines.append(net.add_line(nodes[i], nodes[i + 1], material=SOFT, section=SECTION, elements=4,
+                                          start_joint=hinge))
+        sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 0.0, -G))])
+        angles = []
+        for _ in range(10):
+            sim.run(steps=300)
+            angles.append([cosnet.joint_state(sim, line, "end" if i % 2 else "start")["angle"]
+                           for i, line in enumerate(lines)])
+        return sim, np.array(angles)
+    lanes, angles = chain({})
+    iterated, angles_it = chain(dict(spring_table=([-1.0, 1.0], [0.0, 0.0])))
+    taken = lanes.effect_params(lanes.effects[-1]).lanes[0]
+    assert np.all(np.isin(taken, (1.0, 2.0)))   # settled there, or gone on from there
+    assert np.ptp(angles, axis=0).max() > 0.2            # the joints swung (rad)
+    if joint:
+        assert np.isclose(angles.max(), 0.3) or np.isclose(angles.min(), -0.25)   # a limit held
+    assert np.abs(angles - angles_it).max() < 1e-9
+    assert np.abs(lanes.state.x - iterated.state.x).max() < 1e-10     # m, on a 1.8 m chain
+
+
 def test_spoilt_joint_table_is_refused_in_one_line():
     sim, arm, _ = hanging_arm(0.2, cosnet.Hinge(axis=Y))
     sim.effect_params(sim.effects[-1]).attach[0] = 7

@@ -13,7 +13,8 @@ import numpy as np
 from ..core import samples
 from ..core.articulation import Hinge
 from ..engine.bounds import index_error, offsets_error
-from ..kernels.articulation import VARIANTS, ArticulationParams, articulation_record
+from ..kernels.articulation import (LANE_CONSTANTS, LANE_ROWS, VARIANTS, ArticulationParams, articulation_record,
+                                    lane_tables)
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect
 from ..core.rotations import matrix_from_quat
@@ -67,7 +68,8 @@ class Articulations(Effect):
         """What is wrong with the index tables of record ``p`` for ``model``, or None."""
         k, na = p.attach.shape[0], model.attach_node.shape[0]
         rows = [a for name, a in zip(p._fields, p) if name not in ("attach", "table_offsets", "table_angle",
-                                                                      "table_torque", "last", "dissipated")]
+                                                                      "table_torque", "last", "dissipated", "lanes",
+                                                                      "lane_constants", "lane_ends")]
         if any(a.shape[0] != k for a in rows) or p.last.shape != (1,) or p.dissipated.shape != (1,):
             return "joints: every table needs one row per articulated line end"
         if np.any((p.dofs < 1) | (p.dofs > 3)):
@@ -78,7 +80,17 @@ class Articulations(Effect):
         problem = offsets_error("joints.table_offsets", p.table_offsets, m)
         if problem:
             return problem
-        return index_error("joints.attach", p.attach, na)
+        if p.lanes.shape != (LANE_ROWS, k) or p.lane_constants.shape != (LANE_CONSTANTS, k) or \
+                p.lane_ends.shape != (2, k):
+            return (f"joints: lanes, lane_constants and lane_ends need {LANE_ROWS}, {LANE_CONSTANTS} and 2 rows "
+                    "of one entry per joint")
+        problem = index_error("joints.attach", p.attach, na)
+        if problem:
+            return problem
+        if not (np.array_equal(p.lane_ends[0], model.attach_node[p.attach]) and
+                np.array_equal(p.lane_ends[1], model.attach_element[p.attach])):
+            return "joints.lane_ends: not the nodes and end elements of joints.attach"
+        return None
 
     def __init__(self, ends):
         self.ends = list(ends)
@@ -99,7 +111,9 @@ class Articulations(Effect):
             table_offsets=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
             table_angle=np.concatenate([t[0] for t in tables] or [np.zeros(0)]),
             table_torque=np.concatenate([t[1] for t in tables] or [np.zeros(0)]),
-            phi=z(), rate=z(), sliding=z(), reaction=z(), last=on.state.clock.copy(), dissipated=np.zeros(1))
+            phi=z(), rate=z(), sliding=z(), reaction=z(), last=on.state.clock.copy(), dissipated=np.zeros(1),
+            lanes=np.zeros((LANE_ROWS, k)), lane_constants=np.zeros((LANE_CONSTANTS, k)),
+            lane_ends=np.zeros((2, k), dtype=np.int64))
         m = on.model
         for i, (a, joint, _) in enumerate(self.ends):
             nd = m.attach_node[a]
@@ -109,6 +123,7 @@ class Articulations(Effect):
             for name in ("stiffness", "rest", "damping", "static", "kinetic", "lower", "upper"):
                 getattr(p, name)[i] = getattr(joint, name)
             p.phi[i] = np.clip(0.0, joint.lower, joint.upper)
+        lane_tables(p, m)
         return articulation_record(p)   # of the variant that compiles only what its joints have
 
     def potential(self, p, on: Binding) -> float:
@@ -129,6 +144,14 @@ class Articulations(Effect):
         frames, torque, curvature = np.zeros((k, 4)), np.zeros((k, 3)), np.zeros((k, 3))
         typed_call(VARIANTS.of(p).kernel("articulation_fields"), p, on.model, on.state, frames, torque, curvature)
         return on.model.attach_vertex[p.attach], frames, torque, curvature
+
+    def check_state(self, sim):
+        """Refresh the joints' constants as the lane pass holds them (lane_tables) from the
+        record and the model, which a user may have changed since the last run (where the
+        record's line ends are out of range, the table check that follows says so)."""
+        p = self.params(sim)
+        if index_error("joints.attach", p.attach, sim.model.attach_node.shape[0]) is None:
+            lane_tables(p, sim.model)
 
     def dissipated(self, sim) -> float:
         """Energy the joints' dampers and friction have taken so far (J)."""
