@@ -44,7 +44,8 @@ go through the scalar path as before. The lanes read each joint's constants from
 one number a joint (lane_tables): read from the record's rows of three, whose length is no
 constant to LLVM, the loop ran in lanes only under a run-time test that a row holds one
 number, and so never did. The joints' own arithmetic is settle_hinge's (hinge_terms,
-hinge_torques). The
+hinge_torques). A loose ball joint settles in lanes likewise, by loose_turn itself
+(settle_balls: its arctangent and branch written as selects, rotations.quat_log). The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
 (tens of seconds for this module). coordinate_balance, called three times in each Newton step,
@@ -76,21 +77,24 @@ ONE_STEP = 1e-7                    # rad: a hinge's or universal joint's exact N
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
 # on its node (X's components) and end element, and the first in the lab
 OK, PHI, NODE, TAU_E, LAB = 0, 1, 2, 5, 8
-LANE_ROWS = 11
+# and of settle_balls: whether the joint settled there, its coordinates
+BALL_OK, TURN = 11, 12
+LANE_ROWS = 15
 SETTLED, AHEAD = 1.0, 2.0   # in row OK
-# rows of p.lane_constants (lane_tables): the joints' constants settle_hinges reads, a row for
-# each number (the module's docstring says why)
-C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_FREE, C_IL, C_U0, C_FRAME, C_START = \
-    0, 3, 6, 7, 8, 9, 10, 11, 12, 15, 19
-LANE_CONSTANTS = 20
+# rows of p.lane_constants (lane_tables): the joints' constants settle_hinges and settle_balls
+# read, a row for each number (the module's docstring says why); C_CONE holds cone_cosine
+C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_PIN, C_IL, C_U0, C_FRAME, C_START, C_LOOSE, C_CONE = \
+    0, 3, 6, 7, 8, 9, 10, 11, 12, 15, 19, 20, 21
+LANE_CONSTANTS = 22
 
 # Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
 # needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
 # functions, and its record ArticulationParams, are the variant with both.
 BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a cone, one friction torque
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
-LANES = True    # some joint is a hinge free of friction, damper and spring table (settle_hinges)
-OPTIONS = ("BALLS", "HELD", "LANES")
+PINS = True     # some joint is a hinge free of friction, damper and spring table (settle_hinges)
+LOOSE = True    # some joint is a loose ball joint (settle_balls)
+OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE")
 
 
 class ArticulationParams(NamedTuple):
@@ -585,12 +589,29 @@ def settle_hinges(p, model, state, dt, out):
         done = not abs(step) > NEWTON_TOL
         carried = 0.0 if done else exact
         node, te = hinge_torques(t, cc, c2, es, m, w, bw, carried, r, rel)
-        fits = C[C_FREE, j] != 0.0 and small and (done or stiff > 0.0)
+        fits = C[C_PIN, j] != 0.0 and small and (done or stiff > 0.0)
         out[OK, j] = (SETTLED if done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
         out[PHI, j] = x + carried
         out[NODE, j], out[NODE + 1, j], out[NODE + 2, j] = node
         out[TAU_E, j], out[TAU_E + 1, j], out[TAU_E + 2, j] = te
         out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
+
+
+@njit(**PASS)
+def settle_balls(p, model, state, out):
+    """Update out (LANE_ROWS, k) for every joint by loose_turn, in vector lanes: row BALL_OK
+    SETTLED at a loose ball joint (loose_ball) whose balance lies within its cone, its
+    coordinates in rows TURN (3); elsewhere 0.0, and the rows anything."""
+    C, ends = p.lane_constants, p.lane_ends
+    phi = p.phi.reshape(3 * p.attach.shape[0])
+    for j in range(p.attach.shape[0]):
+        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+        (tx, ty, tz), within = loose_turn(f, (q[0], q[1], q[2], q[3]), C[C_START, j] != 0.0, C[C_IL, j],
+                                          (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
+                                          (phi[3 * j], phi[3 * j + 1], phi[3 * j + 2]), C[C_CONE, j])
+        out[BALL_OK, j] = SETTLED if C[C_LOOSE, j] != 0.0 and within else 0.0
+        out[TURN, j], out[TURN + 1, j], out[TURN + 2, j] = tx, ty, tz
 
 
 @njit(**INNER)
@@ -749,10 +770,18 @@ def loose_ball(p, j):
     return held == 0.0 and p.table_offsets[3 * j + 3] == p.table_offsets[3 * j]
 
 
+@njit(**INLINE)
+def cone_cosine(cone):
+    """Return the cosine of a ball joint's cone (the largest angle of its d3 from X's), -inf
+    for none (pi): no tilt then leaves it, whatever the rounding of the tilt's cosine."""
+    return math.cos(cone) if cone < math.pi else -math.inf
+
+
 @njit(**INNER)
-def loose_turn(f, q, start, il, u0, prev, cone):
+def loose_turn(f, q, start, il, u0, prev, cos_cone):
     """Return (phi, within) of a loose ball joint (loose_ball) given its boundary point
-    (boundary_point's F, q, start, 1/L, u0), phi^- = prev and its cone: with nothing on R but
+    (boundary_point's F, q, start, 1/L, u0), phi^- = prev and its cone's cosine (cone_cosine):
+    with nothing on R but
     the boundary point, the balance is where that point is unstrained, theta = L u0, G^T E =
     exp(L u0) at a line's start (E^T G at its end), so R = F^T E exp(-L u0) (exp(L u0)), in
     closed form; it is the joint's balance if R's d3 is within the cone (``within``), which
@@ -764,13 +793,13 @@ def loose_turn(f, q, start, il, u0, prev, cone):
     r = quat_mul(rw, rx, ry, rz, e[0], e[1], e[2], e[3])
     tx, ty, tz = quat_log(r[0], r[1], r[2], r[3])
     t = math.sqrt(tx * tx + ty * ty + tz * tz)
-    if t > 0.0:
-        # (np.floor, a float: math.floor's integer would turn a NaN angle into a finite one)
-        turns = np.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) / t - t) / (2.0 * math.pi) + 0.5)
-        k = 1.0 + 2.0 * math.pi * turns / t
-        tx, ty, tz = k * tx, k * ty, k * tz
+    inv = 1.0 / t if t > 0.0 else 0.0   # (no turn: k = 1; a select, settle_balls runs it in lanes)
+    # (np.floor, a float: math.floor's integer would turn a NaN angle into a finite one)
+    turns = np.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) * inv - t) / (2.0 * math.pi) + 0.5)
+    k = 1.0 + 2.0 * math.pi * turns * inv
+    tx, ty, tz = k * tx, k * ty, k * tz
     # d3 of R in X, its third component 1 - 2 (x^2 + y^2): the cosine of its tilt
-    within = not cone < math.pi or 1.0 - 2.0 * (r[1] * r[1] + r[2] * r[2]) >= math.cos(cone)
+    within = 1.0 - 2.0 * (r[1] * r[1] + r[2] * r[2]) >= cos_cone
     return (tx, ty, tz), within
 
 
@@ -784,7 +813,8 @@ def settled(p, j, model, state, dt, f):
     if BALLS and p.dofs[j] == BALL:
         if loose_ball(p, j):
             _, q, start, il, u0, _ = boundary_point(p, j, model, state, f)
-            phi, within = loose_turn(f, q, start, il, u0, (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), p.cone[j])
+            phi, within = loose_turn(f, q, start, il, u0, (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]),
+                                     cone_cosine(p.cone[j]))
             if within:
                 zero = (0.0, 0.0, 0.0)
                 return phi, zero, (True, True, True), zero, zero
@@ -804,12 +834,21 @@ def add_articulations(p, model, state, loads):
     p.last[0] = state.clock[0]
     spent = 0.0
     L = p.lanes
-    if LANES:
+    if PINS:
         settle_hinges(p, model, state, dt, L)
+    if LOOSE:
+        settle_balls(p, model, state, L)
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
         e = model.attach_element[a]
-        if LANES and L[OK, j] == SETTLED:   # a hinge's other coordinates stay 0
+        if LOOSE and L[BALL_OK, j] == SETTLED:   # no torque: loads and dissipation as they were
+            p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = 0.0, 0.0, 0.0
+            for i in range(3):
+                p.rate[j, i] = (L[TURN + i, j] - p.phi[j, i]) * inv_dt
+                p.phi[j, i] = L[TURN + i, j]
+                p.sliding[j, i] = 0.0
+            continue
+        if PINS and L[OK, j] == SETTLED:   # a hinge's other coordinates stay 0
             loads.tau[e, 0] += L[TAU_E, j]
             loads.tau[e, 1] += L[TAU_E + 1, j]
             loads.tau[e, 2] += L[TAU_E + 2, j]
@@ -822,7 +861,7 @@ def add_articulations(p, model, state, loads):
             p.sliding[j, 0] = 0.0
             continue
         f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
-        if LANES and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
+        if PINS and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
             ax = p.axis_a[j]
             x, (tx, ty, tz), te = settle_hinge(boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]),
                                                axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
@@ -897,21 +936,27 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    return VARIANTS.record(p, (balls, held, bool(np.any(p.lane_constants[C_FREE] != 0.0))))
+    pins, loose = (bool(np.any(p.lane_constants[row] != 0.0)) for row in (C_PIN, C_LOOSE))
+    return VARIANTS.record(p, (balls, held, pins, loose))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it
 
 
 def lane_tables(p, model):
-    """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges)."""
+    """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges,
+    settle_balls)."""
     C, a = p.lane_constants, p.attach
     C[C_AXIS:C_AXIS + 3] = p.axis_a.T
     C[C_BEND:C_BEND + 3] = p.bend.T
     C[C_LOWER], C[C_UPPER], C[C_SPRING], C[C_REST] = p.lower[:, 0], p.upper[:, 0], p.stiffness[:, 0], p.rest[:, 0]
     tables = p.table_offsets[1::3] - p.table_offsets[0:-1:3]
-    C[C_FREE] = (p.dofs == HINGE) & (p.damping[:, 0] == 0.0) & (p.static[:, 0] == 0.0) & \
+    C[C_PIN] = (p.dofs == HINGE) & (p.damping[:, 0] == 0.0) & (p.static[:, 0] == 0.0) & \
         (p.kinetic[:, 0] == 0.0) & (tables == 0)
+    held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
+    C[C_LOOSE] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
+        np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)
+    C[C_CONE] = np.where(p.cone < np.pi, np.cos(p.cone), -np.inf)   # (cone_cosine)
     kv = model.attach_vertex[a]
     C[C_IL] = model.voronoi_inv_rest_length[kv]
     C[C_U0:C_U0 + 3] = model.voronoi_rest_curvature[kv].T

@@ -1,7 +1,7 @@
 """Elementary functions written so that a loop over vertices or elements runs them in vector
-lanes, and a scalar caller inlines them: the C library's sine, cosine and exponential are
-calls, which no loop vectorises and which a scalar kernel (a joint's rotation, at every
-step) pays as calls all the same. These are the C library's own algorithms (fdlibm's:
+lanes, and a scalar caller inlines them: the C library's sine, cosine, exponential and
+arctangent are calls, which no loop vectorises and which a scalar kernel (a joint's
+rotation, at every step) pays as calls all the same. These are the C library's own algorithms (fdlibm's:
 Cody-Waite reduction, then its minimax polynomials), branch-free, each within an ulp or two
 of the library's value. They are compiled without fast-math: reassociation would undo the
 reduction's exact steps (LLVM inlines them into fast-math callers with their own flags)."""
@@ -28,6 +28,14 @@ LN2_HI, LN2_LO, INV_LN2 = 6.93147180369123816490e-01, 1.90821492927058770002e-10
 P1, P2, P3 = 1.66666666666666019037e-01, -2.77777777770155933842e-03, 6.61375632143793436117e-05
 P4, P5 = -1.65339022054652515390e-06, 4.13813679705723846039e-08
 EXP_FLOOR = -708.0   # exp_nonpositive's arguments are raised to this: 2**n stays a normal number
+# atan on |t| <= 7/16 (fdlibm's s_atan.c), pi/4 and pi/2 in two parts
+AT0, AT1, AT2 = 3.33333333333329318027e-01, -1.99999999998764832476e-01, 1.42857142725034663711e-01
+AT3, AT4, AT5 = -1.11111104054623557880e-01, 9.09088713343650656196e-02, -7.69187620504482999495e-02
+AT6, AT7, AT8 = 6.66107313738753120669e-02, -5.83357013379057348645e-02, 4.97687799461593236017e-02
+AT9, AT10 = -3.65315727442169155270e-02, 1.62858201153657823623e-02
+QUARTER_PI_HI, QUARTER_PI_LO = 7.85398163397448278999e-01, 3.06161699786838301793e-17
+HALF_PI_HI, HALF_PI_LO = 1.57079632679489655800e+00, 6.12323399573676603587e-17
+TAN_PI_8 = 0.41421356237309503   # above it atan t = pi/4 + atan((t - 1)/(t + 1)), that within 7/16
 
 
 @intrinsic
@@ -68,3 +76,22 @@ def exp_nonpositive(x):
     c = r - t * (P1 + t * (P2 + t * (P3 + t * (P4 + t * P5))))
     y = 1.0 - ((lo - (r * c) / (2.0 - c)) - hi)
     return y * _double_of_bits((int(n) + 1023) << 52)
+
+
+@njit(**CACHED_LANES)
+def atan_ratio(y, x):
+    """Return atan2(y, x) for y >= 0 and x >= 0, in [0, pi/2] (0 for y = x = 0), within an ulp
+    or two of the library's: the smaller over the larger, reduced below tan(pi/8) about pi/4,
+    then fdlibm's polynomial, with pi/2 less it where y > x."""
+    big = y > x
+    num, den = (x if big else y), (y if big else x)
+    z = num / den if den > 0.0 else 0.0
+    mid = z > TAN_PI_8
+    t = (z - 1.0) / (z + 1.0) if mid else z
+    tt = t * t
+    w = tt * tt
+    s1 = tt * (AT0 + w * (AT2 + w * (AT4 + w * (AT6 + w * (AT8 + w * AT10)))))
+    s2 = w * (AT1 + w * (AT3 + w * (AT5 + w * (AT7 + w * AT9))))
+    a = t - t * (s1 + s2)
+    a = QUARTER_PI_HI - ((t * (s1 + s2) - QUARTER_PI_LO) - t) if mid else a
+    return HALF_PI_HI - (a - HALF_PI_LO) if big else a

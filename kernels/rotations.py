@@ -10,7 +10,7 @@ import math
 from numba import njit
 
 from .compiler import INNER
-from .elementary import sin_cos
+from .elementary import atan_ratio, sin_cos
 
 OPTS = INNER   # the scalar helpers below
 
@@ -48,16 +48,16 @@ def quat_normalize(w, x, y, z):
 
 @njit(**OPTS)
 def quat_log(w, x, y, z):
-    """Return the rotation vector theta (|theta| <= pi) of the unit quaternion q."""
-    if w < 0.0:
-        w, x, y, z = -w, -x, -y, -z
+    """Return the rotation vector theta (|theta| <= pi) of the unit quaternion q. (Selects, not
+    branches, and atan_ratio for the library's atan2, a call: a loop over joints runs it in
+    vector lanes, kernels/articulation.settle_balls.)"""
+    sg = -1.0 if w < 0.0 else 1.0
+    w, x, y, z = sg * w, sg * x, sg * y, sg * z
     s2 = x * x + y * y + z * z
     s = math.sqrt(s2)
-    if s < 1e-4 * w:
-        r = s2 / (w * w)
-        f = (2.0 / w) * (1.0 - r / 3.0 + r * r / 5.0)
-    else:
-        f = 2.0 * math.atan2(s, w) / s
+    r = s2 / (w * w)
+    series = (2.0 / w) * (1.0 - r / 3.0 + r * r / 5.0)
+    f = series if s < 1e-4 * w else 2.0 * atan_ratio(s, w) / s
     return f * x, f * y, f * z
 
 
