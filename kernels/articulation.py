@@ -60,32 +60,20 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .backend import ENTRY, PASS
+from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
-from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, relative_quat, \
-    rotation_of, small_rotation, solve_sym3
+from .joint_lanes import AHEAD, BALL_OK, C_PIN, C_LOOSE, LAB, NODE, OK, PHI, SETTLED, TAU_E, TURN, settle_balls, \
+    settle_hinges
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_quat, \
+    carried_torque, cone_cosine, dot3, hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, \
+    node_torque, small_rate
+from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, rotation_of, solve_sym3
 from .specialise import Variants
 
-HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
 NEWTON_STEPS = 40                  # at most; a balance converges in a few
-NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
-ONE_STEP = 1e-7                    # rad: a hinge's or universal joint's exact Newton step below it is taken
-                                   # without evaluating again, its loads carried to first order (error O(step^2))
-# rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
-# on its node (X's components) and end element, and the first in the lab
-OK, PHI, NODE, TAU_E, LAB = 0, 1, 2, 5, 8
-# and of settle_balls: whether the joint settled there, its coordinates
-BALL_OK, TURN = 11, 12
-LANE_ROWS = 15
-SETTLED, AHEAD = 1.0, 2.0   # in row OK
-# rows of p.lane_constants (lane_tables): the joints' constants settle_hinges and settle_balls
-# read, a row for each number (the module's docstring says why); C_CONE holds cone_cosine
-C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_PIN, C_IL, C_U0, C_FRAME, C_START, C_LOOSE, C_CONE = \
-    0, 3, 6, 7, 8, 9, 10, 11, 12, 15, 19, 20, 21
-LANE_CONSTANTS = 22
 
 # Compile-time options (kernels/specialise.py): the joints' record is of the variant its data
 # needs (VARIANTS), whose kernels leave out what no joint of the net has. This module's own
@@ -165,24 +153,6 @@ def joint_turn(p, j, phi):
 
 
 @njit(**INNER)
-def boundary_quat(f, q, start, r):
-    """Return (turn, small, rel) at a joint's boundary Voronoi point given the end frame F
-    (quaternion f), the end element's q, whether the joint is at the line's start, and R
-    (quaternion): turn = left^T right (quaternion, w >= 0; its left frame G = F R and right
-    one E at a line's start, E and G at its end), whether its angle is below 0.2 rad
-    (relative_quat), rel = G^T E. (Selects, not branches: settle_hinges runs it in vector
-    lanes.)"""
-    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
-    lw, lx, ly, lz = (g[0] if start else q[0]), (g[1] if start else q[1]), (g[2] if start else q[2]), \
-        (g[3] if start else q[3])
-    bw, bx, by, bz = (q[0] if start else g[0]), (q[1] if start else g[1]), (q[2] if start else g[2]), \
-        (q[3] if start else g[3])
-    rw, rx, ry, rz, small = relative_quat(lw, lx, ly, lz, bw, bx, by, bz)
-    rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
-    return (rw, rx, ry, rz), small, rel
-
-
-@njit(**INNER)
 def boundary_rotation(f, q, start, r):
     """Return (theta, cc, turn, small, rel) at a joint's boundary Voronoi point (boundary_quat's
     arguments): theta the rotation vector from its left frame to its right one and cc of the
@@ -220,11 +190,6 @@ def axis_stiffness(p, j, model, rel, ci, ck):
     ui = quat_rotate_inv(rel[0], rel[1], rel[2], rel[3], ci[0], ci[1], ci[2])
     uk = quat_rotate_inv(rel[0], rel[1], rel[2], rel[3], ck[0], ck[1], ck[2])
     return il * (bend[0] * ui[0] * uk[0] + bend[1] * ui[1] * uk[1] + bend[2] * ui[2] * uk[2])
-
-
-@njit(**INLINE)
-def dot3(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 @njit(**INLINE)
@@ -396,32 +361,6 @@ def within_cone(p, j, phi):
 
 
 @njit(**INNER)
-def inverse_jacobian(t, cc, e, x):
-    """Return J x, J = 1 + e/2 [theta]x + cc [theta]x^2: J_r^-1(theta) for e = 1, J_l^-1 for
-    e = -1 (bend_torques)."""
-    a = cross(t[0], t[1], t[2], x[0], x[1], x[2])
-    b = cross(t[0], t[1], t[2], a[0], a[1], a[2])
-    return (x[0] + 0.5 * e * a[0] + cc * b[0], x[1] + 0.5 * e * a[1] + cc * b[1],
-            x[2] + 0.5 * e * a[2] + cc * b[2])
-
-
-@njit(**INNER)
-def jacobian_rate(t, cc, c2, e, v, x):
-    """Return the derivative of inverse_jacobian(theta, ...) x along theta's direction v:
-    e/2 v x x + 2 c2 (theta . v) theta x (theta x x) + cc (v x (theta x x) + theta x (v x x)),
-    c2 = d cc / d |theta|^2."""
-    vx = cross(v[0], v[1], v[2], x[0], x[1], x[2])
-    tx = cross(t[0], t[1], t[2], x[0], x[1], x[2])
-    ttx = cross(t[0], t[1], t[2], tx[0], tx[1], tx[2])
-    vtx = cross(v[0], v[1], v[2], tx[0], tx[1], tx[2])
-    tvx = cross(t[0], t[1], t[2], vx[0], vx[1], vx[2])
-    k = 2.0 * c2 * dot3(t, v)
-    return (0.5 * e * vx[0] + k * ttx[0] + cc * (vtx[0] + tvx[0]),
-            0.5 * e * vx[1] + k * ttx[1] + cc * (vtx[1] + tvx[1]),
-            0.5 * e * vx[2] + k * ttx[2] + cc * (vtx[2] + tvx[2]))
-
-
-@njit(**INNER)
 def boundary_turn(f, q, start, il, u0, bend, r):
     """Return (theta, cc, c2, m, rel, e) at a joint's boundary Voronoi point given the end
     frame F (quaternion f), the end element's q, whether the joint is at the line's start, the
@@ -442,18 +381,6 @@ def boundary_turn(f, q, start, il, u0, bend, r):
     return (tx, ty, tz), cc, c2, boundary_moment((tx, ty, tz), il, u0, bend), rel, (-1.0 if start else 1.0)
 
 
-@njit(**INNER)
-def small_rate(t2):
-    """Return d cc / d |theta|^2 (bend_torques' cc) at |theta|^2 = t2 below 0.04, by series."""
-    return 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
-
-
-@njit(**INNER)
-def boundary_moment(t, il, u0, bend):
-    """Return the boundary point's moment m = B (theta/L - u0) (3.22), il = 1/L."""
-    return bend[0] * (t[0] * il - u0[0]), bend[1] * (t[1] * il - u0[1]), bend[2] * (t[2] * il - u0[2])
-
-
 @njit(**INLINE)
 def boundary_point(p, j, model, state, f):
     """Return (F, q, start, 1/L, u0, B) of joint j's boundary Voronoi point (boundary_turn's
@@ -463,31 +390,6 @@ def boundary_point(p, j, model, state, f):
     q, u0, bend = state.q[model.attach_element[a]], model.voronoi_rest_curvature[k], p.bend[j]
     return (f, (q[0], q[1], q[2], q[3]), a % 2 == 0, model.voronoi_inv_rest_length[k],
             (u0[0], u0[1], u0[2]), (bend[0], bend[1], bend[2]))
-
-
-@njit(**INLINE)
-def bend_rate(il, bend, w):
-    """Return B w / L (B the boundary point's stiffness, il = 1/L)."""
-    return il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2]
-
-
-@njit(**INNER)
-def carried_torque(t, cc, c2, e, m, w, bw, step):
-    """Return the change of the end element's torque tau_E = e J m along a step of a coordinate
-    whose axis J maps to w (bw = B w / L): step (D_w J m + J B w / L) (settle_hinge)."""
-    dm = jacobian_rate(t, cc, c2, e, w, m)
-    jb = inverse_jacobian(t, cc, e, bw)
-    return step * (dm[0] + jb[0]), step * (dm[1] + jb[1]), step * (dm[2] + jb[2])
-
-
-@njit(**INNER)
-def node_torque(r, rel, te):
-    """Return the torque on the node through the joint (X's components), -(F^T E) tau_E, given
-    R, rel = G^T E and the end element's torque tau_E: the boundary point's energy depends on
-    G^T E alone, so its torques on G and E cancel in the lab."""
-    fe = quat_mul(r[0], r[1], r[2], r[3], rel[0], rel[1], rel[2], rel[3])   # F^T E
-    n = quat_rotate(fe[0], fe[1], fe[2], fe[3], te[0], te[1], te[2])
-    return -n[0], -n[1], -n[2]
 
 
 @njit(**INNER)
@@ -528,90 +430,6 @@ def settle_hinge(point, a, c, ang, tq, x, prev, fric):
         node, te = hinge_torques(t, cc, c2, e, m, w, bw, carried, r, rel)
         return x + carried, node, te
     return x, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
-
-
-@njit(**INNER)
-def hinge_terms(t, cc, c2, e, m, a, il, bend):
-    """Return (w, bw, q, lead, soft) of a hinge of axis a given boundary_turn's values at its
-    boundary point (il = 1/L, bend B): w = J a, bw = B w / L, the line's generalised torque
-    q = -e w . m on the hinge, and the two terms of its derivative (settle_hinge): the
-    leading one w^T B w / L and the rest, D_w J a . m."""
-    w = inverse_jacobian(t, cc, e, a)
-    bw = bend_rate(il, bend, w)
-    return w, bw, -e * dot3(w, m), dot3(w, bw), dot3(jacobian_rate(t, cc, c2, e, w, a), m)
-
-
-@njit(**INNER)
-def hinge_torques(t, cc, c2, e, m, w, bw, carried, r, rel):
-    """Return (node torque, tau_E) of a hinge at its balance given its terms there
-    (boundary_turn, hinge_terms), tau_E = e J m carried along a last Newton step of
-    ``carried`` to first order (carried_torque) and the node's its opposite (node_torque)."""
-    te = inverse_jacobian(t, cc, e, m)
-    d = carried_torque(t, cc, c2, e, m, w, bw, carried)
-    te = (e * te[0] + d[0], e * te[1] + d[1], e * te[2] + d[2])
-    return node_torque(r, rel, te), te
-
-
-@njit(**PASS)
-def settle_hinges(p, model, state, dt, out):
-    """Update out (LANE_ROWS, k) for every joint by settle_hinge's first evaluation, taken
-    without a branch so that the joints go through it in vector lanes: row OK is 1.0 where
-    that evaluation is the balance (a hinge whose balance has neither a damper, friction nor
-    a spring table, whose boundary point turns by less than 0.2 rad, and whose Newton step
-    from its carried coordinate ends the iteration or is taken without evaluating again:
-    settle_hinge): SETTLED, and rows PHI, NODE (3), TAU_E (3) and LAB (3) hold its
-    coordinate, the torques on the node and the end element and the first in the lab (its
-    reaction); where that hinge's exact Newton step is too long to carry, AHEAD, and row PHI
-    holds where the step goes, settle_hinge's next point (add_articulations goes on from
-    there); elsewhere 0.0, and the rows anything, NaN included."""
-    C, ends = p.lane_constants, p.lane_ends
-    phi, rate = p.phi.reshape(3 * p.attach.shape[0]), p.rate.reshape(3 * p.attach.shape[0])
-    for j in range(p.attach.shape[0]):
-        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
-        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
-        ax, ay, az = C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]
-        lo, hi, k0, rest = C[C_LOWER, j], C[C_UPPER, j], C[C_SPRING, j], C[C_REST, j]
-        x = min(max(phi[3 * j] + dt * rate[3 * j], lo), hi)
-        r = quat_exp(x * ax, x * ay, x * az)
-        start = C[C_START, j] != 0.0
-        turn, small, rel = boundary_quat(f, q, start, r)
-        tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
-        t, es = (tx, ty, tz), (-1.0 if start else 1.0)
-        il, b = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
-        m = boundary_moment(t, il, (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]), b)
-        c2 = small_rate(tx * tx + ty * ty + tz * tz)
-        w, bw, torque, lead, soft = hinge_terms(t, cc, c2, es, m, (ax, ay, az), il, b)
-        g = torque - k0 * (x - rest)
-        lead += k0
-        step = min(max(x + g / lead, lo), hi) - x
-        stiff = soft + lead
-        exact = min(max(x + g / stiff, lo), hi) - x
-        done = not abs(step) > NEWTON_TOL
-        carried = 0.0 if done else exact
-        node, te = hinge_torques(t, cc, c2, es, m, w, bw, carried, r, rel)
-        fits = C[C_PIN, j] != 0.0 and small and (done or stiff > 0.0)
-        out[OK, j] = (SETTLED if done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
-        out[PHI, j] = x + carried
-        out[NODE, j], out[NODE + 1, j], out[NODE + 2, j] = node
-        out[TAU_E, j], out[TAU_E + 1, j], out[TAU_E + 2, j] = te
-        out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
-
-
-@njit(**PASS)
-def settle_balls(p, model, state, out):
-    """Update out (LANE_ROWS, k) for every joint by loose_turn, in vector lanes: row BALL_OK
-    SETTLED at a loose ball joint (loose_ball) whose balance lies within its cone, its
-    coordinates in rows TURN (3); elsewhere 0.0, and the rows anything."""
-    C, ends = p.lane_constants, p.lane_ends
-    phi = p.phi.reshape(3 * p.attach.shape[0])
-    for j in range(p.attach.shape[0]):
-        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
-        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
-        (tx, ty, tz), within = loose_turn(f, (q[0], q[1], q[2], q[3]), C[C_START, j] != 0.0, C[C_IL, j],
-                                          (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
-                                          (phi[3 * j], phi[3 * j + 1], phi[3 * j + 2]), C[C_CONE, j])
-        out[BALL_OK, j] = SETTLED if C[C_LOOSE, j] != 0.0 and within else 0.0
-        out[TURN, j], out[TURN + 1, j], out[TURN + 2, j] = tx, ty, tz
 
 
 @njit(**INNER)
@@ -771,39 +589,6 @@ def loose_ball(p, j):
 
 
 @njit(**INLINE)
-def cone_cosine(cone):
-    """Return the cosine of a ball joint's cone (the largest angle of its d3 from X's), -inf
-    for none (pi): no tilt then leaves it, whatever the rounding of the tilt's cosine."""
-    return math.cos(cone) if cone < math.pi else -math.inf
-
-
-@njit(**INNER)
-def loose_turn(f, q, start, il, u0, prev, cos_cone):
-    """Return (phi, within) of a loose ball joint (loose_ball) given its boundary point
-    (boundary_point's F, q, start, 1/L, u0), phi^- = prev and its cone's cosine (cone_cosine):
-    with nothing on R but
-    the boundary point, the balance is where that point is unstrained, theta = L u0, G^T E =
-    exp(L u0) at a line's start (E^T G at its end), so R = F^T E exp(-L u0) (exp(L u0)), in
-    closed form; it is the joint's balance if R's d3 is within the cone (``within``), which
-    then does not act. phi is R's rotation vector on the branch nearest prev (a turn past pi
-    goes on rather than jumping back by 2 pi)."""
-    rw, rx, ry, rz, _ = relative_quat(f[0], f[1], f[2], f[3], q[0], q[1], q[2], q[3])   # F^T E
-    s = -1.0 / il if start else 1.0 / il
-    e = quat_exp(s * u0[0], s * u0[1], s * u0[2])
-    r = quat_mul(rw, rx, ry, rz, e[0], e[1], e[2], e[3])
-    tx, ty, tz = quat_log(r[0], r[1], r[2], r[3])
-    t = math.sqrt(tx * tx + ty * ty + tz * tz)
-    inv = 1.0 / t if t > 0.0 else 0.0   # (no turn: k = 1; a select, settle_balls runs it in lanes)
-    # (np.floor, a float: math.floor's integer would turn a NaN angle into a finite one)
-    turns = np.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) * inv - t) / (2.0 * math.pi) + 0.5)
-    k = 1.0 + 2.0 * math.pi * turns * inv
-    tx, ty, tz = k * tx, k * ty, k * tz
-    # d3 of R in X, its third component 1 - 2 (x^2 + y^2): the cosine of its tilt
-    within = 1.0 - 2.0 * (r[1] * r[1] + r[2] * r[2]) >= cos_cone
-    return (tx, ty, tz), within
-
-
-@njit(**INLINE)
 def settled(p, j, model, state, dt, f):
     """Return settle_joint's values for joint j, its end frame f, as the load kernel settles
     it: settle_axes for a hinge or a universal joint, the iteration for a ball joint, and a
@@ -942,24 +727,3 @@ def articulation_record(p):
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it
 
-
-def lane_tables(p, model):
-    """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges,
-    settle_balls)."""
-    C, a = p.lane_constants, p.attach
-    C[C_AXIS:C_AXIS + 3] = p.axis_a.T
-    C[C_BEND:C_BEND + 3] = p.bend.T
-    C[C_LOWER], C[C_UPPER], C[C_SPRING], C[C_REST] = p.lower[:, 0], p.upper[:, 0], p.stiffness[:, 0], p.rest[:, 0]
-    tables = p.table_offsets[1::3] - p.table_offsets[0:-1:3]
-    C[C_PIN] = (p.dofs == HINGE) & (p.damping[:, 0] == 0.0) & (p.static[:, 0] == 0.0) & \
-        (p.kinetic[:, 0] == 0.0) & (tables == 0)
-    held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
-    C[C_LOOSE] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
-        np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)
-    C[C_CONE] = np.where(p.cone < np.pi, np.cos(p.cone), -np.inf)   # (cone_cosine)
-    kv = model.attach_vertex[a]
-    C[C_IL] = model.voronoi_inv_rest_length[kv]
-    C[C_U0:C_U0 + 3] = model.voronoi_rest_curvature[kv].T
-    C[C_FRAME:C_FRAME + 4] = model.attach_frame[a].T
-    C[C_START] = a % 2 == 0
-    p.lane_ends[0], p.lane_ends[1] = model.attach_node[a], model.attach_element[a]

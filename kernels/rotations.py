@@ -50,7 +50,7 @@ def quat_normalize(w, x, y, z):
 def quat_log(w, x, y, z):
     """Return the rotation vector theta (|theta| <= pi) of the unit quaternion q. (Selects, not
     branches, and atan_ratio for the library's atan2, a call: a loop over joints runs it in
-    vector lanes, kernels/articulation.settle_balls.)"""
+    vector lanes, kernels/joint_lanes.settle_balls.)"""
     sg = -1.0 if w < 0.0 else 1.0
     w, x, y, z = sg * w, sg * x, sg * y, sg * z
     s2 = x * x + y * y + z * z

@@ -18,7 +18,7 @@ from scipy.special import ellipk
 
 import cosnet
 from cosnet.core.rotations import matrix_from_quat
-from cosnet.kernels.articulation import AHEAD, BALL_OK, OK, SETTLED
+from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, OK, SETTLED
 from nets import resumed
 
 G = 9.81

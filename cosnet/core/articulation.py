@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from . import checks
-from ..kernels.articulation import BALL, HINGE, UNIVERSAL
+from ..kernels.joint_math import BALL, HINGE, UNIVERSAL
 
 def _per_axis(who: str, name: str, value, n: int, check) -> np.ndarray:
     """(3,) one value per coordinate (zeros past n): a number for all, or a list of n."""

@@ -13,8 +13,8 @@ import numpy as np
 from ..core import samples
 from ..core.articulation import Hinge
 from ..engine.bounds import index_error, offsets_error
-from ..kernels.articulation import (LANE_CONSTANTS, LANE_ROWS, VARIANTS, ArticulationParams, articulation_record,
-                                    lane_tables)
+from ..kernels.articulation import VARIANTS, ArticulationParams, articulation_record
+from ..kernels.joint_lanes import LANE_CONSTANTS, LANE_ROWS, lane_tables
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect
 from ..core.rotations import matrix_from_quat

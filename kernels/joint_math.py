@@ -1,0 +1,160 @@
+"""The arithmetic of an articulated line end (kernels/articulation.py): its boundary Voronoi
+point between the joint frame and the end element, a hinge's balance and a loose ball joint's,
+shared by the scalar path (kernels/articulation.py) and the vector lanes (kernels/joint_lanes.py)
+that settle a net's pins and loose ball joints all at once. The helpers take numbers and
+tuples, not the records: a call passes these in registers, and LLVM inlines them into the lanes'
+loops, which they leave free of branches where these run them."""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .compiler import INLINE, INNER
+from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, relative_quat
+
+HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
+NEWTON_TOL = 1e-13                 # rad: a Newton step below it ends the iteration
+ONE_STEP = 1e-7                    # rad: a hinge's or universal joint's exact Newton step below it is taken
+                                   # without evaluating again, its loads carried to first order (error O(step^2))
+
+
+@njit(**INLINE)
+def dot3(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(**INNER)
+def boundary_quat(f, q, start, r):
+    """Return (turn, small, rel) at a joint's boundary Voronoi point given the end frame F
+    (quaternion f), the end element's q, whether the joint is at the line's start, and R
+    (quaternion): turn = left^T right (quaternion, w >= 0; its left frame G = F R and right
+    one E at a line's start, E and G at its end), whether its angle is below 0.2 rad
+    (relative_quat), rel = G^T E. (Selects, not branches: settle_hinges runs it in vector
+    lanes.)"""
+    g = quat_mul(f[0], f[1], f[2], f[3], r[0], r[1], r[2], r[3])
+    lw, lx, ly, lz = (g[0] if start else q[0]), (g[1] if start else q[1]), (g[2] if start else q[2]), \
+        (g[3] if start else q[3])
+    bw, bx, by, bz = (q[0] if start else g[0]), (q[1] if start else g[1]), (q[2] if start else g[2]), \
+        (q[3] if start else g[3])
+    rw, rx, ry, rz, small = relative_quat(lw, lx, ly, lz, bw, bx, by, bz)
+    rel = (rw, rx, ry, rz) if start else (rw, -rx, -ry, -rz)
+    return (rw, rx, ry, rz), small, rel
+
+
+@njit(**INNER)
+def inverse_jacobian(t, cc, e, x):
+    """Return J x, J = 1 + e/2 [theta]x + cc [theta]x^2: J_r^-1(theta) for e = 1, J_l^-1 for
+    e = -1 (bend_torques)."""
+    a = cross(t[0], t[1], t[2], x[0], x[1], x[2])
+    b = cross(t[0], t[1], t[2], a[0], a[1], a[2])
+    return (x[0] + 0.5 * e * a[0] + cc * b[0], x[1] + 0.5 * e * a[1] + cc * b[1],
+            x[2] + 0.5 * e * a[2] + cc * b[2])
+
+
+@njit(**INNER)
+def jacobian_rate(t, cc, c2, e, v, x):
+    """Return the derivative of inverse_jacobian(theta, ...) x along theta's direction v:
+    e/2 v x x + 2 c2 (theta . v) theta x (theta x x) + cc (v x (theta x x) + theta x (v x x)),
+    c2 = d cc / d |theta|^2."""
+    vx = cross(v[0], v[1], v[2], x[0], x[1], x[2])
+    tx = cross(t[0], t[1], t[2], x[0], x[1], x[2])
+    ttx = cross(t[0], t[1], t[2], tx[0], tx[1], tx[2])
+    vtx = cross(v[0], v[1], v[2], tx[0], tx[1], tx[2])
+    tvx = cross(t[0], t[1], t[2], vx[0], vx[1], vx[2])
+    k = 2.0 * c2 * dot3(t, v)
+    return (0.5 * e * vx[0] + k * ttx[0] + cc * (vtx[0] + tvx[0]),
+            0.5 * e * vx[1] + k * ttx[1] + cc * (vtx[1] + tvx[1]),
+            0.5 * e * vx[2] + k * ttx[2] + cc * (vtx[2] + tvx[2]))
+
+
+@njit(**INNER)
+def small_rate(t2):
+    """Return d cc / d |theta|^2 (bend_torques' cc) at |theta|^2 = t2 below 0.04, by series."""
+    return 1.0 / 720.0 + t2 * (2.0 / 30240.0 + t2 * (3.0 / 1209600.0 + t2 * 4.0 / 47900160.0))
+
+
+@njit(**INNER)
+def boundary_moment(t, il, u0, bend):
+    """Return the boundary point's moment m = B (theta/L - u0) (3.22), il = 1/L."""
+    return bend[0] * (t[0] * il - u0[0]), bend[1] * (t[1] * il - u0[1]), bend[2] * (t[2] * il - u0[2])
+
+
+@njit(**INLINE)
+def bend_rate(il, bend, w):
+    """Return B w / L (B the boundary point's stiffness, il = 1/L)."""
+    return il * bend[0] * w[0], il * bend[1] * w[1], il * bend[2] * w[2]
+
+
+@njit(**INNER)
+def carried_torque(t, cc, c2, e, m, w, bw, step):
+    """Return the change of the end element's torque tau_E = e J m along a step of a coordinate
+    whose axis J maps to w (bw = B w / L): step (D_w J m + J B w / L) (settle_hinge)."""
+    dm = jacobian_rate(t, cc, c2, e, w, m)
+    jb = inverse_jacobian(t, cc, e, bw)
+    return step * (dm[0] + jb[0]), step * (dm[1] + jb[1]), step * (dm[2] + jb[2])
+
+
+@njit(**INNER)
+def node_torque(r, rel, te):
+    """Return the torque on the node through the joint (X's components), -(F^T E) tau_E, given
+    R, rel = G^T E and the end element's torque tau_E: the boundary point's energy depends on
+    G^T E alone, so its torques on G and E cancel in the lab."""
+    fe = quat_mul(r[0], r[1], r[2], r[3], rel[0], rel[1], rel[2], rel[3])   # F^T E
+    n = quat_rotate(fe[0], fe[1], fe[2], fe[3], te[0], te[1], te[2])
+    return -n[0], -n[1], -n[2]
+
+
+@njit(**INNER)
+def hinge_terms(t, cc, c2, e, m, a, il, bend):
+    """Return (w, bw, q, lead, soft) of a hinge of axis a given boundary_turn's values at its
+    boundary point (il = 1/L, bend B): w = J a, bw = B w / L, the line's generalised torque
+    q = -e w . m on the hinge, and the two terms of its derivative (settle_hinge): the
+    leading one w^T B w / L and the rest, D_w J a . m."""
+    w = inverse_jacobian(t, cc, e, a)
+    bw = bend_rate(il, bend, w)
+    return w, bw, -e * dot3(w, m), dot3(w, bw), dot3(jacobian_rate(t, cc, c2, e, w, a), m)
+
+
+@njit(**INNER)
+def hinge_torques(t, cc, c2, e, m, w, bw, carried, r, rel):
+    """Return (node torque, tau_E) of a hinge at its balance given its terms there
+    (boundary_turn, hinge_terms), tau_E = e J m carried along a last Newton step of
+    ``carried`` to first order (carried_torque) and the node's its opposite (node_torque)."""
+    te = inverse_jacobian(t, cc, e, m)
+    d = carried_torque(t, cc, c2, e, m, w, bw, carried)
+    te = (e * te[0] + d[0], e * te[1] + d[1], e * te[2] + d[2])
+    return node_torque(r, rel, te), te
+
+
+@njit(**INLINE)
+def cone_cosine(cone):
+    """Return the cosine of a ball joint's cone (the largest angle of its d3 from X's), -inf
+    for none (pi): no tilt then leaves it, whatever the rounding of the tilt's cosine."""
+    return math.cos(cone) if cone < math.pi else -math.inf
+
+
+@njit(**INNER)
+def loose_turn(f, q, start, il, u0, prev, cos_cone):
+    """Return (phi, within) of a loose ball joint (loose_ball) given its boundary point
+    (boundary_point's F, q, start, 1/L, u0), phi^- = prev and its cone's cosine (cone_cosine):
+    with nothing on R but
+    the boundary point, the balance is where that point is unstrained, theta = L u0, G^T E =
+    exp(L u0) at a line's start (E^T G at its end), so R = F^T E exp(-L u0) (exp(L u0)), in
+    closed form; it is the joint's balance if R's d3 is within the cone (``within``), which
+    then does not act. phi is R's rotation vector on the branch nearest prev (a turn past pi
+    goes on rather than jumping back by 2 pi)."""
+    rw, rx, ry, rz, _ = relative_quat(f[0], f[1], f[2], f[3], q[0], q[1], q[2], q[3])   # F^T E
+    s = -1.0 / il if start else 1.0 / il
+    e = quat_exp(s * u0[0], s * u0[1], s * u0[2])
+    r = quat_mul(rw, rx, ry, rz, e[0], e[1], e[2], e[3])
+    tx, ty, tz = quat_log(r[0], r[1], r[2], r[3])
+    t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    inv = 1.0 / t if t > 0.0 else 0.0   # (no turn: k = 1; a select, settle_balls runs it in lanes)
+    # (np.floor, a float: math.floor's integer would turn a NaN angle into a finite one)
+    turns = np.floor(((tx * prev[0] + ty * prev[1] + tz * prev[2]) * inv - t) / (2.0 * math.pi) + 0.5)
+    k = 1.0 + 2.0 * math.pi * turns * inv
+    tx, ty, tz = k * tx, k * ty, k * tz
+    # d3 of R in X, its third component 1 - 2 (x^2 + y^2): the cosine of its tilt
+    within = 1.0 - 2.0 * (r[1] * r[1] + r[2] * r[2]) >= cos_cone
+    return (tx, ty, tz), within
