@@ -35,16 +35,19 @@ universal joint likewise (settle_universal; a ball joint so settled measured no 
 three coordinates' exact derivative costs about what an evaluation does). A loose ball joint,
 nothing on R but the boundary point, needs no iteration: it balances where that point is
 unstrained, R in closed form (loose_turn), and passes no torque; with a cone, so while that
-balance lies within it. A hinge free of friction, damper and spring table (a pin, with or
-without a linear spring and limits) settles first in vector lanes (settle_hinges): every
-joint of the net takes settle_hinge's first evaluation there, both of its Newton steps
-computed and the one settle_hinge would take selected, with no branch, and one whose
-evaluation is its balance (its step ends the iteration or is carried) is done; the others
-go through the scalar path as before. The lanes read each joint's constants from rows of
-one number a joint (lane_tables): read from the record's rows of three, whose length is no
-constant to LLVM, the loop ran in lanes only under a run-time test that a row holds one
-number, and so never did. The joints' own arithmetic is settle_hinge's (hinge_terms,
-hinge_torques). A loose ball joint settles in lanes likewise, by loose_turn itself
+balance lies within it. A hinge without a spring table settles first in vector lanes
+(joint_lanes.settle_hinges): every joint of the net takes there what settle_axes takes first,
+with friction or a damper the friction weighed at phi^- (a joint it holds is settled there),
+then settle_hinge's first evaluation, both of its Newton steps computed and the one
+settle_hinge would take selected, with no branch; one whose evaluation is its balance (its
+step ends the iteration or is carried) is done, one whose exact step is too long to carry
+goes on through settle_hinge from the lanes' next point, and the others (universal joints,
+spring tables, boundary points turned past 0.2 rad) go through the scalar path as before.
+The lanes read each joint's constants from rows of one number a joint (lane_tables): read
+from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
+only under a run-time test that a row holds one number, and so never did. The joints' own
+arithmetic is the scalar path's (kernels/joint_math.py). A loose ball joint settles in lanes
+likewise, by loose_turn itself
 (settle_balls: its arctangent and branch written as selects, rotations.quat_log). The
 larger helpers are compiled as functions of their own, not inlined into each caller: the load
 kernel, the energy and the fields share them, and numba types an inlined copy anew each time
@@ -64,9 +67,10 @@ from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from .elastic import bend_torques, end_frame
+from . import joint_lanes
 from .elementary import sin_cos
-from .joint_lanes import AHEAD, BALL_OK, C_PIN, C_LOOSE, LAB, NODE, OK, PHI, SETTLED, TAU_E, TURN, settle_balls, \
-    settle_hinges
+from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, FRIC, LAB, MOVES, NODE, OK, PHI, SETTLED, TAU_E, TURN, \
+    WEIGHED, settle_balls, settle_hinges, weigh_hinges
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_quat, \
     carried_torque, cone_cosine, dot3, hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, \
     node_torque, small_rate
@@ -80,8 +84,8 @@ NEWTON_STEPS = 40                  # at most; a balance converges in a few
 # functions, and its record ArticulationParams, are the variant with both.
 BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a cone, one friction torque
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
-PINS = True     # some joint is a hinge free of friction, damper and spring table (settle_hinges)
-LOOSE = True    # some joint is a loose ball joint (settle_balls)
+PINS = True     # some joint is a hinge without a spring table (joint_lanes.settle_hinges)
+LOOSE = True    # some joint is a loose ball joint (joint_lanes.settle_balls)
 OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE")
 
 
@@ -620,7 +624,10 @@ def add_articulations(p, model, state, loads):
     spent = 0.0
     L = p.lanes
     if PINS:
-        settle_hinges(p, model, state, dt, L)
+        W = L[WEIGHED:]   # (rows of their own: LLVM then needs no test of their overlap with the others)
+        if HELD:
+            weigh_hinges(p, model, state, dt, W)
+        settle_hinges(p, model, state, dt, L, W)
     if LOOSE:
         settle_balls(p, model, state, L)
     for j in range(p.attach.shape[0]):
@@ -641,17 +648,21 @@ def add_articulations(p, model, state, loads):
             loads.end_tau[a, 1] += L[NODE + 1, j]
             loads.end_tau[a, 2] += L[NODE + 2, j]
             p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = L[LAB, j], L[LAB + 1, j], L[LAB + 2, j]
-            p.rate[j, 0] = (L[PHI, j] - p.phi[j, 0]) * inv_dt
+            turned, moved = L[PHI, j] - p.phi[j, 0], L[MOVES, j] != 0.0
+            if moved:
+                spent += p.damping[j, 0] * turned * turned * inv_dt
+            spent += L[FRIC, j] * turned
+            p.rate[j, 0] = turned * inv_dt
             p.phi[j, 0] = L[PHI, j]
-            p.sliding[j, 0] = 0.0
+            p.sliding[j, 0] = 1.0 if moved and p.kinetic[j, 0] != 0.0 else 0.0
             continue
         f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
         if PINS and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
             ax = p.axis_a[j]
             x, (tx, ty, tz), te = settle_hinge(boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]),
                                                axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
-                                               L[PHI, j], p.phi[j, 0], 0.0)
-            phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (0.0, 0.0, 0.0), (True, False, False)
+                                               L[PHI, j], p.phi[j, 0], L[FRIC, j])
+            phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
         else:
             phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
         loads.tau[e, 0] += te[0]
@@ -711,7 +722,7 @@ def articulation_fields(p, model, state, frames, moments, strains):
         strains[j, 0], strains[j, 1], strains[j, 2] = kappa
 
 
-VARIANTS = Variants(ArticulationParams, lambda: (sys.modules[__name__],), OPTIONS,
+VARIANTS = Variants(ArticulationParams, lambda: (sys.modules[__name__], joint_lanes), OPTIONS,
                     lambda cls, kernels: load_kernel(cls)(kernels["add_articulations"]), __name__)
 
 
@@ -721,7 +732,7 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    pins, loose = (bool(np.any(p.lane_constants[row] != 0.0)) for row in (C_PIN, C_LOOSE))
+    pins, loose = (bool(np.any(p.lane_constants[row] != 0.0)) for row in (C_HINGE, C_LOOSE))
     return VARIANTS.record(p, (balls, held, pins, loose))
 
 

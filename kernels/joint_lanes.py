@@ -1,71 +1,126 @@
-"""A net's pins and loose ball joints settled all at once, in vector lanes
+"""A net's hinges and loose ball joints settled all at once, in vector lanes
 (kernels/articulation.py's module docstring says how, and which joints go on to its scalar
 path): settle_hinges and settle_balls, whose rows the load kernel reads, and the rows of
 constants they read (lane_tables)."""
+
+import math
 
 import numpy as np
 from numba import njit
 
 from .backend import PASS
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, boundary_moment, boundary_quat, hinge_terms, \
+from .elastic import bend_torques
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, boundary_moment, boundary_quat, dot3, hinge_terms, \
     hinge_torques, loose_turn, small_rate
 from .rotations import quat_exp, quat_mul, quat_rotate, small_rotation
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
 # on its node (X's components) and end element, and the first in the lab
-OK, PHI, NODE, TAU_E, LAB = 0, 1, 2, 5, 8
+OK, PHI, NODE, TAU_E, LAB, FRIC, MOVES = 0, 1, 2, 5, 8, 11, 12
 # and of settle_balls: whether the joint settled there, its coordinates
-BALL_OK, TURN = 11, 12
-LANE_ROWS = 15
+BALL_OK, TURN = 13, 14
+# and of weigh_hinges (from WEIGHED on: a block settle_hinges reads while writing the rows above)
+WEIGHED = 17
+W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E = 0, 1, 2, 3, 6
+LANE_ROWS = 26
 SETTLED, AHEAD = 1.0, 2.0   # in rows OK and BALL_OK
 # rows of p.lane_constants (lane_tables): the joints' constants settle_hinges and settle_balls
 # read, a row for each number (kernels/articulation.py's docstring says why); C_CONE holds
 # cone_cosine
-C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_PIN, C_IL, C_U0, C_FRAME, C_START, C_LOOSE, C_CONE = \
+C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_HINGE, C_IL, C_U0, C_FRAME, C_START, C_LOOSE, C_CONE = \
     0, 3, 6, 7, 8, 9, 10, 11, 12, 15, 19, 20, 21
-LANE_CONSTANTS = 22
+C_DAMPER, C_STATIC, C_KINETIC = 22, 23, 24
+LANE_CONSTANTS = 25
+
+HELD = True   # kernels/articulation.py's option: some joint has friction or a damper
 
 
 @njit(**PASS)
-def settle_hinges(p, model, state, dt, out):
-    """Update out (LANE_ROWS, k) for every joint by settle_hinge's first evaluation, taken
-    without a branch so that the joints go through it in vector lanes: row OK is 1.0 where
-    that evaluation is the balance (a hinge whose balance has neither a damper, friction nor
-    a spring table, whose boundary point turns by less than 0.2 rad, and whose Newton step
-    from its carried coordinate ends the iteration or is taken without evaluating again:
-    settle_hinge): SETTLED, and rows PHI, NODE (3), TAU_E (3) and LAB (3) hold its
-    coordinate, the torques on the node and the end element and the first in the lab (its
-    reaction); where that hinge's exact Newton step is too long to carry, AHEAD, and row PHI
-    holds where the step goes, settle_hinge's next point (add_articulations goes on from
-    there); elsewhere 0.0, and the rows anything, NaN included."""
-    C, ends = p.lane_constants, p.lane_ends
-    phi, rate = p.phi.reshape(3 * p.attach.shape[0]), p.rate.reshape(3 * p.attach.shape[0])
-    for j in range(p.attach.shape[0]):
+def weigh_hinges(p, model, state, dt, out):
+    """Update out (LANE_ROWS - WEIGHED, k) for every joint by the friction of a hinge without a
+    spring table weighed at phi^- (start_joint, start_motion), in vector lanes: rows W_MOVES
+    and W_FRIC whether it may move and the friction torque it then meets (1.0 and 0.0 for a
+    hinge without friction or a damper), W_NODE (3) and W_TAU_E (3) the torques on the node
+    and the end element at phi^- (the loads of a hinge its friction holds), and W_OK whether
+    its boundary point there turns by less than 0.2 rad (settle_hinges reads them)."""
+    C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
+    phi, sliding = p.phi.reshape(3 * n), p.sliding.reshape(3 * n)
+    for j in range(n):
         nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
         f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
-        ax, ay, az = C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]
-        lo, hi, k0, rest = C[C_LOWER, j], C[C_UPPER, j], C[C_SPRING, j], C[C_REST, j]
-        x = min(max(phi[3 * j] + dt * rate[3 * j], lo), hi)
-        r = quat_exp(x * ax, x * ay, x * az)
-        start = C[C_START, j] != 0.0
+        a, prev, start = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]), phi[3 * j], C[C_START, j] != 0.0
+        r = quat_exp(prev * a[0], prev * a[1], prev * a[2])
+        turn, small, _ = boundary_quat(f, q, start, r)
+        t = small_rotation(turn[0], turn[1], turn[2], turn[3])
+        m = boundary_moment((t[0], t[1], t[2]), C[C_IL, j], (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
+                            (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j]))
+        both = bend_torques(t[0], t[1], t[2], t[3], m[0], m[1], m[2])
+        tau = (both[0], both[1], both[2]) if start else (both[3], both[4], both[5])
+        te = (both[3], both[4], both[5]) if start else (both[0], both[1], both[2])
+        # (& | and == False, not the short-circuit and, or, not: their branches kept the loop
+        # out of vector lanes)
+        held = C[C_STATIC, j] + C[C_KINETIC, j] + C[C_DAMPER, j] != 0.0   # (not free_joint)
+        q0 = dot3(a, tau) - C[C_SPRING, j] * (prev - C[C_REST, j])   # (start_motion's, without a table)
+        limit = C[C_KINETIC, j] if sliding[3 * j] != 0.0 else C[C_STATIC, j]
+        stays = held & ((abs(q0) <= limit) | ((C[C_DAMPER, j] > 0.0) & ((dt > 0.0) == False)))  # noqa: E712
+        out[W_OK, j] = 1.0 if small | (held == False) else 0.0  # noqa: E712
+        out[W_MOVES, j] = 0.0 if stays else 1.0
+        out[W_FRIC, j] = 0.0 if stays | (held == False) else math.copysign(C[C_KINETIC, j], q0)  # noqa: E712
+        out[W_NODE, j], out[W_NODE + 1, j], out[W_NODE + 2, j] = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1],
+                                                                             tau[2])
+        out[W_TAU_E, j], out[W_TAU_E + 1, j], out[W_TAU_E + 2, j] = te
+
+
+@njit(**PASS)
+def settle_hinges(p, model, state, dt, out, weighed):
+    """Update out (LANE_ROWS, k) for every joint as settle_axes settles a hinge without a spring
+    table, its branches taken as selects so that the joints go through it in vector lanes:
+    with friction or a damper, as weigh_hinges weighed its friction (``weighed``: its rows), and a hinge
+    that moves by settle_hinge's first evaluation. Row OK is SETTLED where that is the balance
+    (a hinge its friction holds, or one whose Newton step from its carried coordinate ends the
+    iteration or is taken without evaluating again), the boundary points turning by less than
+    0.2 rad: rows PHI, NODE (3), TAU_E (3), LAB (3), FRIC and MOVES then hold its coordinate,
+    the torques on the node and the end element, the first in the lab (its reaction), the
+    friction torque and whether it moved. It is AHEAD where the exact Newton step is too long
+    to carry: row PHI then holds where the step goes, settle_hinge's next point
+    (add_articulations goes on from there), and FRIC its friction; elsewhere 0.0, and the rows
+    anything, NaN included."""
+    C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
+    phi, rate = p.phi.reshape(3 * n), p.rate.reshape(3 * n)
+    inv_dt = 1.0 / dt if dt > 0.0 else 0.0
+    for j in range(n):
+        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+        a = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j])
+        lo, hi, k0, rest, prev = C[C_LOWER, j], C[C_UPPER, j], C[C_SPRING, j], C[C_REST, j], phi[3 * j]
+        start, es = C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0)
+        il, b = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
+        damper, moves, fric, checked = C[C_DAMPER, j] * inv_dt, True, 0.0, True
+        if HELD:   # (a variant's option: kernels/articulation.py) as weigh_hinges found it
+            moves, fric, checked = weighed[W_MOVES, j] != 0.0, weighed[W_FRIC, j], weighed[W_OK, j] != 0.0
+        x = min(max(prev + dt * rate[3 * j], lo), hi) if moves else prev
+        r = quat_exp(x * a[0], x * a[1], x * a[2])
         turn, small, rel = boundary_quat(f, q, start, r)
         tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
-        t, es = (tx, ty, tz), (-1.0 if start else 1.0)
-        il, b = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
+        t = (tx, ty, tz)
         m = boundary_moment(t, il, (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]), b)
         c2 = small_rate(tx * tx + ty * ty + tz * tz)
-        w, bw, torque, lead, soft = hinge_terms(t, cc, c2, es, m, (ax, ay, az), il, b)
-        g = torque - k0 * (x - rest)
-        lead += k0
+        w, bw, torque, lead, soft = hinge_terms(t, cc, c2, es, m, a, il, b)
+        g = torque - k0 * (x - rest) - 0.0 - damper * (x - prev) - fric   # (axis_balance's, without a table)
+        lead += k0 + 0.0 + damper
         step = min(max(x + g / lead, lo), hi) - x
         stiff = soft + lead
         exact = min(max(x + g / stiff, lo), hi) - x
         done = not abs(step) > NEWTON_TOL
         carried = 0.0 if done else exact
         node, te = hinge_torques(t, cc, c2, es, m, w, bw, carried, r, rel)
-        fits = C[C_PIN, j] != 0.0 and small and (done or stiff > 0.0)
-        out[OK, j] = (SETTLED if done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
-        out[PHI, j] = x + carried
+        if HELD:   # a hinge its friction holds: the loads it was weighed with
+            node = node if moves else (weighed[W_NODE, j], weighed[W_NODE + 1, j], weighed[W_NODE + 2, j])
+            te = te if moves else (weighed[W_TAU_E, j], weighed[W_TAU_E + 1, j], weighed[W_TAU_E + 2, j])
+        fits = C[C_HINGE, j] != 0.0 and checked and (not moves or (small and (done or stiff > 0.0)))
+        out[OK, j] = (SETTLED if not moves or done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
+        out[PHI, j] = x + carried if moves else prev
+        out[FRIC, j], out[MOVES, j] = fric, (1.0 if moves else 0.0)
         out[NODE, j], out[NODE + 1, j], out[NODE + 2, j] = node
         out[TAU_E, j], out[TAU_E + 1, j], out[TAU_E + 2, j] = te
         out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
@@ -96,8 +151,8 @@ def lane_tables(p, model):
     C[C_BEND:C_BEND + 3] = p.bend.T
     C[C_LOWER], C[C_UPPER], C[C_SPRING], C[C_REST] = p.lower[:, 0], p.upper[:, 0], p.stiffness[:, 0], p.rest[:, 0]
     tables = p.table_offsets[1::3] - p.table_offsets[0:-1:3]
-    C[C_PIN] = (p.dofs == HINGE) & (p.damping[:, 0] == 0.0) & (p.static[:, 0] == 0.0) & \
-        (p.kinetic[:, 0] == 0.0) & (tables == 0)
+    C[C_HINGE] = (p.dofs == HINGE) & (tables == 0)
+    C[C_DAMPER], C[C_STATIC], C[C_KINETIC] = p.damping[:, 0], p.static[:, 0], p.kinetic[:, 0]
     held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
     C[C_LOOSE] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
         np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)

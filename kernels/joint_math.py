@@ -1,7 +1,7 @@
 """The arithmetic of an articulated line end (kernels/articulation.py): its boundary Voronoi
 point between the joint frame and the end element, a hinge's balance and a loose ball joint's,
 shared by the scalar path (kernels/articulation.py) and the vector lanes (kernels/joint_lanes.py)
-that settle a net's pins and loose ball joints all at once. The helpers take numbers and
+that settle a net's hinges and loose ball joints all at once. The helpers take numbers and
 tuples, not the records: a call passes these in registers, and LLVM inlines them into the lanes'
 loops, which they leave free of branches where these run them."""
 

@@ -342,16 +342,19 @@ def test_welded_end_has_no_joint_state():
 @pytest.mark.parametrize("make, row, within", [
     (lambda **kw: cosnet.Hinge(axis=Y, **kw), OK, 1e-9),
     (lambda **kw: cosnet.Hinge(axis=Y, stiffness=0.5, rest=0.2, limits=(-0.25, 0.3), **kw), OK, 1e-9),
-    (lambda **kw: cosnet.Ball(**kw), BALL_OK, 1e-8)], ids=["pins", "springs and limits", "loose balls"])
+    (lambda **kw: cosnet.Hinge(axis=Y, stiffness=0.5, damping=2e-3, friction=(0.05, 0.04), **kw), OK, 1e-9),
+    (lambda **kw: cosnet.Ball(**kw), BALL_OK, 1e-8)],
+    ids=["pins", "springs and limits", "dampers and friction", "loose balls"])
 def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make, row, within):
-    """A hanging chain of twelve links on hinges free of friction, damper and spring table, or on
-    loose ball joints (its joints at line starts and at line ends), settles them in vector
-    lanes; the same chain whose joints carry a spring table of zero torque settles them by the
-    scalar iteration. They move alike, to round-off (pins) or to the iteration's tolerance
-    (balls, which the lanes settle in closed form), as the joints swing, and with springs and
-    limits as these act. At the last evaluation the lanes took every joint: a pin's first
-    Newton step (and settled it there, or, the step too long to carry, the iteration went on
-    from it), a ball joint's balance."""
+    """A hanging chain of twelve links on hinges without a spring table, or on loose ball joints
+    (its joints at line starts and at line ends), settles them in vector lanes; the same chain
+    whose joints carry a spring table of zero torque settles them by the scalar iteration. They
+    move alike, to round-off (hinges) or to the iteration's tolerance (balls, which the lanes
+    settle in closed form), as the joints swing, with springs and limits as these act, and
+    with dampers and friction, some joints held and others turning. At the last evaluation the
+    lanes took every joint: a hinge's friction check and first Newton step (and settled it
+    there, or, the step too long to carry, the iteration went on from it), a ball joint's
+    balance."""
     def chain(**extra):
         net = cosnet.Net()
         nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
@@ -378,6 +381,9 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     assert np.ptp(angles, axis=0).max() > 0.2            # the joints swung (rad)
     if np.isfinite(make().upper).any():   # limits: one held
         assert np.isclose(angles.max(), 0.3) or np.isclose(angles.min(), -0.25)
+    if np.any(make().kinetic):   # friction: joints held and joints turning
+        sliding = lanes.effect_params(lanes.effects[-1]).sliding[:, 0]
+        assert 0 < sliding.sum() < sliding.size
     assert np.abs(angles - angles_it).max() < within
     assert np.abs(lanes.state.x - iterated.state.x).max() < within / 10.0    # m, on a 1.8 m chain
 
