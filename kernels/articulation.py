@@ -47,13 +47,13 @@ The lanes read each joint's constants from rows of one number a joint (lane_tabl
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
 arithmetic is the scalar path's (kernels/joint_math.py). A loose ball joint settles in lanes
-likewise, by loose_turn itself
-(settle_balls: its arctangent and branch written as selects, rotations.quat_log). The
-larger helpers are compiled as functions of their own, not inlined into each caller: the load
-kernel, the energy and the fields share them, and numba types an inlined copy anew each time
-(tens of seconds for this module). coordinate_balance, called three times in each Newton step,
-stays inlined: as a call it receives the records as hundreds of arguments, which cost more
-than its arithmetic (a joint's step took 1.7 us so, 0.2 inlined).
+likewise, by loose_turn itself (settle_balls: its arctangent and branch written as selects,
+rotations.quat_log). The larger helpers are compiled as functions of their own, not inlined
+into each caller: the load kernel, the energy and the fields share them, and numba types an
+inlined copy anew each time (tens of seconds for this module). coordinate_balance, called
+three times in each Newton step, stays inlined: as a call it receives the records as hundreds
+of arguments, which cost more than its arithmetic (a joint's step took 1.7 us so, 0.2
+inlined).
 """
 
 import math
@@ -66,8 +66,8 @@ from numba import njit
 from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
-from .elastic import bend_torques, end_frame
 from . import joint_lanes
+from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
 from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, FRIC, LAB, MOVES, NODE, OK, PHI, SETTLED, TAU_E, TURN, \
     WEIGHED, settle_balls, settle_hinges, weigh_hinges
@@ -114,7 +114,7 @@ class ArticulationParams(NamedTuple):
     reaction: np.ndarray    # (k, 3) torque of the line on the node through the joint, lab
     last: np.ndarray        # (1,) clock of the last evaluation
     dissipated: np.ndarray  # (1,) energy the dampers and friction took (J)
-    lanes: np.ndarray       # (LANE_ROWS, k) scratch: each joint's first evaluation (settle_hinges)
+    lanes: np.ndarray       # (LANE_ROWS, k) scratch of the vector lanes (kernels/joint_lanes.py)
     lane_constants: np.ndarray  # (LANE_CONSTANTS, k) the joints' constants by rows (lane_tables)
     lane_ends: np.ndarray   # (2, k) int64 each joint's node and end element (lane_tables)
 
