@@ -1,7 +1,7 @@
 """A net's hinges and loose ball joints settled all at once, in vector lanes
 (kernels/articulation.py's module docstring says how, and which joints go on to its scalar
-path): settle_hinges and settle_balls, whose rows the load kernel reads, and the rows of
-constants they read (lane_tables)."""
+path): weigh_hinges, settle_hinges and settle_balls, whose rows the load kernel reads, and
+the rows of constants they read (lane_tables)."""
 
 import math
 
@@ -15,7 +15,8 @@ from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, boundary_moment, boun
 from .rotations import quat_exp, quat_mul, quat_rotate, small_rotation
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
-# on its node (X's components) and end element, and the first in the lab
+# on its node (X's components) and end element, the first in the lab, its friction torque and
+# whether it moved
 OK, PHI, NODE, TAU_E, LAB, FRIC, MOVES = 0, 1, 2, 5, 8, 11, 12
 # and of settle_balls: whether the joint settled there, its coordinates
 BALL_OK, TURN = 13, 14
