@@ -76,16 +76,16 @@ def weigh_hinges(p, model, state, dt, out):
 def settle_hinges(p, model, state, dt, out, weighed):
     """Update out (LANE_ROWS, k) for every joint as settle_axes settles a hinge without a spring
     table, its branches taken as selects so that the joints go through it in vector lanes:
-    with friction or a damper, as weigh_hinges weighed its friction (``weighed``: its rows), and a hinge
-    that moves by settle_hinge's first evaluation. Row OK is SETTLED where that is the balance
-    (a hinge its friction holds, or one whose Newton step from its carried coordinate ends the
-    iteration or is taken without evaluating again), the boundary points turning by less than
-    0.2 rad: rows PHI, NODE (3), TAU_E (3), LAB (3), FRIC and MOVES then hold its coordinate,
-    the torques on the node and the end element, the first in the lab (its reaction), the
-    friction torque and whether it moved. It is AHEAD where the exact Newton step is too long
-    to carry: row PHI then holds where the step goes, settle_hinge's next point
-    (add_articulations goes on from there), and FRIC its friction; elsewhere 0.0, and the rows
-    anything, NaN included."""
+    with friction or a damper, as weigh_hinges weighed its friction (``weighed``: its rows),
+    and a hinge that moves by settle_hinge's first evaluation. Row OK is SETTLED where that is
+    the balance (a hinge its friction holds, or one whose Newton step from its carried
+    coordinate ends the iteration or is taken without evaluating again), the boundary points
+    turning by less than 0.2 rad: rows PHI, NODE (3), TAU_E (3), LAB (3), FRIC and MOVES then
+    hold its coordinate, the torques on the node and the end element, the first in the lab
+    (its reaction), the friction torque and whether it moved. It is AHEAD where the exact
+    Newton step is too long to carry: row PHI then holds where the step goes, settle_hinge's
+    next point (add_articulations goes on from there), and FRIC its friction; elsewhere 0.0,
+    and the rows anything, NaN included."""
     C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
     phi, rate = p.phi.reshape(3 * n), p.rate.reshape(3 * n)
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
