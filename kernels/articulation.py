@@ -35,14 +35,15 @@ universal joint likewise (settle_universal; a ball joint so settled measured no 
 three coordinates' exact derivative costs about what an evaluation does). A loose ball joint,
 nothing on R but the boundary point, needs no iteration: it balances where that point is
 unstrained, R in closed form (loose_turn), and passes no torque; with a cone, so while that
-balance lies within it. A hinge without a spring table settles first in vector lanes
-(joint_lanes.settle_hinges): every joint of the net takes there what settle_axes takes first,
-with friction or a damper the friction weighed at phi^- (a joint it holds is settled there),
-then settle_hinge's first evaluation, both of its Newton steps computed and the one
-settle_hinge would take selected, with no branch; one whose evaluation is its balance (its
-step ends the iteration or is carried) is done, one whose exact step is too long to carry
-goes on through settle_hinge from the lanes' next point, and the others (universal joints,
-spring tables, boundary points turned past 0.2 rad) go through the scalar path as before.
+balance lies within it. In a net of LANE_MIN joints or more, a hinge without a spring table
+settles first in vector lanes (joint_lanes.settle_hinges): every joint takes there what
+settle_axes takes first, with friction or a damper the friction weighed at phi^- (a joint it
+holds is settled there), then settle_hinge's first evaluation, both of its Newton steps
+computed and the one settle_hinge would take selected, with no branch; one whose evaluation
+is its balance (its step ends the iteration or is carried) is done, one whose exact step is
+too long to carry goes on through settle_hinge from the lanes' next point, and the others
+(universal joints, spring tables, boundary points turned past 0.2 rad) go through the scalar
+path as before.
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
@@ -69,8 +70,8 @@ from .compose import load_kernel
 from . import joint_lanes
 from .elastic import bend_torques, end_frame
 from .elementary import sin_cos
-from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, FRIC, LAB, MOVES, NODE, OK, PHI, SETTLED, TAU_E, TURN, \
-    WEIGHED, settle_balls, settle_hinges, weigh_hinges
+from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, FRIC, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, \
+    TAU_E, TURN, WEIGHED, settle_balls, settle_hinges, weigh_hinges
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_quat, \
     carried_torque, cone_cosine, dot3, hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, \
     node_torque, small_rate
@@ -84,8 +85,8 @@ NEWTON_STEPS = 40                  # at most; a balance converges in a few
 # functions, and its record ArticulationParams, are the variant with both.
 BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a cone, one friction torque
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
-PINS = True     # some joint is a hinge without a spring table (joint_lanes.settle_hinges)
-LOOSE = True    # some joint is a loose ball joint (joint_lanes.settle_balls)
+PINS = True     # some joint is a hinge without a spring table, of LANE_MIN joints or more (joint_lanes)
+LOOSE = True    # some joint is a loose ball joint, of LANE_MIN joints or more (joint_lanes.settle_balls)
 OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE")
 
 
@@ -732,7 +733,7 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    pins, loose = (bool(np.any(p.lane_constants[row] != 0.0)) for row in (C_HINGE, C_LOOSE))
+    pins, loose = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0)) for row in (C_HINGE, C_LOOSE))
     return VARIANTS.record(p, (balls, held, pins, loose))
 
 
