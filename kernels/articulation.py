@@ -36,14 +36,14 @@ three coordinates' exact derivative costs about what an evaluation does). A loos
 nothing on R but the boundary point, needs no iteration: it balances where that point is
 unstrained, R in closed form (loose_turn), and passes no torque; with a cone, so while that
 balance lies within it. In a net of LANE_MIN joints or more, a hinge without a spring table
-settles first in vector lanes (joint_lanes.settle_hinges): every joint takes there what
-settle_axes takes first, with friction or a damper the friction weighed at phi^- (a joint it
-holds is settled there), then settle_hinge's first evaluation, both of its Newton steps
-computed and the one settle_hinge would take selected, with no branch; one whose evaluation
-is its balance (its step ends the iteration or is carried) is done, one whose exact step is
-too long to carry goes on through settle_hinge from the lanes' next point, and the others
-(universal joints, spring tables, boundary points turned past 0.2 rad) go through the scalar
-path as before.
+settles first in vector lanes (joint_lanes.settle_hinges, the joints padded to whole vectors):
+every joint takes there what settle_axes takes first, with friction or a damper the friction
+weighed at phi^- (a joint it holds is settled there), then settle_hinge's first evaluation,
+both of its Newton steps computed and the one settle_hinge would take selected, with no
+branch; one whose evaluation is its balance (its step ends the iteration or is carried) is
+done, one whose exact step is too long to carry goes on through settle_hinge from the lanes'
+next point, and the others (universal joints, spring tables, boundary points turned past 0.2
+rad) go through the scalar path as before.
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own

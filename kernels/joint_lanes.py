@@ -34,10 +34,20 @@ C_DAMPER, C_STATIC, C_KINETIC = 22, 23, 24
 LANE_CONSTANTS = 25
 
 HELD = True   # kernels/articulation.py's option: some joint has friction or a damper
-# the fewest joints a net settles in lanes: below a vector's width the loop runs its scalar
-# remainder alone, which costs more than the scalar path (a chain of free hinges, per joint:
-# 1 joint 290 ns a step against 165, 6 joints 125 against 115, 8 joints 50 against 112)
-LANE_MIN = 8
+# The lanes' rows hold the joints padded to a whole number of vector widths, the last joint
+# repeated: a loop over fewer than a width ran its scalar remainder alone, which cost more than
+# the scalar path. Padded, a net of a few joints pays for a whole vector, about what the scalar
+# path costs three joints: nets of fewer than LANE_MIN joints keep to it. (A chain of free
+# hinges, per joint a step, padded lanes against the scalar path: 1 joint 331 ns against 165, 3
+# joints 134 against 130, 6 joints 77 against 115, 10 joints 55 against 96; unpadded, 6 joints
+# took 125.)
+LANE_WIDTH = 8
+LANE_MIN = 4
+
+
+def lane_count(k: int) -> int:
+    """The columns of the lanes' rows for k joints: k padded to a multiple of LANE_WIDTH."""
+    return -(-k // LANE_WIDTH) * LANE_WIDTH
 
 
 @njit(**PASS)
@@ -50,10 +60,11 @@ def weigh_hinges(p, model, state, dt, out):
     its boundary point there turns by less than 0.2 rad (settle_hinges reads them)."""
     C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
     phi, sliding = p.phi.reshape(3 * n), p.sliding.reshape(3 * n)
-    for j in range(n):
+    for j in range(C.shape[1]):
+        i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
         nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
         f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
-        a, prev, start = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]), phi[3 * j], C[C_START, j] != 0.0
+        a, prev, start = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]), phi[i], C[C_START, j] != 0.0
         r = quat_exp(prev * a[0], prev * a[1], prev * a[2])
         turn, small, _ = boundary_quat(f, q, start, r)
         t = small_rotation(turn[0], turn[1], turn[2], turn[3])
@@ -66,7 +77,7 @@ def weigh_hinges(p, model, state, dt, out):
         # out of vector lanes)
         held = C[C_STATIC, j] + C[C_KINETIC, j] + C[C_DAMPER, j] != 0.0   # (not free_joint)
         q0 = dot3(a, tau) - C[C_SPRING, j] * (prev - C[C_REST, j])   # (start_motion's, without a table)
-        limit = C[C_KINETIC, j] if sliding[3 * j] != 0.0 else C[C_STATIC, j]
+        limit = C[C_KINETIC, j] if sliding[i] != 0.0 else C[C_STATIC, j]
         stays = held & ((abs(q0) <= limit) | ((C[C_DAMPER, j] > 0.0) & ((dt > 0.0) == False)))  # noqa: E712
         out[W_OK, j] = 1.0 if small | (held == False) else 0.0  # noqa: E712
         out[W_MOVES, j] = 0.0 if stays else 1.0
@@ -93,17 +104,18 @@ def settle_hinges(p, model, state, dt, out, weighed):
     C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
     phi, rate = p.phi.reshape(3 * n), p.rate.reshape(3 * n)
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
-    for j in range(n):
+    for j in range(C.shape[1]):
+        i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
         nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
         f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
         a = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j])
-        lo, hi, k0, rest, prev = C[C_LOWER, j], C[C_UPPER, j], C[C_SPRING, j], C[C_REST, j], phi[3 * j]
+        lo, hi, k0, rest, prev = C[C_LOWER, j], C[C_UPPER, j], C[C_SPRING, j], C[C_REST, j], phi[i]
         start, es = C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0)
         il, b = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
         damper, moves, fric, checked = C[C_DAMPER, j] * inv_dt, True, 0.0, True
         if HELD:   # (a variant's option: kernels/articulation.py) as weigh_hinges found it
             moves, fric, checked = weighed[W_MOVES, j] != 0.0, weighed[W_FRIC, j], weighed[W_OK, j] != 0.0
-        x = min(max(prev + dt * rate[3 * j], lo), hi) if moves else prev
+        x = min(max(prev + dt * rate[i], lo), hi) if moves else prev
         r = quat_exp(x * a[0], x * a[1], x * a[2])
         turn, small, rel = boundary_quat(f, q, start, r)
         tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
@@ -136,35 +148,42 @@ def settle_balls(p, model, state, out):
     """Update out (LANE_ROWS, k) for every joint by loose_turn, in vector lanes: row BALL_OK
     SETTLED at a loose ball joint (loose_ball) whose balance lies within its cone, its
     coordinates in rows TURN (3); elsewhere 0.0, and the rows anything."""
-    C, ends = p.lane_constants, p.lane_ends
-    phi = p.phi.reshape(3 * p.attach.shape[0])
-    for j in range(p.attach.shape[0]):
+    C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
+    phi = p.phi.reshape(3 * n)
+    for j in range(C.shape[1]):
+        i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
         nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
         f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
         (tx, ty, tz), within = loose_turn(f, (q[0], q[1], q[2], q[3]), C[C_START, j] != 0.0, C[C_IL, j],
                                           (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
-                                          (phi[3 * j], phi[3 * j + 1], phi[3 * j + 2]), C[C_CONE, j])
+                                          (phi[i], phi[i + 1], phi[i + 2]), C[C_CONE, j])
         out[BALL_OK, j] = SETTLED if C[C_LOOSE, j] != 0.0 and within else 0.0
         out[TURN, j], out[TURN + 1, j], out[TURN + 2, j] = tx, ty, tz
 
 
 def lane_tables(p, model):
     """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges,
-    settle_balls)."""
-    C, a = p.lane_constants, p.attach
-    C[C_AXIS:C_AXIS + 3] = p.axis_a.T
-    C[C_BEND:C_BEND + 3] = p.bend.T
-    C[C_LOWER], C[C_UPPER], C[C_SPRING], C[C_REST] = p.lower[:, 0], p.upper[:, 0], p.stiffness[:, 0], p.rest[:, 0]
+    settle_balls, weigh_hinges): a column per joint, then its last repeated to the padding
+    (lane_count), where no joint is a lane's hinge or loose ball."""
+    C, a, k = p.lane_constants, p.attach, p.attach.shape[0]
+    C[C_AXIS:C_AXIS + 3, :k] = p.axis_a.T
+    C[C_BEND:C_BEND + 3, :k] = p.bend.T
+    C[C_LOWER, :k], C[C_UPPER, :k], C[C_SPRING, :k], C[C_REST, :k] = (p.lower[:, 0], p.upper[:, 0],
+                                                                      p.stiffness[:, 0], p.rest[:, 0])
     tables = p.table_offsets[1::3] - p.table_offsets[0:-1:3]
-    C[C_HINGE] = (p.dofs == HINGE) & (tables == 0)
-    C[C_DAMPER], C[C_STATIC], C[C_KINETIC] = p.damping[:, 0], p.static[:, 0], p.kinetic[:, 0]
+    C[C_HINGE, :k] = (p.dofs == HINGE) & (tables == 0)
+    C[C_DAMPER, :k], C[C_STATIC, :k], C[C_KINETIC, :k] = p.damping[:, 0], p.static[:, 0], p.kinetic[:, 0]
     held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
-    C[C_LOOSE] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
+    C[C_LOOSE, :k] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
         np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)
-    C[C_CONE] = np.where(p.cone < np.pi, np.cos(p.cone), -np.inf)   # (cone_cosine)
+    C[C_CONE, :k] = np.where(p.cone < np.pi, np.cos(p.cone), -np.inf)   # (cone_cosine)
     kv = model.attach_vertex[a]
-    C[C_IL] = model.voronoi_inv_rest_length[kv]
-    C[C_U0:C_U0 + 3] = model.voronoi_rest_curvature[kv].T
-    C[C_FRAME:C_FRAME + 4] = model.attach_frame[a].T
-    C[C_START] = a % 2 == 0
-    p.lane_ends[0], p.lane_ends[1] = model.attach_node[a], model.attach_element[a]
+    C[C_IL, :k] = model.voronoi_inv_rest_length[kv]
+    C[C_U0:C_U0 + 3, :k] = model.voronoi_rest_curvature[kv].T
+    C[C_FRAME:C_FRAME + 4, :k] = model.attach_frame[a].T
+    C[C_START, :k] = a % 2 == 0
+    p.lane_ends[0, :k], p.lane_ends[1, :k] = model.attach_node[a], model.attach_element[a]
+    if k > 0:
+        C[:, k:] = C[:, k - 1:k]
+        C[C_HINGE, k:] = C[C_LOOSE, k:] = 0.0
+        p.lane_ends[:, k:] = p.lane_ends[:, k - 1:k]

@@ -14,7 +14,7 @@ from ..core import samples
 from ..core.articulation import Hinge
 from ..engine.bounds import index_error, offsets_error
 from ..kernels.articulation import VARIANTS, ArticulationParams, articulation_record
-from ..kernels.joint_lanes import LANE_CONSTANTS, LANE_ROWS, lane_tables
+from ..kernels.joint_lanes import LANE_CONSTANTS, LANE_ROWS, lane_count, lane_tables
 from ..kernels.layout import typed_call
 from ..engine.registry import Binding, Effect
 from ..core.rotations import matrix_from_quat
@@ -80,15 +80,17 @@ class Articulations(Effect):
         problem = offsets_error("joints.table_offsets", p.table_offsets, m)
         if problem:
             return problem
-        if p.lanes.shape != (LANE_ROWS, k) or p.lane_constants.shape != (LANE_CONSTANTS, k) or \
-                p.lane_ends.shape != (2, k):
+        w = lane_count(k)
+        if p.lanes.shape != (LANE_ROWS, w) or p.lane_constants.shape != (LANE_CONSTANTS, w) or \
+                p.lane_ends.shape != (2, w):
             return (f"joints: lanes, lane_constants and lane_ends need {LANE_ROWS}, {LANE_CONSTANTS} and 2 rows "
-                    "of one entry per joint")
+                    f"of {w} entries ({k} joints padded to whole vectors)")
         problem = index_error("joints.attach", p.attach, na)
         if problem:
             return problem
-        if not (np.array_equal(p.lane_ends[0], model.attach_node[p.attach]) and
-                np.array_equal(p.lane_ends[1], model.attach_element[p.attach])):
+        last = p.attach[-1:]
+        if not (np.array_equal(p.lane_ends[0], model.attach_node[np.concatenate([p.attach, last.repeat(w - k)])]) and
+                np.array_equal(p.lane_ends[1], model.attach_element[np.concatenate([p.attach, last.repeat(w - k)])])):
             return "joints.lane_ends: not the nodes and end elements of joints.attach"
         return None
 
@@ -112,8 +114,8 @@ class Articulations(Effect):
             table_angle=np.concatenate([t[0] for t in tables] or [np.zeros(0)]),
             table_torque=np.concatenate([t[1] for t in tables] or [np.zeros(0)]),
             phi=z(), rate=z(), sliding=z(), reaction=z(), last=on.state.clock.copy(), dissipated=np.zeros(1),
-            lanes=np.zeros((LANE_ROWS, k)), lane_constants=np.zeros((LANE_CONSTANTS, k)),
-            lane_ends=np.zeros((2, k), dtype=np.int64))
+            lanes=np.zeros((LANE_ROWS, lane_count(k))), lane_constants=np.zeros((LANE_CONSTANTS, lane_count(k))),
+            lane_ends=np.zeros((2, lane_count(k)), dtype=np.int64))
         m = on.model
         for i, (a, joint, _) in enumerate(self.ends):
             nd = m.attach_node[a]
