@@ -68,13 +68,13 @@ from .backend import ENTRY
 from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from . import joint_lanes
-from .elastic import bend_torques, end_frame
+from .elastic import end_frame
 from .elementary import sin_cos
 from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, FRIC, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, \
     TAU_E, TURN, WEIGHED, settle_balls, settle_hinges, weigh_hinges
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_quat, \
-    carried_torque, cone_cosine, dot3, hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, \
-    node_torque, small_rate
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_pair, \
+    boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, hinge_terms, hinge_torques, inverse_jacobian, \
+    jacobian_rate, loose_turn, node_torque, small_rate
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, rotation_of, solve_sym3
 from .specialise import Variants
 
@@ -180,10 +180,8 @@ def boundary_torques(p, j, model, state, f, r):
     il, u0, bend = model.voronoi_inv_rest_length[k], model.voronoi_rest_curvature[k], p.bend[j]
     kx, ky, kz = tx * il - u0[0], ty * il - u0[1], tz * il - u0[2]
     mx, my, mz = bend[0] * kx, bend[1] * ky, bend[2] * kz
-    lx, ly, lz, rx, ry, rz = bend_torques(tx, ty, tz, c, mx, my, mz)
-    if start:
-        return (lx, ly, lz), (rx, ry, rz), (kx, ky, kz), (mx, my, mz), rel
-    return (rx, ry, rz), (lx, ly, lz), (kx, ky, kz), (mx, my, mz), rel
+    tau, te = boundary_pair((tx, ty, tz), c, (mx, my, mz), start)
+    return tau, te, (kx, ky, kz), (mx, my, mz), rel
 
 
 @njit(**INNER)
@@ -205,11 +203,8 @@ def start_motion(p, j, i, torque, prev, dt):
     if i >= p.dofs[j]:
         return False, 0.0
     q0 = torque - p.stiffness[j, i] * (prev[i] - p.rest[j, i]) - spring_table(p, j, i, prev[i])[0]
-    limit = p.kinetic[j, i] if p.sliding[j, i] != 0.0 else p.static[j, i]
-    held = p.damping[j, i] > 0.0 and not dt > 0.0   # a damper gives way only over time
-    if abs(q0) <= limit or held:
-        return False, 0.0
-    return True, math.copysign(p.kinetic[j, i], q0)
+    stays, fric = friction_weighed(q0, p.static[j, i], p.kinetic[j, i], p.sliding[j, i] != 0.0, p.damping[j, i], dt)
+    return not stays, fric
 
 
 @njit(**INNER)
@@ -634,45 +629,35 @@ def add_articulations(p, model, state, loads):
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
         e = model.attach_element[a]
-        if LOOSE and L[BALL_OK, j] == SETTLED:   # no torque: loads and dissipation as they were
-            p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = 0.0, 0.0, 0.0
-            for i in range(3):
-                p.rate[j, i] = (L[TURN + i, j] - p.phi[j, i]) * inv_dt
-                p.phi[j, i] = L[TURN + i, j]
-                p.sliding[j, i] = 0.0
-            continue
-        if PINS and L[OK, j] == SETTLED:   # a hinge's other coordinates stay 0
-            loads.tau[e, 0] += L[TAU_E, j]
-            loads.tau[e, 1] += L[TAU_E + 1, j]
-            loads.tau[e, 2] += L[TAU_E + 2, j]
-            loads.end_tau[a, 0] += L[NODE, j]
-            loads.end_tau[a, 1] += L[NODE + 1, j]
-            loads.end_tau[a, 2] += L[NODE + 2, j]
-            p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = L[LAB, j], L[LAB + 1, j], L[LAB + 2, j]
-            turned, moved = L[PHI, j] - p.phi[j, 0], L[MOVES, j] != 0.0
-            if moved:
-                spent += p.damping[j, 0] * turned * turned * inv_dt
-            spent += L[FRIC, j] * turned
-            p.rate[j, 0] = turned * inv_dt
-            p.phi[j, 0] = L[PHI, j]
-            p.sliding[j, 0] = 1.0 if moved and p.kinetic[j, 0] != 0.0 else 0.0
-            continue
-        f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
-        if PINS and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
-            ax = p.axis_a[j]
-            x, (tx, ty, tz), te = settle_hinge(boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]),
-                                               axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
-                                               L[PHI, j], p.phi[j, 0], L[FRIC, j])
-            phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
+        zero = (0.0, 0.0, 0.0)
+        if LOOSE and L[BALL_OK, j] == SETTLED:   # in closed form: no torque
+            phi, fric, moves, (tx, ty, tz), te = (L[TURN, j], L[TURN + 1, j], L[TURN + 2, j]), zero, \
+                (True, True, True), zero, zero
+            lab = zero
+        elif PINS and L[OK, j] == SETTLED:   # a hinge's other coordinates stay where they are
+            phi, fric, moves = (L[PHI, j], p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), \
+                (L[MOVES, j] != 0.0, False, False)
+            (tx, ty, tz), te = (L[NODE, j], L[NODE + 1, j], L[NODE + 2, j]), (L[TAU_E, j], L[TAU_E + 1, j],
+                                                                            L[TAU_E + 2, j])
+            lab = (L[LAB, j], L[LAB + 1, j], L[LAB + 2, j])
         else:
-            phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
+            f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
+            if PINS and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
+                ax = p.axis_a[j]
+                x, (tx, ty, tz), te = settle_hinge(boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]),
+                                                   axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
+                                                   L[PHI, j], p.phi[j, 0], L[FRIC, j])
+                phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
+            else:
+                phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
+            lab = quat_rotate(f[0], f[1], f[2], f[3], tx, ty, tz)
         loads.tau[e, 0] += te[0]
         loads.tau[e, 1] += te[1]
         loads.tau[e, 2] += te[2]
         loads.end_tau[a, 0] += tx
         loads.end_tau[a, 1] += ty
         loads.end_tau[a, 2] += tz
-        p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = quat_rotate(f[0], f[1], f[2], f[3], tx, ty, tz)
+        p.reaction[j, 0], p.reaction[j, 1], p.reaction[j, 2] = lab
         for i in range(3):
             turned = phi[i] - p.phi[j, i]
             if moves[i]:

@@ -3,15 +3,13 @@
 path): weigh_hinges, settle_hinges and settle_balls, whose rows the load kernel reads, and
 the rows of constants they read (lane_tables)."""
 
-import math
 
 import numpy as np
 from numba import njit
 
 from .backend import PASS
-from .elastic import bend_torques
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, boundary_moment, boundary_quat, dot3, hinge_terms, \
-    hinge_torques, loose_turn, small_rate
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, boundary_moment, boundary_pair, boundary_quat, dot3, \
+    friction_weighed, hinge_terms, hinge_torques, loose_turn, small_rate
 from .rotations import quat_exp, quat_mul, quat_rotate, small_rotation
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
@@ -70,18 +68,15 @@ def weigh_hinges(p, model, state, dt, out):
         t = small_rotation(turn[0], turn[1], turn[2], turn[3])
         m = boundary_moment((t[0], t[1], t[2]), C[C_IL, j], (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
                             (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j]))
-        both = bend_torques(t[0], t[1], t[2], t[3], m[0], m[1], m[2])
-        tau = (both[0], both[1], both[2]) if start else (both[3], both[4], both[5])
-        te = (both[3], both[4], both[5]) if start else (both[0], both[1], both[2])
+        tau, te = boundary_pair((t[0], t[1], t[2]), t[3], m, start)
         # (& | and == False, not the short-circuit and, or, not: their branches kept the loop
         # out of vector lanes)
         held = C[C_STATIC, j] + C[C_KINETIC, j] + C[C_DAMPER, j] != 0.0   # (not free_joint)
         q0 = dot3(a, tau) - C[C_SPRING, j] * (prev - C[C_REST, j])   # (start_motion's, without a table)
-        limit = C[C_KINETIC, j] if sliding[i] != 0.0 else C[C_STATIC, j]
-        stays = held & ((abs(q0) <= limit) | ((C[C_DAMPER, j] > 0.0) & ((dt > 0.0) == False)))  # noqa: E712
+        stays, fric = friction_weighed(q0, C[C_STATIC, j], C[C_KINETIC, j], sliding[i] != 0.0, C[C_DAMPER, j], dt)
         out[W_OK, j] = 1.0 if small | (held == False) else 0.0  # noqa: E712
-        out[W_MOVES, j] = 0.0 if stays else 1.0
-        out[W_FRIC, j] = 0.0 if stays | (held == False) else math.copysign(C[C_KINETIC, j], q0)  # noqa: E712
+        out[W_MOVES, j] = 0.0 if held & stays else 1.0
+        out[W_FRIC, j] = fric if held else 0.0
         out[W_NODE, j], out[W_NODE + 1, j], out[W_NODE + 2, j] = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1],
                                                                              tau[2])
         out[W_TAU_E, j], out[W_TAU_E + 1, j], out[W_TAU_E + 2, j] = te

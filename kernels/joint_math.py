@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 
 from .compiler import INLINE, INNER
+from .elastic import bend_torques
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, relative_quat
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
@@ -158,3 +159,24 @@ def loose_turn(f, q, start, il, u0, prev, cos_cone):
     # d3 of R in X, its third component 1 - 2 (x^2 + y^2): the cosine of its tilt
     within = 1.0 - 2.0 * (r[1] * r[1] + r[2] * r[2]) >= cos_cone
     return (tx, ty, tz), within
+
+
+@njit(**INNER)
+def boundary_pair(t, cc, m, start):
+    """Return (tau_G, tau_E): the body torques of a joint's boundary point, of rotation vector t
+    (cc of bend_torques) and moment m, on the joint frame G and on the end element: its left
+    and right frames at a line's start, right and left at its end."""
+    lx, ly, lz, rx, ry, rz = bend_torques(t[0], t[1], t[2], cc, m[0], m[1], m[2])
+    return ((lx, ly, lz) if start else (rx, ry, rz)), ((rx, ry, rz) if start else (lx, ly, lz))
+
+
+@njit(**INNER)
+def friction_weighed(q0, static, kinetic, sliding, damping, dt):
+    """Return (stays, friction) of a coordinate whose generalised torque at phi^- is q0: whether
+    it sticks, its torque within the static friction (the kinetic one while ``sliding``) or its
+    damper holding it over no time (a damper gives way only over time), and the kinetic
+    friction torque against q0 it meets if not (0 if it sticks). (& | == False, not the
+    short-circuit and, or, not: their branches kept the lanes' loop out of vector lanes.)"""
+    limit = kinetic if sliding else static
+    stays = (abs(q0) <= limit) | ((damping > 0.0) & ((dt > 0.0) == False))  # noqa: E712
+    return stays, (0.0 if stays else math.copysign(kinetic, q0))

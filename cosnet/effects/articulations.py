@@ -85,14 +85,11 @@ class Articulations(Effect):
                 p.lane_ends.shape != (2, w):
             return (f"joints: lanes, lane_constants and lane_ends need {LANE_ROWS}, {LANE_CONSTANTS} and 2 rows "
                     f"of {w} entries ({k} joints padded to whole vectors)")
-        problem = index_error("joints.attach", p.attach, na)
-        if problem:
-            return problem
-        last = p.attach[-1:]
-        if not (np.array_equal(p.lane_ends[0], model.attach_node[np.concatenate([p.attach, last.repeat(w - k)])]) and
-                np.array_equal(p.lane_ends[1], model.attach_element[np.concatenate([p.attach, last.repeat(w - k)])])):
-            return "joints.lane_ends: not the nodes and end elements of joints.attach"
-        return None
+        # (lane_ends in range is what the lanes' gathers need; run() rebuilds them from attach
+        # before it checks, check_state)
+        return (index_error("joints.attach", p.attach, na) or
+                index_error("joints.lane_ends", p.lane_ends[0], model.node_mass.shape[0]) or
+                index_error("joints.lane_ends", p.lane_ends[1], model.element_rest_length.shape[0]))
 
     def __init__(self, ends):
         self.ends = list(ends)
