@@ -388,6 +388,33 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     assert np.abs(lanes.state.x - iterated.state.x).max() < within / 10.0    # m, on a 1.8 m chain
 
 
+def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
+    """The lanes' rows (joint_lanes.lane_tables, numpy over all joints) mark as loose exactly the
+    ball joints the scalar path settles in closed form (articulation.loose_ball), hold each
+    cone's cosine as the scalar path takes it (cone_cosine), and mark as hinges those without a
+    spring table; the padding to whole vectors marks none."""
+    from cosnet.kernels.articulation import BALL, cone_cosine, loose_ball
+    from cosnet.kernels.joint_lanes import C_CONE, C_HINGE, C_LOOSE
+    joints = [cosnet.Ball(), cosnet.Ball(cone=0.4), cosnet.Ball(stiffness=1.0), cosnet.Ball(damping=0.1),
+              cosnet.Ball(friction=(0.2, 0.1)), cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])),
+              cosnet.Hinge(axis=Y), cosnet.Hinge(axis=Y, friction=(0.2, 0.1)),
+              cosnet.Hinge(axis=Y, spring_table=([-1.0, 1.0], [0.0, 0.0])), cosnet.Universal()]
+    net = cosnet.Net()
+    nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
+    for i, joint in enumerate(joints):
+        nodes.append(net.add_node((0.1 * (i + 1), 0.0, 0.0)))
+        net.add_line(nodes[i], nodes[i + 1], material=STIFF, section=SECTION, elements=2, start_joint=joint)
+    sim = cosnet.Simulation(net, [])
+    p = sim.effect_params(sim.effects[-1])
+    k = len(joints)
+    loose = [bool(p.dofs[j] == BALL and loose_ball.py_func(p, j)) for j in range(k)]   # (settled's test)
+    assert loose == [True, True] + [False] * (k - 2)
+    assert np.array_equal(p.lane_constants[C_LOOSE, :k] != 0.0, loose)
+    assert np.array_equal(p.lane_constants[C_CONE, :k], [cone_cosine.py_func(c) for c in p.cone])
+    assert np.array_equal(p.lane_constants[C_HINGE, :k] != 0.0, [False] * 6 + [True, True, False, False])
+    assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE], k:].any()
+
+
 def test_spoilt_joint_table_is_refused_in_one_line():
     sim, arm, _ = hanging_arm(0.2, cosnet.Hinge(axis=Y))
     sim.effect_params(sim.effects[-1]).attach[0] = 7
