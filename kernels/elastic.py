@@ -215,19 +215,32 @@ def vertex_lines(l0, l1, voff, eoff, force, f):
 
 
 @njit(**INLINE)
+def bend_end(vor, k, a, b, left, right):
+    """Update left, right at boundary Voronoi point k, between the frames of quaternions a and
+    b (3.22). A point without bending stiffness (an articulated end, whose joint carries its
+    stiffness: kernels/articulation.py) passes no torque: zeros, without the rotation, which
+    cost about what the joint's own settling costs."""
+    B = vor[0]
+    if B[0][k] == 0.0 and B[1][k] == 0.0 and B[2][k] == 0.0:
+        for i in range(3):
+            left[i][k] = 0.0
+            right[i][k] = 0.0
+        return
+    tx, ty, tz, c = relative_rotation(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3])
+    store_bend(vor, k, tx, ty, tz, c, left, right)
+
+
+@njit(**INLINE)
 def bend_ends(l, model, state, vor, q, left, right):
     """Update left, right at the two boundary Voronoi points of line l, which join its end
     elements to its nodes' frames D(nu) X(nu, lambda) (1.3), (3.22)."""
     v0 = uint(model.line_vertex_offsets[l])
     e0 = uint(model.line_element_offsets[l])
     n = model.line_element_offsets[l + 1] - model.line_element_offsets[l]
-    aw, ax, ay, az = end_frame(model, state, 2 * l)
-    tx, ty, tz, c = relative_rotation(aw, ax, ay, az, q[0][e0], q[1][e0], q[2][e0], q[3][e0])
-    store_bend(vor, v0, tx, ty, tz, c, left, right)
     last, vn = e0 + uint(n - 1), v0 + uint(n)
-    bw, bx, by, bz = end_frame(model, state, 2 * l + 1)
-    tx, ty, tz, c = relative_rotation(q[0][last], q[1][last], q[2][last], q[3][last], bw, bx, by, bz)
-    store_bend(vor, vn, tx, ty, tz, c, left, right)
+    bend_end(vor, v0, end_frame(model, state, 2 * l), (q[0][e0], q[1][e0], q[2][e0], q[3][e0]), left, right)
+    bend_end(vor, vn, (q[0][last], q[1][last], q[2][last], q[3][last]), end_frame(model, state, 2 * l + 1), left,
+             right)
 
 
 @njit(**STEP)  # not inline="always": called inside prange (see backend.py)
