@@ -10,7 +10,7 @@ from numba import njit
 from .backend import PASS
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, boundary_moment, boundary_pair, boundary_quat, dot3, \
     friction_weighed, hinge_terms, hinge_torques, loose_turn, small_rate
-from .rotations import quat_exp, quat_mul, quat_rotate, small_rotation
+from .rotations import axis_quat, quat_mul, quat_rotate, small_rotation
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
 # on its node (X's components) and end element, the first in the lab, its friction torque and
@@ -63,7 +63,7 @@ def weigh_hinges(p, model, state, dt, out):
         nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
         f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
         a, prev, start = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]), phi[i], C[C_START, j] != 0.0
-        r = quat_exp(prev * a[0], prev * a[1], prev * a[2])
+        r = axis_quat(prev, a)
         turn, small, _ = boundary_quat(f, q, start, r)
         t = small_rotation(turn[0], turn[1], turn[2], turn[3])
         m = boundary_moment((t[0], t[1], t[2]), C[C_IL, j], (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
@@ -111,7 +111,7 @@ def settle_hinges(p, model, state, dt, out, weighed):
         if HELD:   # (a variant's option: kernels/articulation.py) as weigh_hinges found it
             moves, fric, checked = weighed[W_MOVES, j] != 0.0, weighed[W_FRIC, j], weighed[W_OK, j] != 0.0
         x = min(max(prev + dt * rate[i], lo), hi) if moves else prev
-        r = quat_exp(x * a[0], x * a[1], x * a[2])
+        r = axis_quat(x, a)
         turn, small, rel = boundary_quat(f, q, start, r)
         tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
         t = (tx, ty, tz)

@@ -40,6 +40,15 @@ def quat_exp(px, py, pz):
 
 
 @njit(**OPTS)
+def axis_quat(x, a):
+    """Return exp(x a) for the unit axis a (a 3-tuple): (cos x/2, sin x/2 a), without
+    quat_exp's norm, division and branch (a loop over joints takes two of these in vector
+    lanes: kernels/joint_lanes.py)."""
+    s, c = sin_cos(0.5 * x)
+    return c, s * a[0], s * a[1], s * a[2]
+
+
+@njit(**OPTS)
 def quat_normalize(w, x, y, z):
     """Return q / |q|."""
     n = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
