@@ -42,8 +42,11 @@ weighed at phi^- (a joint it holds is settled there), then settle_hinge's first 
 both of its Newton steps computed and the one settle_hinge would take selected, with no
 branch; one whose evaluation is its balance (its step ends the iteration or is carried) is
 done, one whose exact step is too long to carry goes on through settle_hinge from the lanes'
-next point, and the others (universal joints, spring tables, boundary points turned past 0.2
-rad) go through the scalar path as before.
+next point. A universal joint without friction, damper or spring table takes settle_universal's
+first evaluation in the same way, its two coordinates' Newton steps selected without a branch
+(settle_universals, in one loop over the lanes' rows that LLVM keeps scalar); the others
+(spring tables, friction on a universal joint, boundary points turned past 0.2 rad) go
+through the scalar path as before.
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
@@ -70,8 +73,9 @@ from .compose import load_kernel
 from . import joint_lanes
 from .elastic import end_frame
 from .elementary import sin_cos
-from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, FRIC, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, \
-    TAU_E, TURN, WEIGHED, settle_balls, settle_hinges, weigh_hinges
+from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, C_UNIVERSAL, FRIC, LAB, LANE_MIN, MOVES, NODE, OK, PHI, \
+    SETTLED, TAU_E, TURN, U_LAB, U_NODE, U_OK, U_PHI, U_TAU_E, UNIVERSALS, WEIGHED, settle_balls, settle_hinges, \
+    settle_universals, weigh_hinges
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_pair, \
     boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, hinge_terms, hinge_torques, inverse_jacobian, \
     jacobian_rate, loose_turn, node_torque, small_rate
@@ -87,7 +91,9 @@ BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a con
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
 PINS = True     # some joint is a hinge without a spring table, of LANE_MIN joints or more (joint_lanes)
 LOOSE = True    # some joint is a loose ball joint, of LANE_MIN joints or more (joint_lanes.settle_balls)
-OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE")
+CARDANS = True  # some joint is a universal joint without friction, damper or spring table, of LANE_MIN joints or
+                # more (joint_lanes.settle_universals)
+OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS")
 
 
 class ArticulationParams(NamedTuple):
@@ -620,12 +626,15 @@ def add_articulations(p, model, state, loads):
     spent = 0.0
     L = p.lanes
     if PINS:
-        W = L[WEIGHED:]   # (rows of their own: LLVM then needs no test of their overlap with the others)
+        W = L[WEIGHED:UNIVERSALS]   # (rows of their own: LLVM then needs no test of their overlap with the others)
         if HELD:
             weigh_hinges(p, model, state, dt, W)
         settle_hinges(p, model, state, dt, L, W)
     if LOOSE:
         settle_balls(p, model, state, L)
+    U = L[UNIVERSALS:]
+    if CARDANS:
+        settle_universals(p, model, state, dt, U)
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
         e = model.attach_element[a]
@@ -640,6 +649,11 @@ def add_articulations(p, model, state, loads):
             (tx, ty, tz), te = (L[NODE, j], L[NODE + 1, j], L[NODE + 2, j]), (L[TAU_E, j], L[TAU_E + 1, j],
                                                                             L[TAU_E + 2, j])
             lab = (L[LAB, j], L[LAB + 1, j], L[LAB + 2, j])
+        elif CARDANS and U[U_OK, j] == SETTLED:   # both coordinates move, the third stays 0
+            phi, fric, moves = (U[U_PHI, j], U[U_PHI + 1, j], 0.0), zero, (True, True, False)
+            (tx, ty, tz), te = (U[U_NODE, j], U[U_NODE + 1, j], U[U_NODE + 2, j]), (U[U_TAU_E, j], U[U_TAU_E + 1, j],
+                                                                                  U[U_TAU_E + 2, j])
+            lab = (U[U_LAB, j], U[U_LAB + 1, j], U[U_LAB + 2, j])
         else:
             f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
             if PINS and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
@@ -648,6 +662,14 @@ def add_articulations(p, model, state, loads):
                                                    axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
                                                    L[PHI, j], p.phi[j, 0], L[FRIC, j])
                 phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
+            elif CARDANS and U[U_OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
+                ax, bx = p.axis_a[j], p.axis_b[j]
+                phi, (tx, ty, tz), te = settle_universal(
+                    boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]), (bx[0], bx[1], bx[2]),
+                    axis_constants(p, j, 0, inv_dt), axis_constants(p, j, 1, inv_dt), p.table_angle, p.table_torque,
+                    (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), (True, True),
+                    (0.0, 0.0))
+                fric, moves = zero, (True, True, False)
             else:
                 phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
             lab = quat_rotate(f[0], f[1], f[2], f[3], tx, ty, tz)
@@ -718,8 +740,9 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    pins, loose = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0)) for row in (C_HINGE, C_LOOSE))
-    return VARIANTS.record(p, (balls, held, pins, loose))
+    pins, loose, cardans = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
+                            for row in (C_HINGE, C_LOOSE, C_UNIVERSAL))
+    return VARIANTS.record(p, (balls, held, pins, loose, cardans))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

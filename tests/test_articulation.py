@@ -18,7 +18,7 @@ from scipy.special import ellipk
 
 import cosnet
 from cosnet.core.rotations import matrix_from_quat
-from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, OK, SETTLED
+from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, OK, SETTLED, U_OK, UNIVERSALS
 from nets import resumed
 
 G = 9.81
@@ -343,8 +343,12 @@ def test_welded_end_has_no_joint_state():
     (lambda **kw: cosnet.Hinge(axis=Y, **kw), OK, 1e-9),
     (lambda **kw: cosnet.Hinge(axis=Y, stiffness=0.5, rest=0.2, limits=(-0.25, 0.3), **kw), OK, 1e-9),
     (lambda **kw: cosnet.Hinge(axis=Y, stiffness=0.5, damping=2e-3, friction=(0.05, 0.04), **kw), OK, 1e-9),
-    (lambda **kw: cosnet.Ball(**kw), BALL_OK, 1e-8)],
-    ids=["pins", "springs and limits", "dampers and friction", "loose balls"])
+    (lambda **kw: cosnet.Ball(**kw), BALL_OK, 1e-8),
+    (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), **kw), UNIVERSALS + U_OK, 1e-9),
+    (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), stiffness=(0.5, 0.3), rest=(0.2, -0.1),
+                                   limits=((-0.3, 0.12), (-0.03, 0.3)), **kw), UNIVERSALS + U_OK, 1e-9)],
+    ids=["pins", "springs and limits", "dampers and friction", "loose balls", "cardans",
+         "cardans with springs and limits"])
 def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make, row, within):
     """A hanging chain of twelve links on hinges without a spring table, or on loose ball joints
     (its joints at line starts and at line ends), settles them in vector lanes; the same chain
@@ -377,11 +381,14 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     lanes, angles = chain()
     iterated, angles_it = chain(spring_table=([-1.0, 1.0], [0.0, 0.0]))
     taken = lanes.effect_params(lanes.effects[-1]).lanes[row][:12]   # (the joints, not the vector's padding)
-    assert np.all(np.isin(taken, (SETTLED, AHEAD) if row == OK else (SETTLED,)))
+    assert np.all(np.isin(taken, (SETTLED,) if row == BALL_OK else (SETTLED, AHEAD)))
     assert np.ptp(angles, axis=0).max() > 0.2            # the joints swung (rad)
-    if np.isfinite(make().upper).any():   # limits: one held
-        assert np.isclose(angles.max(), 0.3) or np.isclose(angles.min(), -0.25)
-    if np.any(make().kinetic):   # friction: joints held and joints turning
+    joint = make()
+    if np.isfinite(joint.upper).any():   # limits: a joint held at one
+        a = angles.reshape(angles.shape[0], angles.shape[1], -1)
+        lo, hi = joint.lower[:a.shape[2]], joint.upper[:a.shape[2]]
+        assert np.any(np.isclose(a, lo, rtol=0.0, atol=1e-12) | np.isclose(a, hi, rtol=0.0, atol=1e-12))
+    if np.any(joint.kinetic):   # friction: joints held and joints turning
         sliding = lanes.effect_params(lanes.effects[-1]).sliding[:, 0]
         assert 0 < sliding.sum() < sliding.size
     assert np.abs(angles - angles_it).max() < within
@@ -391,14 +398,16 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
 def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     """The lanes' rows (joint_lanes.lane_tables, numpy over all joints) mark as loose exactly the
     ball joints the scalar path settles in closed form (articulation.loose_ball), hold each
-    cone's cosine as the scalar path takes it (cone_cosine), and mark as hinges those without a
-    spring table; the padding to whole vectors marks none."""
-    from cosnet.kernels.articulation import BALL, cone_cosine, loose_ball
-    from cosnet.kernels.joint_lanes import C_CONE, C_HINGE, C_LOOSE
+    cone's cosine as the scalar path takes it (cone_cosine), mark as hinges those without a
+    spring table and as universal joints those without friction, damper (free_joint) or spring
+    table; the padding to whole vectors marks none."""
+    from cosnet.kernels.articulation import BALL, UNIVERSAL, cone_cosine, free_joint, loose_ball
+    from cosnet.kernels.joint_lanes import C_CONE, C_HINGE, C_LOOSE, C_UNIVERSAL
     joints = [cosnet.Ball(), cosnet.Ball(cone=0.4), cosnet.Ball(stiffness=1.0), cosnet.Ball(damping=0.1),
               cosnet.Ball(friction=(0.2, 0.1)), cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])),
               cosnet.Hinge(axis=Y), cosnet.Hinge(axis=Y, friction=(0.2, 0.1)),
-              cosnet.Hinge(axis=Y, spring_table=([-1.0, 1.0], [0.0, 0.0])), cosnet.Universal()]
+              cosnet.Hinge(axis=Y, spring_table=([-1.0, 1.0], [0.0, 0.0])), cosnet.Universal(),
+              cosnet.Universal(damping=0.1), cosnet.Universal(spring_table=([-1.0, 1.0], [0.0, 0.0]))]
     net = cosnet.Net()
     nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
     for i, joint in enumerate(joints):
@@ -411,8 +420,11 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     assert loose == [True, True] + [False] * (k - 2)
     assert np.array_equal(p.lane_constants[C_LOOSE, :k] != 0.0, loose)
     assert np.array_equal(p.lane_constants[C_CONE, :k], [cone_cosine.py_func(c) for c in p.cone])
-    assert np.array_equal(p.lane_constants[C_HINGE, :k] != 0.0, [False] * 6 + [True, True, False, False])
-    assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE], k:].any()
+    assert np.array_equal(p.lane_constants[C_HINGE, :k] != 0.0, [False] * 6 + [True, True] + [False] * 4)
+    free = [bool(p.dofs[j] == UNIVERSAL and free_joint.py_func(p, j)) for j in range(k)]   # (settle_axes' test)
+    assert np.array_equal(p.lane_constants[C_UNIVERSAL, :k] != 0.0, [f and j != 11 for j, f in enumerate(free)])
+    assert free[9] and not free[10]
+    assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL], k:].any()
 
 
 def test_spoilt_joint_table_is_refused_in_one_line():
