@@ -42,8 +42,8 @@ def quat_exp(px, py, pz):
 @njit(**OPTS)
 def axis_quat(x, a):
     """Return exp(x a) for the unit axis a (a 3-tuple): (cos x/2, sin x/2 a), without
-    quat_exp's norm, division and branch (a loop over joints takes two of these in vector
-    lanes: kernels/joint_lanes.py)."""
+    quat_exp's norm, division and branch (the joints' lanes, kernels/joint_lanes.py: a loop
+    calling quat_exp twice did not get it inlined)."""
     s, c = sin_cos(0.5 * x)
     return c, s * a[0], s * a[1], s * a[2]
 
