@@ -31,11 +31,25 @@ rotary, soften, auto; docs/fast_modes.md), Verlet at each setting's stable step:
             bench/fast_modes.json (its reference run takes half an hour)
 Writes bench/accuracy_fast_modes.json and bench/figures/accuracy_fast_modes.png.
 
+With --joints, instead: junctions that turn and lines that slide (the paper's section 8)
+against their rigid-body limits:
+  hinge     a double compound pendulum of two 1 m steel arms released from the horizontal,
+            its middle junction an exact hinge or a penalty HingeJoint of spring k (after the
+            Elastica page), each at its own stable step: the largest distance of the free end
+            from the rigid arms' over 0.5 s, relative to the arms' length [Lagrange's equations
+            of the two arms as rigid bodies with the discrete arms' masses and inertias,
+            scipy.integrate.solve_ivp, rtol 1e-12] (bench/joints.py builds both)
+  atwood    an Atwood machine, 0.3 and 0.2 kg on a rope over a sheave of 5 cm, 5, 10 and 20
+            elements per radius, over 0.3 s: the heavier mass's drop [the rigid rope's motion,
+            x(t) = (alpha / beta)(cosh(sqrt(beta) t) - 1)] and the energy the rope's landings
+            on the rim took against the kinetic energy (bench/sheaves.py builds it)
+Writes bench/accuracy_joints.json.
+
 Observed orders are least-squares slopes of log(error) against log(elements) (space) or
 log(dt) (time). Prints a table, writes bench/accuracy.json and bench/figures/accuracy.png
 (one work-precision panel per case) and bench/figures/accuracy_orders.png.
 
-    python bench/accuracy.py [--quick] [--fast-modes]
+    python bench/accuracy.py [--quick] [--fast-modes | --joints]
 """
 
 from __future__ import annotations
@@ -408,6 +422,25 @@ def fast_modes_main(quick):
                {"quick": quick, "under_load": True, "points": points})
 
 
+def joints_main(quick):
+    import joints
+    import sheaves
+    until, samples = (0.1, 10) if quick else (0.5, 50)
+    hinge = joints.accuracy(until, samples, (1e6, 1e8) if quick else (1e5, 1e6, 1e7, 1e8))
+    table(f"a double compound pendulum against its rigid limit over {until} s",
+          ["middle junction", "dt (s)", "steps", "largest end distance / length", "wall (s)"],
+          [[r["middle"], r["dt"], r["steps"], r["error_over_length"], r["wall_s"]] for r in hinge])
+    atwood_until = 0.1 if quick else 0.3
+    atwood = [sheaves.accuracy(n, atwood_until) for n in ((5, 10) if quick else (5, 10, 20))]
+    table(f"the Atwood machine against the rigid rope over {atwood_until} s",
+          ["elements per radius", "elements", "dt (s)", "steps", "drop error", "landings / kinetic", "wall (s)"],
+          [[r["per_radius"], r["elements"], r["dt"], r["steps"], r["drop_error"], r["landings_over_kinetic"],
+            r["wall_s"]] for r in atwood])
+    write_json(str(Path(__file__).with_name("accuracy_joints.py")),
+               {"command": " ".join(["python", "bench/accuracy.py", *sys.argv[1:]]), "quick": quick,
+                "until": until, "hinge": hinge, "atwood_until": atwood_until, "atwood": atwood})
+
+
 # ---------------------------------------------------------------------- report
 def orders(points):
     """Observed orders per case and stepper: in space (slope against elements, at the base dt)
@@ -516,6 +549,8 @@ def main():
     quick = "--quick" in sys.argv
     if "--fast-modes" in sys.argv:
         return fast_modes_main(quick)
+    if "--joints" in sys.argv:
+        return joints_main(quick)
     ns_freq = (4, 8, 16) if quick else (4, 8, 16, 32)
     ns_pend = (1, 2) if quick else (1, 2, 4)
     ns_static = (4, 8, 16) if quick else (4, 8, 16, 32)

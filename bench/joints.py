@@ -10,14 +10,15 @@ Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings
 sliding on it with friction, each pulled down by a node load, in air and in water (the wire
 carrying its added mass across itself); the cost per step and per ring.
 
-Accuracy: a double compound pendulum of two 1 m steel arms (r = 10 mm, 10 elements each) on a
-fixed pivot, released from the horizontal, against the rigid-body limit of the same arms (their
-vertex masses and rotary inertias; Lagrange's equations by scipy's solve_ivp, rtol 1e-12): the
-largest distance between the two free ends over 0.5 s, relative to the arms' length, and the
-wall time of the run. The middle junction is an exact hinge, or the arms' ends on nodes of their
-own held by a penalty HingeJoint (after the Elastica page) of spring k and torque spring kt =
-k (1 m)^2, each at its own stable step. Run: python bench/joints.py [--quick]; writes
-bench/joints.json (docs/performance.md shows its tables).
+Accuracy (python bench/accuracy.py --joints runs it, from double_pendulum, rigid_limit and
+accuracy here): a double compound pendulum of two 1 m steel arms (r = 10 mm, 10 elements each)
+on a fixed pivot, released from the horizontal, against the rigid-body limit of the same arms
+(their vertex masses and rotary inertias; Lagrange's equations by scipy's solve_ivp, rtol
+1e-12): the largest distance between the two free ends over 0.5 s, relative to the arms'
+length, and the wall time of the run. The middle junction is an exact hinge, or the arms' ends
+on nodes of their own held by a penalty HingeJoint (after the Elastica page) of spring k and
+torque spring kt = k (1 m)^2, each at its own stable step. Run: python bench/joints.py
+[--quick]; writes bench/joints.json (docs/performance.md shows its tables).
 """
 
 import math
@@ -185,13 +186,8 @@ def main():
     table("joints: cost per step of rings sliding on a 100-element wire (one thread, the bare wire's step)",
           ["medium", "rings", "us/step", "us per ring"],
           [[r["medium"], r["rings"], r["us_per_step"], r["us_per_ring"]] for r in rings])
-    until = 0.1 if quick else 0.5
-    acc = accuracy(until, 10 if quick else 50, (1e6, 1e8) if quick else (1e5, 1e6, 1e7, 1e8))
-    table(f"joints: double compound pendulum against its rigid limit over {until} s",
-          ["middle junction", "dt (s)", "steps", "largest end distance / length", "wall (s)"],
-          [[r["middle"], r["dt"], r["steps"], r["error_over_length"], r["wall_s"]] for r in acc])
     write_json(__file__, {"command": " ".join(["python", "bench/joints.py", *sys.argv[1:]]),
-                          "cost": runs, "rings": rings, "accuracy": acc, "until": until})
+                          "cost": runs, "rings": rings})
 
 
 if __name__ == "__main__":

@@ -44,6 +44,7 @@ SCRIPTS = [
     ("contact_scaling", ["--quick"], [], 120),
     ("accuracy", ["--quick"], [], 120),
     ("accuracy@fast-modes", ["--quick"], [], 300),     # reads bench/fast_modes.json for the cable
+    ("accuracy@joints", ["--quick"], [], 180),
     ("fast_modes", None, [], None),                     # about 40 minutes: full runs only
     ("long_run", ["200000"], [], 60),
     ("modes_convergence", ["20", "40", "80", "160", "320"], [], 120),

@@ -6,9 +6,10 @@ sheave at the sheave's stable step (the rope's kernels cost the same whichever w
 interleaved rounds, one thread: the cost per step, over the bare rope, and per vertex the rim
 holds.
 
-Accuracy: the same machines run for 0.3 s against the rigid rope's motion, x(t) = (alpha / beta)
-(cosh(sqrt(beta) t) - 1) (tests/test_sheaves.py): the heavier mass's drop against it, the energy
-the landings took against the kinetic energy, and the wall time of the run.
+Accuracy (python bench/accuracy.py --joints runs it, from accuracy here): the same machines run
+for 0.3 s against the rigid rope's motion, x(t) = (alpha / beta)(cosh(sqrt(beta) t) - 1)
+(tests/test_sheaves.py): the heavier mass's drop against it, the energy the landings took
+against the kinetic energy, and the wall time of the run.
 Run: python bench/sheaves.py [--quick]; writes bench/sheaves.json (docs/performance.md shows
 its tables).
 """
@@ -75,20 +76,14 @@ def accuracy(per_radius, until):
 
 def main():
     quick = "--quick" in sys.argv
-    per_radius, rounds, until = ((5, 10), 3, 0.1) if quick else ((5, 10, 20), 9, 0.3)
+    per_radius, rounds = ((5, 10), 3) if quick else ((5, 10, 20), 9)
     runs = [cost(n, rounds) for n in per_radius]
     table("sheaves: cost per step of an Atwood machine's rope, with and without its sheave (one thread)",
           ["elements per radius", "elements", "engaged", "window", "us/step bare", "us/step sheave", "over %",
            "us per engaged vertex"],
           [[r["per_radius"], r["elements"], r["engaged"], r["window"], r["us_bare"], r["us_sheave"],
             r["over_percent"], r["us_per_engaged"]] for r in runs])
-    acc = [accuracy(n, until) for n in per_radius]
-    table(f"sheaves: the Atwood machine against the rigid rope over {until} s",
-          ["elements per radius", "elements", "dt (s)", "steps", "drop error", "landings / kinetic", "wall (s)"],
-          [[r["per_radius"], r["elements"], r["dt"], r["steps"], r["drop_error"], r["landings_over_kinetic"],
-            r["wall_s"]] for r in acc])
-    write_json(__file__, {"command": " ".join(["python", "bench/sheaves.py", *sys.argv[1:]]),
-                          "cost": runs, "accuracy": acc, "until": until})
+    write_json(__file__, {"command": " ".join(["python", "bench/sheaves.py", *sys.argv[1:]]), "cost": runs})
 
 
 if __name__ == "__main__":

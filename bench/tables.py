@@ -341,18 +341,18 @@ def sheaves_cost() -> str:
 
 
 def sheaves_accuracy() -> str:
-    d = _json("sheaves.json")
+    d = _json("accuracy_joints.json")
     rows = [[str(r["per_radius"]), str(r["elements"]), _g(r["dt"], 3), f"{r['steps']:,}", _g(r["drop_error"]),
-             _g(r["landings_over_kinetic"]), f"{r['wall_s']:.2g}"] for r in d["accuracy"]]
+             _g(r["landings_over_kinetic"]), f"{r['wall_s']:.2g}"] for r in d["atwood"]]
     return _table(["elements per radius", "elements", "stable dt (s)", "steps", "drop against the rigid rope",
                    "landings' energy / kinetic energy", "wall (s)"], rows) + measured_on(
-        d["machine"], f", one thread, over {d['until']} s, `{d['command']}`")
+        d["machine"], f", one thread, over {d['atwood_until']} s, `{d['command']}`")
 
 
 def joints_accuracy() -> str:
-    d = _json("joints.json")
+    d = _json("accuracy_joints.json")
     rows = [[r["middle"], _g(r["dt"], 3), f"{r['steps']:,}", _g(r["error_over_length"]), f"{r['wall_s']:.2g}"]
-            for r in d["accuracy"]]
+            for r in d["hinge"]]
     return _table(["middle junction", "stable dt (s)", "steps", "largest end distance / length", "wall (s)"],
                   rows) + measured_on(d["machine"], f", one thread, over {d['until']} s, `{d['command']}`")
 
