@@ -42,11 +42,11 @@ weighed at phi^- (a joint it holds is settled there), then settle_hinge's first 
 both of its Newton steps computed and the one settle_hinge would take selected, with no
 branch; one whose evaluation is its balance (its step ends the iteration or is carried) is
 done, one whose exact step is too long to carry goes on through settle_hinge from the lanes'
-next point. A universal joint without friction, damper or spring table takes settle_universal's
-first evaluation in the same way, its two coordinates' Newton steps selected without a branch
-(settle_universals, in one loop over the lanes' rows that LLVM keeps scalar); the others
-(spring tables, friction on a universal joint, boundary points turned past 0.2 rad) go
-through the scalar path as before.
+next point. A universal joint without a spring table takes its friction's weighing and
+settle_universal's first evaluation in the same way, its two coordinates' Newton steps selected
+without a branch (settle_universals, in one loop over the lanes' rows that LLVM keeps scalar);
+the others (spring tables, boundary points turned past 0.2 rad) go through the scalar path as
+before.
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
@@ -74,8 +74,8 @@ from . import joint_lanes
 from .elastic import end_frame
 from .elementary import sin_cos
 from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, C_UNIVERSAL, FRIC, LAB, LANE_MIN, MOVES, NODE, OK, PHI, \
-    SETTLED, TAU_E, TURN, U_LAB, U_NODE, U_OK, U_PHI, U_TAU_E, UNIVERSALS, WEIGHED, settle_balls, settle_hinges, \
-    settle_universals, weigh_hinges
+    SETTLED, TAU_E, TURN, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, U_TAU_E, UNIVERSALS, WEIGHED, settle_balls, \
+    settle_hinges, settle_universals, weigh_hinges
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_pair, \
     boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, hinge_terms, hinge_torques, inverse_jacobian, \
     jacobian_rate, loose_turn, node_torque, small_rate
@@ -91,8 +91,8 @@ BALLS = True    # some joint is a ball joint: rotation-vector coordinates, a con
 HELD = True     # some joint has friction or a damper: coordinates that stick, a friction torque
 PINS = True     # some joint is a hinge without a spring table, of LANE_MIN joints or more (joint_lanes)
 LOOSE = True    # some joint is a loose ball joint, of LANE_MIN joints or more (joint_lanes.settle_balls)
-CARDANS = True  # some joint is a universal joint without friction, damper or spring table, of LANE_MIN joints or
-                # more (joint_lanes.settle_universals)
+CARDANS = True  # some joint is a universal joint without a spring table, of LANE_MIN joints or more
+                # (joint_lanes.settle_universals)
 OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS")
 
 
@@ -649,8 +649,9 @@ def add_articulations(p, model, state, loads):
             (tx, ty, tz), te = (L[NODE, j], L[NODE + 1, j], L[NODE + 2, j]), (L[TAU_E, j], L[TAU_E + 1, j],
                                                                             L[TAU_E + 2, j])
             lab = (L[LAB, j], L[LAB + 1, j], L[LAB + 2, j])
-        elif CARDANS and U[U_OK, j] == SETTLED:   # both coordinates move, the third stays 0
-            phi, fric, moves = (U[U_PHI, j], U[U_PHI + 1, j], 0.0), zero, (True, True, False)
+        elif CARDANS and U[U_OK, j] == SETTLED:   # the third coordinate stays 0
+            phi, fric = (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
+            moves = (U[U_MOVES, j] != 0.0, U[U_MOVES + 1, j] != 0.0, False)
             (tx, ty, tz), te = (U[U_NODE, j], U[U_NODE + 1, j], U[U_NODE + 2, j]), (U[U_TAU_E, j], U[U_TAU_E + 1, j],
                                                                                   U[U_TAU_E + 2, j])
             lab = (U[U_LAB, j], U[U_LAB + 1, j], U[U_LAB + 2, j])
@@ -664,12 +665,13 @@ def add_articulations(p, model, state, loads):
                 phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
             elif CARDANS and U[U_OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
                 ax, bx = p.axis_a[j], p.axis_b[j]
+                fric = (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
+                moves = (U[U_MOVES, j] != 0.0, U[U_MOVES + 1, j] != 0.0, False)
                 phi, (tx, ty, tz), te = settle_universal(
                     boundary_point(p, j, model, state, f), (ax[0], ax[1], ax[2]), (bx[0], bx[1], bx[2]),
                     axis_constants(p, j, 0, inv_dt), axis_constants(p, j, 1, inv_dt), p.table_angle, p.table_torque,
-                    (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), (True, True),
-                    (0.0, 0.0))
-                fric, moves = zero, (True, True, False)
+                    (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]),
+                    (moves[0], moves[1]), (fric[0], fric[1]))
             else:
                 phi, fric, moves, (tx, ty, tz), te = settled(p, j, model, state, dt, f)
             lab = quat_rotate(f[0], f[1], f[2], f[3], tx, ty, tz)

@@ -10,6 +10,7 @@ import numpy as np
 from numba import njit
 
 from .backend import PASS
+from .compiler import INLINE
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_pair, \
     boundary_quat, carried_torque, dot3, friction_weighed, hinge_terms, hinge_torques, inverse_jacobian, \
     jacobian_rate, loose_turn, node_torque, small_rate
@@ -25,10 +26,11 @@ BALL_OK, TURN = 13, 14
 WEIGHED = 17
 W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E = 0, 1, 2, 3, 6
 # and of settle_universals (from UNIVERSALS on, a block of its own): whether the joint settled
-# there, its two coordinates, the torques on its node and end element, the first in the lab
+# there, its two coordinates, the torques on its node and end element, the first in the lab,
+# each coordinate's friction torque and whether it moved
 UNIVERSALS = 26
-U_OK, U_PHI, U_NODE, U_TAU_E, U_LAB = 0, 1, 3, 6, 9
-LANE_ROWS = 38
+U_OK, U_PHI, U_NODE, U_TAU_E, U_LAB, U_FRIC, U_MOVES = 0, 1, 3, 6, 9, 12, 14
+LANE_ROWS = 42
 SETTLED, AHEAD = 1.0, 2.0   # in rows OK, BALL_OK and UNIVERSALS + U_OK
 # rows of p.lane_constants (lane_tables): the joints' constants the lanes read, a row for each
 # number (kernels/articulation.py's docstring says why); C_CONE holds cone_cosine; C_AXIS_B and
@@ -37,7 +39,8 @@ C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_HINGE, C_IL, C_U0, C_FRAME
     0, 3, 6, 7, 8, 9, 10, 11, 12, 15, 19, 20, 21
 C_DAMPER, C_STATIC, C_KINETIC = 22, 23, 24
 C_AXIS_B, C_LOWER1, C_UPPER1, C_SPRING1, C_REST1, C_UNIVERSAL = 25, 28, 29, 30, 31, 32
-LANE_CONSTANTS = 33
+C_DAMPER1, C_STATIC1, C_KINETIC1 = 33, 34, 35
+LANE_CONSTANTS = 36
 
 HELD = True   # kernels/articulation.py's option: some joint has friction or a damper
 # The lanes' rows hold the joints padded to a whole number of vector widths, the last joint
@@ -146,71 +149,115 @@ def settle_hinges(p, model, state, dt, out, weighed):
         out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
 
 
+# boundary_quat inlined by numba where settle_universals takes it twice: called, LLVM left that
+# loop several times slower (130 ns a joint against 24)
+turned_boundary = njit(**INLINE)(boundary_quat.py_func)
+
+
 @njit(**PASS)
 def settle_universals(p, model, state, dt, out):
-    """Update out (LANE_ROWS - UNIVERSALS, k) for every joint as settle_universal settles a
-    universal joint without friction, damper or spring table by its first evaluation, its
-    branches taken as selects (settle_hinges' way for its two coordinates). (LLVM keeps this
-    loop scalar; without branches the core still overlaps the joints' arithmetic, 19-20 ns a
-    joint on a chain of 100 where settle_universal took about 70; vectorised, with the
-    reaction's rotation in a loop of its own, it ran no faster.)
+    """Update out (LANE_ROWS - UNIVERSALS, k) for every joint as settle_axes settles a
+    universal joint without a spring table by settle_universal's first evaluation, its
+    branches taken as selects (settle_hinges' way for its two coordinates): with friction or
+    a damper, each coordinate's friction weighed at phi^- first, as start_joint weighs it (a
+    joint held whole is settled there, with the loads it was weighed with). (LLVM keeps this
+    loop scalar, which lets one loop take both evaluations; without branches the core still
+    overlaps the joints' arithmetic, 19-20 ns a free joint on a chain of 100 where
+    settle_universal took about 70; vectorised, with the reaction's rotation in a loop of its
+    own, it ran no faster.)
     Row U_OK is SETTLED where that evaluation is the balance (its Newton step ends the
     iteration, or with the exact derivative is taken without evaluating again), the boundary
-    point turning by less than 0.2 rad: rows U_PHI (2), U_NODE (3), U_TAU_E (3), U_LAB (3) then
-    hold its coordinates, the torques on the node and the end element and the first in the
-    lab; AHEAD where the iteration goes on (U_PHI: settle_universal's next point); elsewhere
-    0.0, and the rows anything."""
+    points turning by less than 0.2 rad: rows U_PHI (2), U_NODE (3), U_TAU_E (3), U_LAB (3),
+    U_FRIC (2) and U_MOVES (2) then hold its coordinates, the torques on the node and the end
+    element, the first in the lab, the friction torques and whether each coordinate moved;
+    AHEAD where the iteration goes on (U_PHI: settle_universal's next point; U_FRIC, U_MOVES as
+    weighed); elsewhere 0.0, and the rows anything."""
     C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
-    phi, rate = p.phi.reshape(3 * n), p.rate.reshape(3 * n)
+    phi, rate, sliding = p.phi.reshape(3 * n), p.rate.reshape(3 * n), p.sliding.reshape(3 * n)
     ahead = dt if dt > 0.0 else 0.0
+    inv_dt = 1.0 / dt if dt > 0.0 else 0.0
     for j in range(C.shape[1]):
         i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
-        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        nq, qe = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        q = (qe[0], qe[1], qe[2], qe[3])
         f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
         a, b = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]), (C[C_AXIS_B, j], C[C_AXIS_B + 1, j],
                                                                      C[C_AXIS_B + 2, j])
         lo0, hi0, lo1, hi1 = C[C_LOWER, j], C[C_UPPER, j], C[C_LOWER1, j], C[C_UPPER1, j]
-        k0, k1 = C[C_SPRING, j], C[C_SPRING1, j]
+        k0, k1, rest0, rest1 = C[C_SPRING, j], C[C_SPRING1, j], C[C_REST, j], C[C_REST1, j]
+        d0, d1 = C[C_DAMPER, j] * inv_dt, C[C_DAMPER1, j] * inv_dt
         start, e = C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0)
         il, bend = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
-        x0 = min(max(phi[i] + ahead * rate[i], lo0), hi0)
-        x1 = min(max(phi[i + 1] + ahead * rate[i + 1], lo1), hi1)
+        u0 = (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j])
+        p0, p1 = phi[i], phi[i + 1]
+        m0, m1, f0, f1, checked = True, True, 0.0, 0.0, True
+        wnode, wte = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if HELD:   # (a variant's option: kernels/articulation.py) start_joint's weighing at phi^-
+            wa, wb = axis_quat(p0, a), axis_quat(p1, b)
+            wr = quat_mul(wa[0], wa[1], wa[2], wa[3], wb[0], wb[1], wb[2], wb[3])
+            c0 = quat_rotate_inv(wb[0], wb[1], wb[2], wb[3], a[0], a[1], a[2])
+            wturn, wsmall, _ = turned_boundary(f, q, start, wr)
+            wt = small_rotation(wturn[0], wturn[1], wturn[2], wturn[3])
+            tau, wte = boundary_pair((wt[0], wt[1], wt[2]), wt[3], boundary_moment((wt[0], wt[1], wt[2]), il, u0, bend),
+                                     start)
+            held = C[C_STATIC, j] + C[C_KINETIC, j] + C[C_DAMPER, j] + C[C_STATIC1, j] + C[C_KINETIC1, j] + \
+                C[C_DAMPER1, j] != 0.0   # (not free_joint)
+            s0, w0f = friction_weighed(dot3(c0, tau) - k0 * (p0 - rest0), C[C_STATIC, j], C[C_KINETIC, j],
+                                       sliding[i] != 0.0, C[C_DAMPER, j], dt)
+            s1, w1f = friction_weighed(dot3(b, tau) - k1 * (p1 - rest1), C[C_STATIC1, j], C[C_KINETIC1, j],
+                                       sliding[i + 1] != 0.0, C[C_DAMPER1, j], dt)
+            m0, m1 = (held & s0) == False, (held & s1) == False  # noqa: E712
+            f0, f1 = (w0f if held else 0.0), (w1f if held else 0.0)
+            checked = wsmall | (held == False)  # noqa: E712
+            wnode = quat_rotate(wr[0], wr[1], wr[2], wr[3], tau[0], tau[1], tau[2])
+        x0 = min(max(p0 + ahead * rate[i], lo0), hi0) if m0 else p0
+        x1 = min(max(p1 + ahead * rate[i + 1], lo1), hi1) if m1 else p1
         ra, rb = axis_quat(x0, a), axis_quat(x1, b)
         r = quat_mul(ra[0], ra[1], ra[2], ra[3], rb[0], rb[1], rb[2], rb[3])
         a1 = quat_rotate_inv(rb[0], rb[1], rb[2], rb[3], a[0], a[1], a[2])   # the first axis in the joint frame
-        turn, small, rel = boundary_quat(f, q, start, r)
+        turn, small, rel = turned_boundary(f, q, start, r)
         tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
         t = (tx, ty, tz)
-        m = boundary_moment(t, il, (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]), bend)
+        m = boundary_moment(t, il, u0, bend)
         c2 = small_rate(tx * tx + ty * ty + tz * tz)
         w0, w1 = inverse_jacobian(t, cc, e, a1), inverse_jacobian(t, cc, e, b)
         bw0, bw1 = bend_rate(il, bend, w0), bend_rate(il, bend, w1)
-        g0 = -e * dot3(w0, m) - k0 * (x0 - C[C_REST, j])   # (axis_balance's, without a table or a damper)
-        g1 = -e * dot3(w1, m) - k1 * (x1 - C[C_REST1, j])
-        a00, a11, a01 = dot3(w0, bw0) + k0, dot3(w1, bw1) + k1, dot3(w0, bw1)
+        # (axis_balance's, without a table; a coordinate that does not move: 0 and 1)
+        g0 = -e * dot3(w0, m) - k0 * (x0 - rest0) - d0 * (x0 - p0) - f0 if m0 else 0.0
+        g1 = -e * dot3(w1, m) - k1 * (x1 - rest1) - d1 * (x1 - p1) - f1 if m1 else 0.0
+        a00 = dot3(w0, bw0) + k0 + d0 if m0 else 1.0
+        a11 = dot3(w1, bw1) + k1 + d1 if m1 else 1.0
+        a01 = dot3(w0, bw1) if m0 & m1 else 0.0
         s = solve_sym3(a00, a01, 0.0, a11, 0.0, 1.0, g0, g1, 0.0)
-        n0, n1 = min(max(x0 + s[0], lo0), hi0) - x0, min(max(x1 + s[1], lo1), hi1) - x1
+        n0 = min(max(x0 + s[0], lo0), hi0) - x0 if m0 else 0.0
+        n1 = min(max(x1 + s[1], lo1), hi1) - x1 if m1 else 0.0
         done = not max(abs(n0), abs(n1)) > NEWTON_TOL
         # the exact derivative (settle_universal's second step)
-        a00 += dot3(jacobian_rate(t, cc, c2, e, w0, a1), m)
-        a11 += dot3(jacobian_rate(t, cc, c2, e, w1, b), m)
+        a00 += dot3(jacobian_rate(t, cc, c2, e, w0, a1), m) if m0 else 0.0
+        a11 += dot3(jacobian_rate(t, cc, c2, e, w1, b), m) if m1 else 0.0
         ba = cross(b[0], b[1], b[2], a1[0], a1[1], a1[2])
-        a01 += dot3(jacobian_rate(t, cc, c2, e, w1, a1), m) - e * dot3(inverse_jacobian(t, cc, e, ba), m)
+        a01 += dot3(jacobian_rate(t, cc, c2, e, w1, a1), m) - e * dot3(inverse_jacobian(t, cc, e, ba), m) \
+            if m0 & m1 else 0.0
         stiff = (a00 > 0.0) & (a00 * a11 > a01 * a01)
         s = solve_sym3(a00, a01, 0.0, a11, 0.0, 1.0, g0, g1, 0.0)
-        e0, e1 = min(max(x0 + s[0], lo0), hi0) - x0, min(max(x1 + s[1], lo1), hi1) - x1
+        e0 = min(max(x0 + s[0], lo0), hi0) - x0 if m0 else 0.0
+        e1 = min(max(x1 + s[1], lo1), hi1) - x1 if m1 else 0.0
         carried = (done == False) & stiff & (max(abs(e0), abs(e1)) <= ONE_STEP)  # noqa: E712
-        d0, d1 = (e0, e1) if carried else (0.0, 0.0)
-        u = (d0 * w0[0] + d1 * w1[0], d0 * w0[1] + d1 * w1[1], d0 * w0[2] + d1 * w1[2])
+        dd0, dd1 = (e0, e1) if carried else (0.0, 0.0)
+        u = (dd0 * w0[0] + dd1 * w1[0], dd0 * w0[1] + dd1 * w1[1], dd0 * w0[2] + dd1 * w1[2])
         te = inverse_jacobian(t, cc, e, m)
         dm = carried_torque(t, cc, c2, e, m, u, bend_rate(il, bend, u), 1.0)   # (linear in the direction)
         te = (e * te[0] + dm[0], e * te[1] + dm[1], e * te[2] + dm[2])
         node = node_torque(r, rel, te)
+        still = (m0 | m1) == False   # noqa: E712  (held whole: the loads it was weighed with)
+        node, te = (wnode, wte) if still else (node, te)
         # on from the first step where the exact derivative is not positive, else from the exact step
-        nx0, nx1 = (x0 + d0, x1 + d1) if done | carried else ((x0 + e0, x1 + e1) if stiff else (x0 + n0, x1 + n1))
-        fits = (C[C_UNIVERSAL, j] != 0.0) & small
-        out[U_OK, j] = (SETTLED if done | carried else AHEAD) if fits else 0.0
+        nx0, nx1 = (x0 + dd0, x1 + dd1) if done | carried else ((x0 + e0, x1 + e1) if stiff else (x0 + n0, x1 + n1))
+        fits = (C[C_UNIVERSAL, j] != 0.0) & checked & (still | small)
+        out[U_OK, j] = (SETTLED if still | done | carried else AHEAD) if fits else 0.0
         out[U_PHI, j], out[U_PHI + 1, j] = nx0, nx1
+        out[U_FRIC, j], out[U_FRIC + 1, j] = f0, f1
+        out[U_MOVES, j], out[U_MOVES + 1, j] = (1.0 if m0 else 0.0), (1.0 if m1 else 0.0)
         out[U_NODE, j], out[U_NODE + 1, j], out[U_NODE + 2, j] = node
         out[U_TAU_E, j], out[U_TAU_E + 1, j], out[U_TAU_E + 2, j] = te
         out[U_LAB, j], out[U_LAB + 1, j], out[U_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
@@ -251,8 +298,8 @@ def lane_tables(p, model):
     C[C_AXIS_B:C_AXIS_B + 3, :k] = p.axis_b.T
     C[C_LOWER1, :k], C[C_UPPER1, :k], C[C_SPRING1, :k], C[C_REST1, :k] = (p.lower[:, 1], p.upper[:, 1],
                                                                           p.stiffness[:, 1], p.rest[:, 1])
-    C[C_UNIVERSAL, :k] = (p.dofs == UNIVERSAL) & (p.table_offsets[2::3] == p.table_offsets[0:-1:3]) & \
-        np.all((p.static + p.kinetic + p.damping)[:, :2] == 0.0, axis=1)   # (free_joint)
+    C[C_DAMPER1, :k], C[C_STATIC1, :k], C[C_KINETIC1, :k] = p.damping[:, 1], p.static[:, 1], p.kinetic[:, 1]
+    C[C_UNIVERSAL, :k] = (p.dofs == UNIVERSAL) & (p.table_offsets[2::3] == p.table_offsets[0:-1:3])
     held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
     C[C_LOOSE, :k] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
         np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)

@@ -346,9 +346,11 @@ def test_welded_end_has_no_joint_state():
     (lambda **kw: cosnet.Ball(**kw), BALL_OK, 1e-8),
     (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), **kw), UNIVERSALS + U_OK, 1e-9),
     (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), stiffness=(0.5, 0.3), rest=(0.2, -0.1),
-                                   limits=((-0.3, 0.12), (-0.03, 0.3)), **kw), UNIVERSALS + U_OK, 1e-9)],
+                                   limits=((-0.3, 0.12), (-0.03, 0.3)), **kw), UNIVERSALS + U_OK, 1e-9),
+    (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), stiffness=0.5, damping=2e-3,
+                                   friction=(0.05, 0.04), **kw), UNIVERSALS + U_OK, 1e-9)],
     ids=["pins", "springs and limits", "dampers and friction", "loose balls", "cardans",
-         "cardans with springs and limits"])
+         "cardans with springs and limits", "cardans with dampers and friction"])
 def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make, row, within):
     """A hanging chain of twelve links on hinges without a spring table, or on loose ball joints
     (its joints at line starts and at line ends), settles them in vector lanes; the same chain
@@ -399,9 +401,8 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     """The lanes' rows (joint_lanes.lane_tables, numpy over all joints) mark as loose exactly the
     ball joints the scalar path settles in closed form (articulation.loose_ball), hold each
     cone's cosine as the scalar path takes it (cone_cosine), mark as hinges those without a
-    spring table and as universal joints those without friction, damper (free_joint) or spring
-    table; the padding to whole vectors marks none."""
-    from cosnet.kernels.articulation import BALL, UNIVERSAL, cone_cosine, free_joint, loose_ball
+    spring table, and universal joints likewise; the padding to whole vectors marks none."""
+    from cosnet.kernels.articulation import BALL, cone_cosine, loose_ball
     from cosnet.kernels.joint_lanes import C_CONE, C_HINGE, C_LOOSE, C_UNIVERSAL
     joints = [cosnet.Ball(), cosnet.Ball(cone=0.4), cosnet.Ball(stiffness=1.0), cosnet.Ball(damping=0.1),
               cosnet.Ball(friction=(0.2, 0.1)), cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])),
@@ -421,9 +422,7 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     assert np.array_equal(p.lane_constants[C_LOOSE, :k] != 0.0, loose)
     assert np.array_equal(p.lane_constants[C_CONE, :k], [cone_cosine.py_func(c) for c in p.cone])
     assert np.array_equal(p.lane_constants[C_HINGE, :k] != 0.0, [False] * 6 + [True, True] + [False] * 4)
-    free = [bool(p.dofs[j] == UNIVERSAL and free_joint.py_func(p, j)) for j in range(k)]   # (settle_axes' test)
-    assert np.array_equal(p.lane_constants[C_UNIVERSAL, :k] != 0.0, [f and j != 11 for j, f in enumerate(free)])
-    assert free[9] and not free[10]
+    assert np.array_equal(p.lane_constants[C_UNIVERSAL, :k] != 0.0, [False] * 9 + [True, True, False])
     assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL], k:].any()
 
 
