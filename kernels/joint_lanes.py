@@ -40,7 +40,8 @@ C_AXIS, C_BEND, C_LOWER, C_UPPER, C_SPRING, C_REST, C_HINGE, C_IL, C_U0, C_FRAME
 C_DAMPER, C_STATIC, C_KINETIC = 22, 23, 24
 C_AXIS_B, C_LOWER1, C_UPPER1, C_SPRING1, C_REST1, C_UNIVERSAL = 25, 28, 29, 30, 31, 32
 C_DAMPER1, C_STATIC1, C_KINETIC1 = 33, 34, 35
-LANE_CONSTANTS = 36
+C_HELD = 36   # not free_joint: some coordinate of the joint has friction or a damper
+LANE_CONSTANTS = 37
 
 HELD = True   # kernels/articulation.py's option: some joint has friction or a damper
 # The lanes' rows hold the joints padded to a whole number of vector widths, the last joint
@@ -82,7 +83,7 @@ def weigh_hinges(p, model, state, dt, out):
         tau, te = boundary_pair((t[0], t[1], t[2]), t[3], m, start)
         # (& | and == False, not the short-circuit and, or, not: their branches kept the loop
         # out of vector lanes)
-        held = C[C_STATIC, j] + C[C_KINETIC, j] + C[C_DAMPER, j] != 0.0   # (not free_joint)
+        held = C[C_HELD, j] != 0.0
         q0 = dot3(a, tau) - C[C_SPRING, j] * (prev - C[C_REST, j])   # (start_motion's, without a table)
         stays, fric = friction_weighed(q0, C[C_STATIC, j], C[C_KINETIC, j], sliding[i] != 0.0, C[C_DAMPER, j], dt)
         out[W_OK, j] = 1.0 if small | (held == False) else 0.0  # noqa: E712
@@ -200,8 +201,7 @@ def settle_universals(p, model, state, dt, out):
             wt = small_rotation(wturn[0], wturn[1], wturn[2], wturn[3])
             tau, wte = boundary_pair((wt[0], wt[1], wt[2]), wt[3], boundary_moment((wt[0], wt[1], wt[2]), il, u0, bend),
                                      start)
-            held = C[C_STATIC, j] + C[C_KINETIC, j] + C[C_DAMPER, j] + C[C_STATIC1, j] + C[C_KINETIC1, j] + \
-                C[C_DAMPER1, j] != 0.0   # (not free_joint)
+            held = C[C_HELD, j] != 0.0
             s0, w0f = friction_weighed(dot3(c0, tau) - k0 * (p0 - rest0), C[C_STATIC, j], C[C_KINETIC, j],
                                        sliding[i] != 0.0, C[C_DAMPER, j], dt)
             s1, w1f = friction_weighed(dot3(b, tau) - k1 * (p1 - rest1), C[C_STATIC1, j], C[C_KINETIC1, j],
@@ -300,6 +300,8 @@ def lane_tables(p, model):
                                                                           p.stiffness[:, 1], p.rest[:, 1])
     C[C_DAMPER1, :k], C[C_STATIC1, :k], C[C_KINETIC1, :k] = p.damping[:, 1], p.static[:, 1], p.kinetic[:, 1]
     C[C_UNIVERSAL, :k] = (p.dofs == UNIVERSAL) & (p.table_offsets[2::3] == p.table_offsets[0:-1:3])
+    C[C_HELD, :k] = np.any((p.static + p.kinetic + p.damping != 0.0) & (np.arange(3) < p.dofs[:, None]),
+                           axis=1)   # (free_joint)
     held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
     C[C_LOOSE, :k] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
         np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)

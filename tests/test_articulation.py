@@ -401,9 +401,10 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     """The lanes' rows (joint_lanes.lane_tables, numpy over all joints) mark as loose exactly the
     ball joints the scalar path settles in closed form (articulation.loose_ball), hold each
     cone's cosine as the scalar path takes it (cone_cosine), mark as hinges those without a
-    spring table, and universal joints likewise; the padding to whole vectors marks none."""
-    from cosnet.kernels.articulation import BALL, cone_cosine, loose_ball
-    from cosnet.kernels.joint_lanes import C_CONE, C_HINGE, C_LOOSE, C_UNIVERSAL
+    spring table, and universal joints likewise, and as held those with friction or a damper
+    (free_joint); the padding to whole vectors marks none."""
+    from cosnet.kernels.articulation import BALL, cone_cosine, free_joint, loose_ball
+    from cosnet.kernels.joint_lanes import C_CONE, C_HELD, C_HINGE, C_LOOSE, C_UNIVERSAL
     joints = [cosnet.Ball(), cosnet.Ball(cone=0.4), cosnet.Ball(stiffness=1.0), cosnet.Ball(damping=0.1),
               cosnet.Ball(friction=(0.2, 0.1)), cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])),
               cosnet.Hinge(axis=Y), cosnet.Hinge(axis=Y, friction=(0.2, 0.1)),
@@ -423,6 +424,9 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     assert np.array_equal(p.lane_constants[C_CONE, :k], [cone_cosine.py_func(c) for c in p.cone])
     assert np.array_equal(p.lane_constants[C_HINGE, :k] != 0.0, [False] * 6 + [True, True] + [False] * 4)
     assert np.array_equal(p.lane_constants[C_UNIVERSAL, :k] != 0.0, [False] * 9 + [True, True, False])
+    held = [not free_joint.py_func(p, j) for j in range(k)]   # (start_joint's test)
+    assert held == [False, False, False, True, True, False, False, True, False, False, True, False]
+    assert np.array_equal(p.lane_constants[C_HELD, :k] != 0.0, held)
     assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL], k:].any()
 
 
