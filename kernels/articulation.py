@@ -46,7 +46,11 @@ next point. A universal joint without a spring table takes its friction's weighi
 settle_universal's first evaluation in the same way, its two coordinates' Newton steps selected
 without a branch (settle_universals, in one loop over the lanes' rows that LLVM keeps scalar);
 the others (spring tables, boundary points turned past 0.2 rad) go through the scalar path as
-before.
+before. A ball joint with friction or a damper and without a spring table has its friction
+weighed at phi^- in lanes too (weigh_balls, start_turning's weighing): one that its friction
+holds is settled there, with the loads it was weighed with (a friction joint is held most of
+the time), one that turns goes on through the iteration, which on the scalar path likewise
+takes the weighed loads of a joint held whole.
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
@@ -72,13 +76,12 @@ from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from . import joint_lanes
 from .elastic import end_frame
-from .elementary import sin_cos
-from .joint_lanes import AHEAD, BALL_OK, C_HINGE, C_LOOSE, C_UNIVERSAL, FRIC, LAB, LANE_MIN, MOVES, NODE, OK, PHI, \
-    SETTLED, TAU_E, TURN, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, U_TAU_E, UNIVERSALS, WEIGHED, settle_balls, \
-    settle_hinges, settle_universals, weigh_hinges
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_pair, \
-    boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, hinge_terms, hinge_torques, inverse_jacobian, \
-    jacobian_rate, loose_turn, node_torque, small_rate
+from .joint_lanes import AHEAD, BALL_OK, C_GRIP, C_HINGE, C_LOOSE, C_UNIVERSAL, FRIC, G_LAB, G_NODE, G_OK, G_TAU_E, \
+    GRIPPED, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, TAU_E, TURN, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, \
+    U_TAU_E, UNIVERSALS, WEIGHED, settle_balls, settle_hinges, settle_universals, weigh_balls, weigh_hinges
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_weighed, bend_rate, \
+    boundary_moment, boundary_pair, boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, hinge_terms, \
+    hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, node_torque, small_rate
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, rotation_of, solve_sym3
 from .specialise import Variants
 
@@ -93,7 +96,9 @@ PINS = True     # some joint is a hinge without a spring table, of LANE_MIN join
 LOOSE = True    # some joint is a loose ball joint, of LANE_MIN joints or more (joint_lanes.settle_balls)
 CARDANS = True  # some joint is a universal joint without a spring table, of LANE_MIN joints or more
                 # (joint_lanes.settle_universals)
-OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS")
+GRIPS = True    # some joint is a ball joint with friction or a damper and without a spring table, of LANE_MIN
+                # joints or more (joint_lanes.weigh_balls)
+OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS", "GRIPS")
 
 
 class ArticulationParams(NamedTuple):
@@ -127,25 +132,6 @@ class ArticulationParams(NamedTuple):
 
 
 @njit(**INNER)
-def ball_axis(p0, p1, p2, i):
-    """Return column i of the right Jacobian J_r(phi) = 1 - a [phi]x + b [phi]x^2 of exp
-    (a = (1 - cos t)/t^2, b = (t - sin t)/t^3, t = |phi|): the body axis turned by d phi_i."""
-    t2 = p0 * p0 + p1 * p1 + p2 * p2
-    if t2 < 0.01:
-        a = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 / 40320.0))
-        b = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
-    else:
-        t = math.sqrt(t2)
-        st, ct = sin_cos(t)
-        a = (1.0 - ct) / t2
-        b = (t - st) / (t2 * t)
-    e0, e1, e2 = (1.0 if i == 0 else 0.0), (1.0 if i == 1 else 0.0), (1.0 if i == 2 else 0.0)
-    cx, cy, cz = cross(p0, p1, p2, e0, e1, e2)
-    dx, dy, dz = cross(p0, p1, p2, cx, cy, cz)
-    return e0 - a * cx + b * dx, e1 - a * cy + b * dy, e2 - a * cz + b * dz
-
-
-@njit(**INNER)
 def joint_turn(p, j, phi):
     """Return (R, c0, c1, c2): joint j's rotation relative to X (quaternion) at coordinates
     phi (3-tuple) and the body axes of its coordinates in the joint frame ((0, 0, 0) for those
@@ -159,8 +145,8 @@ def joint_turn(p, j, phi):
         rb = quat_exp(phi[1] * b[0], phi[1] * b[1], phi[1] * b[2])
         r = quat_mul(ra[0], ra[1], ra[2], ra[3], rb[0], rb[1], rb[2], rb[3])
         return r, quat_rotate_inv(rb[0], rb[1], rb[2], rb[3], a[0], a[1], a[2]), (b[0], b[1], b[2]), zero
-    return (quat_exp(phi[0], phi[1], phi[2]), ball_axis(phi[0], phi[1], phi[2], 0),
-            ball_axis(phi[0], phi[1], phi[2], 1), ball_axis(phi[0], phi[1], phi[2], 2))
+    c0, c1, c2 = ball_axes(phi[0], phi[1], phi[2])
+    return quat_exp(phi[0], phi[1], phi[2]), c0, c1, c2
 
 
 @njit(**INNER)
@@ -215,34 +201,20 @@ def start_motion(p, j, i, torque, prev, dt):
 
 @njit(**INNER)
 def start_turning(p, j, model, state, f, prev, dt):
-    """Return (moves, f0, f1, f2) of ball joint j (its end frame f) at phi^- = prev: whether
-    it may turn in this evaluation and the friction's generalised torques f_i = c_i . F on its
-    coordinates. A ball joint's friction is one torque F on its rotation as a whole, not one
-    per coordinate: the joint sticks while the torque T it carries (in G's components,
-    C^T T = q with q_i the coordinates' generalised torques at phi^-, C's columns their axes
-    c_i) stays within the static torque (the kinetic one once turning), and turns against
-    F = kinetic T / |T|."""
+    """Return (moves, f0, f1, f2, R, tau_G, tau_E) of ball joint j (its end frame f) at
+    phi^- = prev: whether it may turn in this evaluation, the friction's generalised torques
+    f_i = c_i . F on its coordinates (a ball joint's friction is one torque F on its rotation
+    as a whole, not one per coordinate: joint_math.ball_weighed), and what was found at phi^-
+    (start_joint's held)."""
     r, c0, c1, c2 = joint_turn(p, j, prev)
-    tau = boundary_torques(p, j, model, state, f, r)[0]
+    tau, te, _, _, _ = boundary_torques(p, j, model, state, f, r)
     q0 = dot3(c0, tau) - p.stiffness[j, 0] * (prev[0] - p.rest[j, 0]) - spring_table(p, j, 0, prev[0])[0]
     q1 = dot3(c1, tau) - p.stiffness[j, 1] * (prev[1] - p.rest[j, 1]) - spring_table(p, j, 1, prev[1])[0]
     q2 = dot3(c2, tau) - p.stiffness[j, 2] * (prev[2] - p.rest[j, 2]) - spring_table(p, j, 2, prev[2])[0]
-    # T = (q0 (c1 x c2) + q1 (c2 x c0) + q2 (c0 x c1)) / det C (Cramer's rule)
-    a = cross(c1[0], c1[1], c1[2], c2[0], c2[1], c2[2])
-    b = cross(c2[0], c2[1], c2[2], c0[0], c0[1], c0[2])
-    c = cross(c0[0], c0[1], c0[2], c1[0], c1[1], c1[2])
-    det = dot3(c0, a)
-    tx = (q0 * a[0] + q1 * b[0] + q2 * c[0]) / det
-    ty = (q0 * a[1] + q1 * b[1] + q2 * c[1]) / det
-    tz = (q0 * a[2] + q1 * b[2] + q2 * c[2]) / det
-    size = math.sqrt(tx * tx + ty * ty + tz * tz)
     turning = p.sliding[j, 0] + p.sliding[j, 1] + p.sliding[j, 2] != 0.0
-    limit = p.kinetic[j, 0] if turning else p.static[j, 0]
-    held = (p.damping[j, 0] + p.damping[j, 1] + p.damping[j, 2]) > 0.0 and not dt > 0.0
-    if not size > limit or held:
-        return False, 0.0, 0.0, 0.0
-    k = p.kinetic[j, 0] / size
-    return True, k * q0, k * q1, k * q2
+    damped = (p.damping[j, 0] + p.damping[j, 1] + p.damping[j, 2]) > 0.0
+    stays, f0, f1, f2 = ball_weighed(c0, c1, c2, (q0, q1, q2), p.static[j, 0], p.kinetic[j, 0], turning, damped, dt)
+    return not stays, f0, f1, f2, r, tau, te
 
 
 @njit(**INLINE)
@@ -499,17 +471,18 @@ def start_joint(p, j, model, state, dt, f):
     """Return (phi^-, moves, friction, phi, 1/dt, held) of joint j, its end frame f
     (settle_joint): its coordinates at the last evaluation, dt before this one; whether each
     may move and the friction torque it then meets; where its Newton iteration starts, those
-    carried on at their last rate; and where the friction was weighed at phi^- (a hinge or
-    universal joint with friction or a damper), what was found there (whether, R, tau_G,
-    tau_E): the joint's loads if no coordinate moves (settle_axes)."""
+    carried on at their last rate; and where the friction was weighed at phi^- (a joint with
+    friction or a damper), what was found there (whether, R, tau_G, tau_E): the joint's loads
+    if no coordinate moves (settle_axes, settle_joint)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
     held = (False, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
     elif BALLS and n == BALL:
-        m0, f0, f1, f2 = start_turning(p, j, model, state, f, prev, dt)
+        m0, f0, f1, f2, r, tau, te = start_turning(p, j, model, state, f, prev, dt)
         m1, m2 = m0, m0
+        held = (True, r, tau, te)
     else:
         r, c0, c1, c2 = joint_turn(p, j, prev)
         tau, te, _, _, _ = boundary_torques(p, j, model, state, f, r)
@@ -534,9 +507,12 @@ def settle_joint(p, j, model, state, dt, f):
     on the node through the joint (X's components: R tau_G) and the body torque on the end
     element, by Newton's method with the leading term of the derivative (a hinge or
     universal joint: settle_axes)."""
-    prev, moves, fric, phi, inv_dt, _ = start_joint(p, j, model, state, dt, f)
+    prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt, f)
     m0, m1, m2 = moves
     f0, f1, f2 = fric
+    if held[0] and not (m0 or m1 or m2):   # held where it was: its loads are the friction check's
+        r, tau = held[1], held[2]
+        return prev, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
         tau, te, _, _, rel = boundary_torques(p, j, model, state, f, r)
@@ -632,9 +608,12 @@ def add_articulations(p, model, state, loads):
         settle_hinges(p, model, state, dt, L, W)
     if LOOSE:
         settle_balls(p, model, state, L)
-    U = L[UNIVERSALS:]
+    U = L[UNIVERSALS:GRIPPED]
     if CARDANS:
         settle_universals(p, model, state, dt, U)
+    H = L[GRIPPED:]
+    if GRIPS:
+        weigh_balls(p, model, state, dt, H)
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
         e = model.attach_element[a]
@@ -649,6 +628,11 @@ def add_articulations(p, model, state, loads):
             (tx, ty, tz), te = (L[NODE, j], L[NODE + 1, j], L[NODE + 2, j]), (L[TAU_E, j], L[TAU_E + 1, j],
                                                                             L[TAU_E + 2, j])
             lab = (L[LAB, j], L[LAB + 1, j], L[LAB + 2, j])
+        elif GRIPS and H[G_OK, j] == SETTLED:   # held by its friction where it was
+            phi, fric, moves = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), zero, (False, False, False)
+            (tx, ty, tz), te = (H[G_NODE, j], H[G_NODE + 1, j], H[G_NODE + 2, j]), (H[G_TAU_E, j], H[G_TAU_E + 1, j],
+                                                                                  H[G_TAU_E + 2, j])
+            lab = (H[G_LAB, j], H[G_LAB + 1, j], H[G_LAB + 2, j])
         elif CARDANS and U[U_OK, j] == SETTLED:   # the third coordinate stays 0
             phi, fric = (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
             moves = (U[U_MOVES, j] != 0.0, U[U_MOVES + 1, j] != 0.0, False)
@@ -742,9 +726,9 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    pins, loose, cardans = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
-                            for row in (C_HINGE, C_LOOSE, C_UNIVERSAL))
-    return VARIANTS.record(p, (balls, held, pins, loose, cardans))
+    pins, loose, cardans, grips = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
+                                   for row in (C_HINGE, C_LOOSE, C_UNIVERSAL, C_GRIP))
+    return VARIANTS.record(p, (balls, held, pins, loose, cardans, grips))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

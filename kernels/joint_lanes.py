@@ -1,9 +1,10 @@
-"""A net's hinges, universal joints and loose ball joints settled all at once, in lanes.
+"""A net's hinges, universal joints and ball joints settled all at once, in lanes.
 
 Branch-free loops over rows of one number a joint, which LLVM runs in vector lanes (all but
 settle_universals); kernels/articulation.py's module docstring says how, and which joints go
-on to its scalar path: weigh_hinges, settle_hinges, settle_universals and settle_balls, whose
-rows the load kernel reads, and the rows of constants they read (lane_tables)."""
+on to its scalar path: weigh_hinges, settle_hinges, settle_universals, settle_balls and
+weigh_balls, whose rows the load kernel reads, and the rows of constants they read
+(lane_tables)."""
 
 
 import numpy as np
@@ -11,10 +12,10 @@ from numba import njit
 
 from .backend import PASS
 from .compiler import INLINE
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, bend_rate, boundary_moment, boundary_pair, \
-    boundary_quat, carried_torque, dot3, friction_weighed, hinge_terms, hinge_torques, inverse_jacobian, \
-    jacobian_rate, loose_turn, node_torque, small_rate
-from .rotations import axis_quat, cross, quat_mul, quat_rotate, quat_rotate_inv, small_rotation, solve_sym3
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_weighed, bend_rate, \
+    boundary_moment, boundary_pair, boundary_quat, carried_torque, dot3, friction_weighed, hinge_terms, hinge_torques, \
+    inverse_jacobian, jacobian_rate, loose_turn, node_torque, small_rate
+from .rotations import axis_quat, cross, quat_exp, quat_mul, quat_rotate, quat_rotate_inv, small_rotation, solve_sym3
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
 # on its node (X's components) and end element, the first in the lab, its friction torque and
@@ -30,8 +31,12 @@ W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E = 0, 1, 2, 3, 6
 # each coordinate's friction torque and whether it moved
 UNIVERSALS = 26
 U_OK, U_PHI, U_NODE, U_TAU_E, U_LAB, U_FRIC, U_MOVES = 0, 1, 3, 6, 9, 12, 14
-LANE_ROWS = 42
-SETTLED, AHEAD = 1.0, 2.0   # in rows OK, BALL_OK and UNIVERSALS + U_OK
+# and of weigh_balls (from GRIPPED on): whether the joint's friction holds it there, the torques on
+# its node and end element, the first in the lab
+GRIPPED = 42
+G_OK, G_NODE, G_TAU_E, G_LAB = 0, 1, 4, 7
+LANE_ROWS = 52
+SETTLED, AHEAD = 1.0, 2.0   # in rows OK, BALL_OK, UNIVERSALS + U_OK and GRIPPED + G_OK
 # rows of p.lane_constants (lane_tables): the joints' constants the lanes read, a row for each
 # number (kernels/articulation.py's docstring says why); C_CONE holds cone_cosine; C_AXIS_B and
 # the rows ending in 1, a universal joint's second axis and coordinate
@@ -41,7 +46,10 @@ C_DAMPER, C_STATIC, C_KINETIC = 22, 23, 24
 C_AXIS_B, C_LOWER1, C_UPPER1, C_SPRING1, C_REST1, C_UNIVERSAL = 25, 28, 29, 30, 31, 32
 C_DAMPER1, C_STATIC1, C_KINETIC1 = 33, 34, 35
 C_HELD = 36   # not free_joint: some coordinate of the joint has friction or a damper
-LANE_CONSTANTS = 37
+# a ball joint's third coordinate's spring, its dampers' sum, and the mark of a ball joint with
+# friction or a damper and no spring table (weigh_balls)
+C_SPRING2, C_REST2, C_DAMPERS, C_GRIP = 37, 38, 39, 40
+LANE_CONSTANTS = 41
 
 HELD = True   # kernels/articulation.py's option: some joint has friction or a damper
 # The lanes' rows hold the joints padded to a whole number of vector widths, the last joint
@@ -265,6 +273,45 @@ def settle_universals(p, model, state, dt, out):
 
 
 @njit(**PASS)
+def weigh_balls(p, model, state, dt, out):
+    """Update out (LANE_ROWS - GRIPPED, k) for every joint by the friction of a ball joint without
+    a spring table weighed at phi^- (start_joint, start_turning), in vector lanes: row G_OK
+    SETTLED where the joint is such a ball joint with friction or a damper, its friction holds
+    it (it stays at phi^-) and its boundary point there turns by less than 0.2 rad; rows
+    G_NODE (3), G_TAU_E (3) and G_LAB (3) then hold the torques on the node and the end
+    element there, the first in the lab (its reaction). Elsewhere 0.0, and the rows anything:
+    a joint that turns goes through the scalar iteration."""
+    C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
+    phi, sliding = p.phi.reshape(3 * n), p.sliding.reshape(3 * n)
+    for j in range(C.shape[1]):
+        i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
+        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+        start = C[C_START, j] != 0.0
+        p0, p1, p2 = phi[i], phi[i + 1], phi[i + 2]
+        r = quat_exp(p0, p1, p2)
+        c0, c1, c2 = ball_axes(p0, p1, p2)
+        turn, small, _ = boundary_quat(f, q, start, r)
+        t = small_rotation(turn[0], turn[1], turn[2], turn[3])
+        m = boundary_moment((t[0], t[1], t[2]), C[C_IL, j], (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
+                            (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j]))
+        tau, te = boundary_pair((t[0], t[1], t[2]), t[3], m, start)
+        # (start_turning's, without a table)
+        q0 = dot3(c0, tau) - C[C_SPRING, j] * (p0 - C[C_REST, j])
+        q1 = dot3(c1, tau) - C[C_SPRING1, j] * (p1 - C[C_REST1, j])
+        q2 = dot3(c2, tau) - C[C_SPRING2, j] * (p2 - C[C_REST2, j])
+        turning = sliding[i] + sliding[i + 1] + sliding[i + 2] != 0.0
+        stays = ball_weighed(c0, c1, c2, (q0, q1, q2), C[C_STATIC, j], C[C_KINETIC, j], turning,
+                             C[C_DAMPERS, j] > 0.0, dt)[0]
+        out[G_OK, j] = SETTLED if (C[C_GRIP, j] != 0.0) & stays & small else 0.0
+        node = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
+        out[G_NODE, j], out[G_NODE + 1, j], out[G_NODE + 2, j] = node
+        out[G_TAU_E, j], out[G_TAU_E + 1, j], out[G_TAU_E + 2, j] = te
+        out[G_LAB, j], out[G_LAB + 1, j], out[G_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
+                                                                          node[2])
+
+
+@njit(**PASS)
 def settle_balls(p, model, state, out):
     """Update out (LANE_ROWS, k) for every joint by loose_turn, in vector lanes: row BALL_OK
     SETTLED at a loose ball joint (loose_ball) whose balance lies within its cone, its
@@ -284,9 +331,9 @@ def settle_balls(p, model, state, out):
 
 def lane_tables(p, model):
     """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges,
-    settle_balls, weigh_hinges, settle_universals): a column per joint, then its last repeated
-    to the padding (lane_count), where no joint is a lane's hinge, loose ball or universal
-    joint."""
+    settle_balls, weigh_hinges, settle_universals, weigh_balls): a column per joint, then its
+    last repeated to the padding (lane_count), where no joint is a lane's hinge, loose ball,
+    universal joint or held ball joint."""
     C, a, k = p.lane_constants, p.attach, p.attach.shape[0]
     C[C_AXIS:C_AXIS + 3, :k] = p.axis_a.T
     C[C_BEND:C_BEND + 3, :k] = p.bend.T
@@ -302,6 +349,8 @@ def lane_tables(p, model):
     C[C_UNIVERSAL, :k] = (p.dofs == UNIVERSAL) & (p.table_offsets[2::3] == p.table_offsets[0:-1:3])
     C[C_HELD, :k] = np.any((p.static + p.kinetic + p.damping != 0.0) & (np.arange(3) < p.dofs[:, None]),
                            axis=1)   # (free_joint)
+    C[C_SPRING2, :k], C[C_REST2, :k], C[C_DAMPERS, :k] = p.stiffness[:, 2], p.rest[:, 2], p.damping.sum(axis=1)
+    C[C_GRIP, :k] = (p.dofs == BALL) & (C[C_HELD, :k] != 0.0) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])
     held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
     C[C_LOOSE, :k] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
         np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)
@@ -314,5 +363,5 @@ def lane_tables(p, model):
     p.lane_ends[0, :k], p.lane_ends[1, :k] = model.attach_node[a], model.attach_element[a]
     if k > 0:
         C[:, k:] = C[:, k - 1:k]
-        C[C_HINGE, k:] = C[C_LOOSE, k:] = C[C_UNIVERSAL, k:] = 0.0
+        C[C_HINGE, k:] = C[C_LOOSE, k:] = C[C_UNIVERSAL, k:] = C[C_GRIP, k:] = 0.0
         p.lane_ends[:, k:] = p.lane_ends[:, k - 1:k]

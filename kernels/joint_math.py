@@ -1,7 +1,7 @@
 """The arithmetic of an articulated line end (kernels/articulation.py): its boundary Voronoi
 point between the joint frame and the end element, a hinge's balance and a loose ball joint's,
 shared by the scalar path (kernels/articulation.py) and the vector lanes (kernels/joint_lanes.py)
-that settle a net's hinges and loose ball joints all at once. The helpers take numbers and
+that settle a net's hinges, universal joints and ball joints all at once. The helpers take numbers and
 tuples, not the records: a call passes these in registers, and LLVM inlines them into the lanes'
 loops, which they leave free of branches where these run them."""
 
@@ -12,6 +12,7 @@ from numba import njit
 
 from .compiler import INLINE, INNER
 from .elastic import bend_torques
+from .elementary import sin_cos
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, relative_quat
 
 HINGE, UNIVERSAL, BALL = 1, 2, 3   # the number of coordinates of each kind
@@ -180,3 +181,50 @@ def friction_weighed(q0, static, kinetic, sliding, damping, dt):
     limit = kinetic if sliding else static
     stays = (abs(q0) <= limit) | ((damping > 0.0) & ((dt > 0.0) == False))  # noqa: E712
     return stays, (0.0 if stays else math.copysign(kinetic, q0))
+
+
+@njit(**INNER)
+def ball_axes(p0, p1, p2):
+    """Return the columns of the right Jacobian J_r(phi) = (1 - b t^2) 1 - a [phi]x + b phi phi^T
+    of exp (a = (1 - cos t)/t^2, b = (t - sin t)/t^3, t = |phi|): the body axes turned by
+    d phi_0, d phi_1, d phi_2 (3-tuples), a and b taken once for the three. (Both of a and b's
+    forms computed and one selected, the closed one kept finite at t = 0: the lanes,
+    joint_lanes.weigh_balls, then run it without a branch.)"""
+    t2 = p0 * p0 + p1 * p1 + p2 * p2
+    sa = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 / 40320.0))
+    sb = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
+    w2 = max(t2, 0.01)
+    t = math.sqrt(w2)
+    st, ct = sin_cos(t)
+    small = t2 < 0.01
+    a = sa if small else (1.0 - ct) / w2
+    b = sb if small else (t - st) / (w2 * t)
+    c = 1.0 - b * t2
+    b0, b1, b2 = b * p0, b * p1, b * p2
+    a0, a1, a2 = a * p0, a * p1, a * p2
+    return ((c + b0 * p0, b1 * p0 - a2, b2 * p0 + a1),
+            (b0 * p1 + a2, c + b1 * p1, b2 * p1 - a0),
+            (b0 * p2 - a1, b1 * p2 + a0, c + b2 * p2))
+
+
+@njit(**INNER)
+def ball_weighed(c0, c1, c2, q, static, kinetic, turning, damped, dt):
+    """Return (stays, f0, f1, f2) of a ball joint whose coordinates, of body axes c0, c1, c2,
+    meet the generalised torques q (3-tuple) at phi^-: whether it sticks and the friction's
+    generalised torques f_i = c_i . F if not (0 if it sticks). Its friction is one torque F on
+    its rotation as a whole: the joint sticks while the torque T it carries (in G's components,
+    C^T T = q, C's columns the c_i) stays within the static torque (the kinetic one while
+    ``turning``), or its dampers (``damped``) hold it over no time, and turns against
+    F = kinetic T / |T|. (& | == False, as friction_weighed.)"""
+    a = cross(c1[0], c1[1], c1[2], c2[0], c2[1], c2[2])
+    b = cross(c2[0], c2[1], c2[2], c0[0], c0[1], c0[2])
+    c = cross(c0[0], c0[1], c0[2], c1[0], c1[1], c1[2])
+    inv = 1.0 / dot3(c0, a)   # T = (q0 (c1 x c2) + q1 (c2 x c0) + q2 (c0 x c1)) / det C (Cramer's rule)
+    tx = (q[0] * a[0] + q[1] * b[0] + q[2] * c[0]) * inv
+    ty = (q[0] * a[1] + q[1] * b[1] + q[2] * c[1]) * inv
+    tz = (q[0] * a[2] + q[1] * b[2] + q[2] * c[2]) * inv
+    size = math.sqrt(tx * tx + ty * ty + tz * tz)
+    limit = kinetic if turning else static
+    stays = ((size > limit) == False) | (damped & ((dt > 0.0) == False))  # noqa: E712
+    k = 0.0 if stays else kinetic / size
+    return stays, k * q[0], k * q[1], k * q[2]

@@ -18,7 +18,7 @@ from scipy.special import ellipk
 
 import cosnet
 from cosnet.core.rotations import matrix_from_quat
-from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, OK, SETTLED, U_OK, UNIVERSALS
+from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, G_OK, GRIPPED, OK, SETTLED, U_OK, UNIVERSALS
 from nets import resumed
 
 G = 9.81
@@ -348,9 +348,11 @@ def test_welded_end_has_no_joint_state():
     (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), stiffness=(0.5, 0.3), rest=(0.2, -0.1),
                                    limits=((-0.3, 0.12), (-0.03, 0.3)), **kw), UNIVERSALS + U_OK, 1e-9),
     (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), stiffness=0.5, damping=2e-3,
-                                   friction=(0.05, 0.04), **kw), UNIVERSALS + U_OK, 1e-9)],
+                                   friction=(0.05, 0.04), **kw), UNIVERSALS + U_OK, 1e-9),
+    (lambda **kw: cosnet.Ball(stiffness=(0.5, 0.3, 0.2), rest=(0.1, -0.05, 0.3), damping=2e-3,
+                              friction=(0.05, 0.04), **kw), GRIPPED + G_OK, 1e-9)],
     ids=["pins", "springs and limits", "dampers and friction", "loose balls", "cardans",
-         "cardans with springs and limits", "cardans with dampers and friction"])
+         "cardans with springs and limits", "cardans with dampers and friction", "balls with dampers and friction"])
 def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make, row, within):
     """A hanging chain of twelve links on hinges without a spring table, or on loose ball joints
     (its joints at line starts and at line ends), settles them in vector lanes; the same chain
@@ -360,7 +362,8 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     with dampers and friction, some joints held and others turning. At the last evaluation the
     lanes took every joint: a hinge's friction check and first Newton step (and settled it
     there, or, the step too long to carry, the iteration went on from it), a ball joint's
-    balance."""
+    balance; a ball joint's friction weighed, the joint settled there where it holds it (the
+    others turned by the scalar iteration)."""
     def chain(**extra):
         net = cosnet.Net()
         nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
@@ -383,7 +386,11 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     lanes, angles = chain()
     iterated, angles_it = chain(spring_table=([-1.0, 1.0], [0.0, 0.0]))
     taken = lanes.effect_params(lanes.effects[-1]).lanes[row][:12]   # (the joints, not the vector's padding)
-    assert np.all(np.isin(taken, (SETTLED,) if row == BALL_OK else (SETTLED, AHEAD)))
+    if row == GRIPPED + G_OK:   # held joints settled there, turning ones left to the iteration
+        turned = lanes.effect_params(lanes.effects[-1]).sliding[:, 0] != 0.0
+        assert np.array_equal(taken == SETTLED, ~turned) and np.all(taken[turned] == 0.0)
+    else:
+        assert np.all(np.isin(taken, (SETTLED,) if row == BALL_OK else (SETTLED, AHEAD)))
     assert np.ptp(angles, axis=0).max() > 0.2            # the joints swung (rad)
     joint = make()
     if np.isfinite(joint.upper).any():   # limits: a joint held at one
@@ -401,10 +408,11 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     """The lanes' rows (joint_lanes.lane_tables, numpy over all joints) mark as loose exactly the
     ball joints the scalar path settles in closed form (articulation.loose_ball), hold each
     cone's cosine as the scalar path takes it (cone_cosine), mark as hinges those without a
-    spring table, and universal joints likewise, and as held those with friction or a damper
-    (free_joint); the padding to whole vectors marks none."""
+    spring table, and universal joints likewise, as held those with friction or a damper
+    (free_joint), and ball joints held so without a spring table as those whose friction the
+    lanes weigh; the padding to whole vectors marks none."""
     from cosnet.kernels.articulation import BALL, cone_cosine, free_joint, loose_ball
-    from cosnet.kernels.joint_lanes import C_CONE, C_HELD, C_HINGE, C_LOOSE, C_UNIVERSAL
+    from cosnet.kernels.joint_lanes import C_CONE, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_UNIVERSAL
     joints = [cosnet.Ball(), cosnet.Ball(cone=0.4), cosnet.Ball(stiffness=1.0), cosnet.Ball(damping=0.1),
               cosnet.Ball(friction=(0.2, 0.1)), cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])),
               cosnet.Hinge(axis=Y), cosnet.Hinge(axis=Y, friction=(0.2, 0.1)),
@@ -427,7 +435,10 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     held = [not free_joint.py_func(p, j) for j in range(k)]   # (start_joint's test)
     assert held == [False, False, False, True, True, False, False, True, False, False, True, False]
     assert np.array_equal(p.lane_constants[C_HELD, :k] != 0.0, held)
-    assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL], k:].any()
+    grips = [held[j] and p.dofs[j] == BALL and p.table_offsets[3 * j + 3] == p.table_offsets[3 * j] for j in range(k)]
+    assert grips == [False, False, False, True, True] + [False] * (k - 5)
+    assert np.array_equal(p.lane_constants[C_GRIP, :k] != 0.0, grips)
+    assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL, C_GRIP], k:].any()
 
 
 def test_spoilt_joint_table_is_refused_in_one_line():

@@ -576,7 +576,7 @@ def test_joints_compile_only_what_the_nets_joints_have():
     # a loose one in closed form (loose_turn)
     assert "settle_universal" in free_universal and "settle_joint" not in free_universal
     assert "settle_joint" in ball and "joint_turn" in ball
-    for name in ("start_turning", "ball_axis", "loose_turn"):
+    for name in ("start_turning", "ball_axes", "loose_turn"):
         assert name not in free_universal, name
         assert name in ball, name
 
