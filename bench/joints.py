@@ -2,9 +2,9 @@
 
 Cost: a hanging chain of LINKS steel links (5 elements each, 0.2 m; or 50 elements, 2 m: a
 joint ten times sparser) whose junctions are welded, free hinges, ball joints, universal joints
-(Cardan: about y in the node, z in the joint), or hinges, universal or ball joints with a spring,
-a damper and friction; every net stepped at the welded chain's stable step, interleaved rounds,
-one thread. Each row also gives the net's own stable step against the welded one's.
+(Cardan: about y in the node, z in the joint), ball joints with a spring, or hinges, universal
+or ball joints with a spring, a damper and friction; every net stepped at the welded chain's
+stable step, interleaved rounds, one thread. Each row also gives the net's own stable step against the welded one's.
 
 Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings of 1 kg
 sliding on it with friction, each pulled down by a node load, in air and in water (the wire
@@ -40,6 +40,7 @@ JOINTS = {
     "free hinges": lambda: cosnet.Hinge(axis=Y),
     "ball joints": lambda: cosnet.Ball(),
     "universal joints": lambda: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0))),
+    "ball joints with spring": lambda: cosnet.Ball(stiffness=10.0),
     "hinges with spring, damper, friction": lambda: cosnet.Hinge(axis=Y, stiffness=10.0, damping=0.01,
                                                                  friction=(0.5, 0.4)),
     "universal joints with spring, damper, friction": lambda: cosnet.Universal(

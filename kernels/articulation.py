@@ -50,7 +50,10 @@ before. A ball joint with friction or a damper and without a spring table has it
 weighed at phi^- in lanes too (weigh_balls, start_turning's weighing): one that its friction
 holds is settled there, with the loads it was weighed with (a friction joint is held most of
 the time), one that turns goes on through the iteration, which on the scalar path likewise
-takes the weighed loads of a joint held whole.
+takes the weighed loads of a joint held whole. A ball joint that turns, neither loose nor with
+a spring table or a cone, settles by settle_ball (the leading term's steps, and an exact step
+below ONE_STEP carried, as a hinge's), in lanes by its first evaluation (settle_sockets, where
+at least one in SOCKET_SHARE of the lanes' columns turns: the lanes take every column).
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
@@ -76,12 +79,13 @@ from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from . import joint_lanes
 from .elastic import end_frame
-from .joint_lanes import AHEAD, BALL_OK, C_GRIP, C_HINGE, C_LOOSE, C_UNIVERSAL, FRIC, G_LAB, G_NODE, G_OK, G_TAU_E, \
-    GRIPPED, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, TAU_E, TURN, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, \
-    U_TAU_E, UNIVERSALS, WEIGHED, settle_balls, settle_hinges, settle_universals, weigh_balls, weigh_hinges
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_weighed, bend_rate, \
-    boundary_moment, boundary_pair, boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, hinge_terms, \
-    hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, node_torque, small_rate
+from .joint_lanes import AHEAD, BALL_OK, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_SOCKET, C_UNIVERSAL, FRIC, G_FRIC, \
+    G_LAB, G_NODE, G_OK, G_TAU_E, GRIPPED, LAB, LANE_MIN, MOVES, NODE, OK, PHI, S_LAB, S_NODE, S_OK, S_PHI, S_TAU_E, \
+    SETTLED, SOCKETED, TAU_E, TURN, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, U_TAU_E, UNIVERSALS, WEIGHED, \
+    SOCKET_SHARE, settle_balls, settle_hinges, settle_sockets, settle_universals, weigh_balls, weigh_hinges
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_exact, ball_weighed, \
+    bend_rate, boundary_moment, boundary_pair, boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, \
+    hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, node_torque, positive_sym3, small_rate
 from .rotations import cross, quat_exp, quat_log, quat_mul, quat_rotate, quat_rotate_inv, rotation_of, solve_sym3
 from .specialise import Variants
 
@@ -98,7 +102,9 @@ CARDANS = True  # some joint is a universal joint without a spring table, of LAN
                 # (joint_lanes.settle_universals)
 GRIPS = True    # some joint is a ball joint with friction or a damper and without a spring table, of LANE_MIN
                 # joints or more (joint_lanes.weigh_balls)
-OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS", "GRIPS")
+SOCKETS = True  # some joint is a ball joint neither loose nor with a spring table or a cone, of LANE_MIN joints
+                # or more (joint_lanes.settle_sockets)
+OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS", "GRIPS", "SOCKETS")
 
 
 class ArticulationParams(NamedTuple):
@@ -319,10 +325,18 @@ def clamp_step(p, j, i, moves, phi, step):
 @njit(**INNER)
 def within_cone(p, j, phi):
     """Return a ball joint's coordinates phi (3-tuple) with its d3 brought back within its cone
-    about X's d3 if it has left it: R = swing twist (twist about d3), the swing's angle cut
-    to the cone's, its axis and the twist kept. Other joints' coordinates come back as given."""
-    cone = p.cone[j]
-    if not BALLS or p.dofs[j] != BALL or not cone < math.pi:
+    (cone_cut); other joints' coordinates as given."""
+    if not BALLS or p.dofs[j] != BALL:
+        return phi
+    return cone_cut(p.cone[j], phi)
+
+
+@njit(**INNER)
+def cone_cut(cone, phi):
+    """Return a ball joint's coordinates phi (3-tuple) with its d3 brought back within its cone
+    (rad; pi: none) about X's d3 if it has left it: R = swing twist (twist about d3), the
+    swing's angle cut to the cone's, its axis and the twist kept."""
+    if not cone < math.pi:
         return phi
     r = quat_exp(phi[0], phi[1], phi[2])
     dx, dy, dz = quat_rotate(r[0], r[1], r[2], r[3], 0.0, 0.0, 1.0)
@@ -466,6 +480,70 @@ def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
     return (x0, x1, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)   # (not reached: the last iteration returns)
 
 
+@njit(**INNER)
+def settle_ball(point, c0, c1, c2, ang, tq, phi, prev, moves, fric, cone):
+    """Return (phi, node torque, tau_E) of a ball joint by Newton's method from phi (3-tuple):
+    its coordinates where its loads balance, the torque on the node (X's components) and the
+    body torque on the end element; point: its boundary point (boundary_point), c0, c1, c2 its
+    coordinates' constants (axis_constants), ang / tq the spring tables, ``moves`` whether it
+    turns (its friction's weighing: it holds all three coordinates or none), ``fric`` the
+    friction's generalised torques, ``cone`` its cone (rad; pi: none). Each coordinate's body
+    axis k_i (joint_math.ball_axes) maps to w_i = J k_i at the boundary point, the generalised
+    torque -e w_i . m, and the derivative's leading term w_i^T B w_k / L: settle_hinge's terms
+    for three axes that turn with phi. The steps take the leading term, to NEWTON_TOL, as
+    settle_joint's do, and the loads are those of the point evaluated last; but where the
+    exact derivative (joint_math.ball_exact) gives a step below ONE_STEP, it is taken without
+    evaluating again, the loads carried along it to first order, as settle_hinge does. (Taken
+    as the iteration's steps beyond that, exact steps left a spinning arm's loose joint 1e-8
+    rad from its closed-form balance where leading-term steps left it 1e-9:
+    test_loose_ball_joint_settles_in_closed_form_where_the_iteration_does.)"""
+    f, q, start, il, u0, bend = point
+    x0, x1, x2 = phi
+    for it in range(NEWTON_STEPS):
+        r = quat_exp(x0, x1, x2)
+        k0, k1, k2 = ball_axes(x0, x1, x2)
+        t, cc, c2r, m, rel, e = boundary_turn(f, q, start, il, u0, bend, r)
+        w0, w1, w2 = inverse_jacobian(t, cc, e, k0), inverse_jacobian(t, cc, e, k1), inverse_jacobian(t, cc, e, k2)
+        bw0, bw1, bw2 = bend_rate(il, bend, w0), bend_rate(il, bend, w1), bend_rate(il, bend, w2)
+        g0, s0, slope0 = axis_balance(c0, ang, tq, -e * dot3(w0, m), x0, prev[0], fric[0])
+        g1, s1, slope1 = axis_balance(c1, ang, tq, -e * dot3(w1, m), x1, prev[1], fric[1])
+        g2, s2, slope2 = axis_balance(c2, ang, tq, -e * dot3(w2, m), x2, prev[2], fric[2])
+        if not moves:
+            break
+        a00, a11, a22 = dot3(w0, bw0) + s0, dot3(w1, bw1) + s1, dot3(w2, bw2) + s2
+        a01, a02, a12 = dot3(w0, bw1), dot3(w0, bw2), dot3(w1, bw2)
+        step = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
+        n0, n1, n2 = cone_cut(cone, (min(max(x0 + step[0], c0[3]), c0[4]), min(max(x1 + step[1], c1[3]), c1[4]),
+                                     min(max(x2 + step[2], c2[3]), c2[4])))
+        # balanced where evaluated (a NaN ends it too: the watch reports it)
+        if not max(abs(n0 - x0), abs(n1 - x1), abs(n2 - x2)) > NEWTON_TOL or it == NEWTON_STEPS - 1:
+            break
+        if cone < math.pi or slope0 < 0.0 or slope1 < 0.0 or slope2 < 0.0:   # (a cut step carries nothing)
+            x0, x1, x2 = n0, n1, n2
+            continue
+        h = ball_exact(t, cc, c2r, e, m, (x0, x1, x2), (k0, k1, k2), (w0, w1, w2))   # the exact derivative
+        a00, a11, a22, a01, a02, a12 = a00 + h[0], a11 + h[1], a22 + h[2], a01 + h[3], a02 + h[4], a12 + h[5]
+        if not positive_sym3(a00, a01, a02, a11, a12, a22):
+            x0, x1, x2 = n0, n1, n2
+            continue
+        step = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
+        d0 = min(max(x0 + step[0], c0[3]), c0[4]) - x0
+        d1 = min(max(x1 + step[1], c1[3]), c1[4]) - x1
+        d2 = min(max(x2 + step[2], c2[3]), c2[4]) - x2
+        if max(abs(d0), abs(d1), abs(d2)) > ONE_STEP:
+            x0, x1, x2 = n0, n1, n2
+            continue
+        te = inverse_jacobian(t, cc, e, m)
+        u = (d0 * w0[0] + d1 * w1[0] + d2 * w2[0], d0 * w0[1] + d1 * w1[1] + d2 * w2[1],
+             d0 * w0[2] + d1 * w1[2] + d2 * w2[2])
+        d = carried_torque(t, cc, c2r, e, m, u, bend_rate(il, bend, u), 1.0)   # (linear in the direction)
+        te = (e * te[0] + d[0], e * te[1] + d[1], e * te[2] + d[2])
+        return (x0 + d0, x1 + d1, x2 + d2), node_torque(r, rel, te), te
+    te = inverse_jacobian(t, cc, e, m)
+    te = (e * te[0], e * te[1], e * te[2])
+    return (x0, x1, x2), node_torque(r, rel, te), te
+
+
 @njit(**INLINE)
 def start_joint(p, j, model, state, dt, f):
     """Return (phi^-, moves, friction, phi, 1/dt, held) of joint j, its end frame f
@@ -585,7 +663,14 @@ def settled(p, j, model, state, dt, f):
             if within:
                 zero = (0.0, 0.0, 0.0)
                 return phi, zero, (True, True, True), zero, zero
-        return settle_joint(p, j, model, state, dt, f)
+        prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt, f)
+        if held[0] and not moves[0]:   # held where it was: its loads are the friction check's
+            r, tau = held[1], held[2]
+            return prev, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
+        x, torque, te = settle_ball(boundary_point(p, j, model, state, f), axis_constants(p, j, 0, inv_dt),
+                                    axis_constants(p, j, 1, inv_dt), axis_constants(p, j, 2, inv_dt), p.table_angle,
+                                    p.table_torque, phi, prev, moves[0], fric, p.cone[j])
+        return x, fric, moves, torque, te
     return settle_axes(p, j, model, state, dt, f)
 
 
@@ -611,9 +696,17 @@ def add_articulations(p, model, state, loads):
     U = L[UNIVERSALS:GRIPPED]
     if CARDANS:
         settle_universals(p, model, state, dt, U)
-    H = L[GRIPPED:]
+    H, S = L[GRIPPED:SOCKETED], L[SOCKETED:]
     if GRIPS:
         weigh_balls(p, model, state, dt, H)
+    if SOCKETS:
+        C, turning = p.lane_constants, 0
+        for j in range(p.attach.shape[0]):
+            turning += (C[C_SOCKET, j] != 0.0) & ((C[C_HELD, j] == 0.0) | (H[G_OK, j] == AHEAD))
+        if turning * SOCKET_SHARE >= C.shape[1]:
+            settle_sockets(p, model, state, dt, S, H)
+        else:   # the few that turn by the scalar iteration (SOCKET_SHARE)
+            S[S_OK, :] = 0.0
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
         e = model.attach_element[a]
@@ -633,6 +726,12 @@ def add_articulations(p, model, state, loads):
             (tx, ty, tz), te = (H[G_NODE, j], H[G_NODE + 1, j], H[G_NODE + 2, j]), (H[G_TAU_E, j], H[G_TAU_E + 1, j],
                                                                                   H[G_TAU_E + 2, j])
             lab = (H[G_LAB, j], H[G_LAB + 1, j], H[G_LAB + 2, j])
+        elif SOCKETS and S[S_OK, j] == SETTLED:   # turning, against the friction weighed (if any)
+            phi, moves = (S[S_PHI, j], S[S_PHI + 1, j], S[S_PHI + 2, j]), (True, True, True)
+            fric = (H[G_FRIC, j], H[G_FRIC + 1, j], H[G_FRIC + 2, j]) if p.lane_constants[C_HELD, j] != 0.0 else zero
+            (tx, ty, tz), te = (S[S_NODE, j], S[S_NODE + 1, j], S[S_NODE + 2, j]), (S[S_TAU_E, j], S[S_TAU_E + 1, j],
+                                                                                  S[S_TAU_E + 2, j])
+            lab = (S[S_LAB, j], S[S_LAB + 1, j], S[S_LAB + 2, j])
         elif CARDANS and U[U_OK, j] == SETTLED:   # the third coordinate stays 0
             phi, fric = (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
             moves = (U[U_MOVES, j] != 0.0, U[U_MOVES + 1, j] != 0.0, False)
@@ -647,6 +746,15 @@ def add_articulations(p, model, state, loads):
                                                    axis_constants(p, j, 0, inv_dt), p.table_angle, p.table_torque,
                                                    L[PHI, j], p.phi[j, 0], L[FRIC, j])
                 phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
+            elif SOCKETS and S[S_OK, j] == AHEAD:   # on from the lanes' Newton step, as settled would go
+                held = p.lane_constants[C_HELD, j] != 0.0
+                fric = (H[G_FRIC, j], H[G_FRIC + 1, j], H[G_FRIC + 2, j]) if held else zero
+                moves = (True, True, True)
+                phi, (tx, ty, tz), te = settle_ball(
+                    boundary_point(p, j, model, state, f), axis_constants(p, j, 0, inv_dt),
+                    axis_constants(p, j, 1, inv_dt), axis_constants(p, j, 2, inv_dt), p.table_angle, p.table_torque,
+                    (S[S_PHI, j], S[S_PHI + 1, j], S[S_PHI + 2, j]), (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), True,
+                    fric, p.cone[j])
             elif CARDANS and U[U_OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
                 ax, bx = p.axis_a[j], p.axis_b[j]
                 fric = (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
@@ -726,9 +834,9 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    pins, loose, cardans, grips = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
-                                   for row in (C_HINGE, C_LOOSE, C_UNIVERSAL, C_GRIP))
-    return VARIANTS.record(p, (balls, held, pins, loose, cardans, grips))
+    pins, loose, cardans, grips, sockets = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
+                                            for row in (C_HINGE, C_LOOSE, C_UNIVERSAL, C_GRIP, C_SOCKET))
+    return VARIANTS.record(p, (balls, held, pins, loose, cardans, grips, sockets))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

@@ -2,8 +2,8 @@
 
 Branch-free loops over rows of one number a joint, which LLVM runs in vector lanes (all but
 settle_universals); kernels/articulation.py's module docstring says how, and which joints go
-on to its scalar path: weigh_hinges, settle_hinges, settle_universals, settle_balls and
-weigh_balls, whose rows the load kernel reads, and the rows of constants they read
+on to its scalar path: weigh_hinges, settle_hinges, settle_universals, settle_balls,
+weigh_balls and settle_sockets, whose rows the load kernel reads, and the rows of constants they read
 (lane_tables)."""
 
 
@@ -12,9 +12,9 @@ from numba import njit
 
 from .backend import PASS
 from .compiler import INLINE
-from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_weighed, bend_rate, \
-    boundary_moment, boundary_pair, boundary_quat, carried_torque, dot3, friction_weighed, hinge_terms, hinge_torques, \
-    inverse_jacobian, jacobian_rate, loose_turn, node_torque, small_rate
+from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_exact, ball_weighed, \
+    bend_rate, boundary_moment, boundary_pair, boundary_quat, carried_torque, dot3, friction_weighed, hinge_terms, \
+    hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, node_torque, positive_sym3, small_rate
 from .rotations import axis_quat, cross, quat_exp, quat_mul, quat_rotate, quat_rotate_inv, small_rotation, solve_sym3
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
@@ -32,11 +32,15 @@ W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E = 0, 1, 2, 3, 6
 UNIVERSALS = 26
 U_OK, U_PHI, U_NODE, U_TAU_E, U_LAB, U_FRIC, U_MOVES = 0, 1, 3, 6, 9, 12, 14
 # and of weigh_balls (from GRIPPED on): whether the joint's friction holds it there, the torques on
-# its node and end element, the first in the lab
+# its node and end element, the first in the lab, the friction's generalised torques
 GRIPPED = 42
-G_OK, G_NODE, G_TAU_E, G_LAB = 0, 1, 4, 7
-LANE_ROWS = 52
-SETTLED, AHEAD = 1.0, 2.0   # in rows OK, BALL_OK, UNIVERSALS + U_OK and GRIPPED + G_OK
+G_OK, G_NODE, G_TAU_E, G_LAB, G_FRIC = 0, 1, 4, 7, 10
+# and of settle_sockets (from SOCKETED on): whether the joint settled there, its coordinates, the
+# torques on its node and end element, the first in the lab
+SOCKETED = 55
+S_OK, S_PHI, S_NODE, S_TAU_E, S_LAB = 0, 1, 4, 7, 10
+LANE_ROWS = 68
+SETTLED, AHEAD = 1.0, 2.0   # in rows OK, BALL_OK, UNIVERSALS + U_OK, GRIPPED + G_OK and SOCKETED + S_OK
 # rows of p.lane_constants (lane_tables): the joints' constants the lanes read, a row for each
 # number (kernels/articulation.py's docstring says why); C_CONE holds cone_cosine; C_AXIS_B and
 # the rows ending in 1, a universal joint's second axis and coordinate
@@ -49,7 +53,10 @@ C_HELD = 36   # not free_joint: some coordinate of the joint has friction or a d
 # a ball joint's third coordinate's spring, its dampers' sum, and the mark of a ball joint with
 # friction or a damper and no spring table (weigh_balls)
 C_SPRING2, C_REST2, C_DAMPERS, C_GRIP = 37, 38, 39, 40
-LANE_CONSTANTS = 41
+# the third coordinate's damper, and the mark of a ball joint that is not loose, without a spring
+# table or a cone (settle_sockets)
+C_DAMPER2, C_SOCKET = 41, 42
+LANE_CONSTANTS = 43
 
 HELD = True   # kernels/articulation.py's option: some joint has friction or a damper
 # The lanes' rows hold the joints padded to a whole number of vector widths, the last joint
@@ -61,6 +68,12 @@ HELD = True   # kernels/articulation.py's option: some joint has friction or a d
 # took 125.)
 LANE_WIDTH = 8
 LANE_MIN = 4
+# settle_sockets runs where at least one joint in SOCKET_SHARE of the lanes' columns turns: its
+# vector loop takes every column, held joints too, where the scalar iteration takes only those
+# that turn, each about five columns' cost (a chain of 100 ball joints with springs: 17-18 ns
+# a joint in lanes, 84-88 by settle_ball; with friction, which holds 98 % of them, the lanes
+# added 17 ns a joint to the step)
+SOCKET_SHARE = 5
 
 
 def lane_count(k: int) -> int:
@@ -279,8 +292,9 @@ def weigh_balls(p, model, state, dt, out):
     SETTLED where the joint is such a ball joint with friction or a damper, its friction holds
     it (it stays at phi^-) and its boundary point there turns by less than 0.2 rad; rows
     G_NODE (3), G_TAU_E (3) and G_LAB (3) then hold the torques on the node and the end
-    element there, the first in the lab (its reaction). Elsewhere 0.0, and the rows anything:
-    a joint that turns goes through the scalar iteration."""
+    element there, the first in the lab (its reaction). AHEAD where such a joint turns, G_FRIC
+    (3) the friction's generalised torques it meets (settle_sockets reads them). Elsewhere 0.0,
+    and the rows anything."""
     C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
     phi, sliding = p.phi.reshape(3 * n), p.sliding.reshape(3 * n)
     for j in range(C.shape[1]):
@@ -301,13 +315,88 @@ def weigh_balls(p, model, state, dt, out):
         q1 = dot3(c1, tau) - C[C_SPRING1, j] * (p1 - C[C_REST1, j])
         q2 = dot3(c2, tau) - C[C_SPRING2, j] * (p2 - C[C_REST2, j])
         turning = sliding[i] + sliding[i + 1] + sliding[i + 2] != 0.0
-        stays = ball_weighed(c0, c1, c2, (q0, q1, q2), C[C_STATIC, j], C[C_KINETIC, j], turning,
-                             C[C_DAMPERS, j] > 0.0, dt)[0]
-        out[G_OK, j] = SETTLED if (C[C_GRIP, j] != 0.0) & stays & small else 0.0
+        stays, f0, f1, f2 = ball_weighed(c0, c1, c2, (q0, q1, q2), C[C_STATIC, j], C[C_KINETIC, j], turning,
+                                         C[C_DAMPERS, j] > 0.0, dt)
+        out[G_OK, j] = (SETTLED if stays else AHEAD) if (C[C_GRIP, j] != 0.0) & small else 0.0
+        out[G_FRIC, j], out[G_FRIC + 1, j], out[G_FRIC + 2, j] = f0, f1, f2
         node = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
         out[G_NODE, j], out[G_NODE + 1, j], out[G_NODE + 2, j] = node
         out[G_TAU_E, j], out[G_TAU_E + 1, j], out[G_TAU_E + 2, j] = te
         out[G_LAB, j], out[G_LAB + 1, j], out[G_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
+                                                                          node[2])
+
+
+@njit(**PASS)
+def settle_sockets(p, model, state, dt, out, gripped):
+    """Update out (LANE_ROWS - SOCKETED, k) for every joint as settle_ball settles a ball joint
+    without a spring table or a cone by one evaluation, from its coordinates carried on at
+    their last rate, its branches taken as selects (settle_universals' way for three
+    coordinates): the leading term's Newton step ends the iteration, or the exact derivative's
+    (joint_math.ball_exact: the axes turn with phi) is taken without evaluating again. With
+    friction or a damper, only where weigh_balls found it turning (``gripped``: its rows),
+    against the friction torques it weighed. Row S_OK is SETTLED where that evaluation is the
+    balance, the boundary point turning by less than 0.2 rad: rows S_PHI (3), S_NODE (3),
+    S_TAU_E (3) and S_LAB (3) then hold its coordinates, the torques on the node and the end
+    element, the first in the lab; AHEAD where the iteration goes on (S_PHI: the leading
+    step's point, settle_ball's next); elsewhere 0.0 (the scalar iteration settles it), and
+    the rows anything."""
+    C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
+    phi, rate = p.phi.reshape(3 * n), p.rate.reshape(3 * n)
+    ahead = dt if dt > 0.0 else 0.0
+    inv_dt = 1.0 / dt if dt > 0.0 else 0.0
+    for j in range(C.shape[1]):
+        i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
+        nq, qe = state.node_q[ends[0, j]], state.q[ends[1, j]]
+        q = (qe[0], qe[1], qe[2], qe[3])
+        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+        start, e = C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0)
+        il, bend = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
+        u0 = (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j])
+        d0, d1, d2 = C[C_DAMPER, j] * inv_dt, C[C_DAMPER1, j] * inv_dt, C[C_DAMPER2, j] * inv_dt
+        k0, k1, k2 = C[C_SPRING, j], C[C_SPRING1, j], C[C_SPRING2, j]
+        held = C[C_HELD, j] != 0.0
+        turns = (held == False) | (gripped[G_OK, j] == AHEAD)  # noqa: E712
+        f0, f1, f2 = ((gripped[G_FRIC, j], gripped[G_FRIC + 1, j], gripped[G_FRIC + 2, j]) if held
+                      else (0.0, 0.0, 0.0))
+        p0, p1, p2 = phi[i], phi[i + 1], phi[i + 2]
+        x0, x1, x2 = p0 + ahead * rate[i], p1 + ahead * rate[i + 1], p2 + ahead * rate[i + 2]
+        r = quat_exp(x0, x1, x2)
+        a0, a1, a2 = ball_axes(x0, x1, x2)
+        turn, small, rel = turned_boundary(f, q, start, r)
+        tx, ty, tz, cc = small_rotation(turn[0], turn[1], turn[2], turn[3])
+        t = (tx, ty, tz)
+        m = boundary_moment(t, il, u0, bend)
+        c2 = small_rate(tx * tx + ty * ty + tz * tz)
+        w0, w1, w2 = inverse_jacobian(t, cc, e, a0), inverse_jacobian(t, cc, e, a1), inverse_jacobian(t, cc, e, a2)
+        bw0, bw1, bw2 = bend_rate(il, bend, w0), bend_rate(il, bend, w1), bend_rate(il, bend, w2)
+        # (axis_balance's, without a table)
+        g0 = -e * dot3(w0, m) - k0 * (x0 - C[C_REST, j]) - d0 * (x0 - p0) - f0
+        g1 = -e * dot3(w1, m) - k1 * (x1 - C[C_REST1, j]) - d1 * (x1 - p1) - f1
+        g2 = -e * dot3(w2, m) - k2 * (x2 - C[C_REST2, j]) - d2 * (x2 - p2) - f2
+        a00, a11, a22 = dot3(w0, bw0) + k0 + d0, dot3(w1, bw1) + k1 + d1, dot3(w2, bw2) + k2 + d2
+        a01, a02, a12 = dot3(w0, bw1), dot3(w0, bw2), dot3(w1, bw2)
+        lead = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
+        done = not max(abs(lead[0]), abs(lead[1]), abs(lead[2])) > NEWTON_TOL
+        # the exact derivative (settle_ball's second step)
+        h = ball_exact(t, cc, c2, e, m, (x0, x1, x2), (a0, a1, a2), (w0, w1, w2))
+        a00, a11, a22, a01, a02, a12 = a00 + h[0], a11 + h[1], a22 + h[2], a01 + h[3], a02 + h[4], a12 + h[5]
+        stiff = positive_sym3(a00, a01, a02, a11, a12, a22)
+        s = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
+        carried = (done == False) & stiff & (max(abs(s[0]), abs(s[1]), abs(s[2])) <= ONE_STEP)  # noqa: E712
+        dd0, dd1, dd2 = (s[0], s[1], s[2]) if carried else (0.0, 0.0, 0.0)
+        u = (dd0 * w0[0] + dd1 * w1[0] + dd2 * w2[0], dd0 * w0[1] + dd1 * w1[1] + dd2 * w2[1],
+             dd0 * w0[2] + dd1 * w1[2] + dd2 * w2[2])
+        te = inverse_jacobian(t, cc, e, m)
+        dm = carried_torque(t, cc, c2, e, m, u, bend_rate(il, bend, u), 1.0)   # (linear in the direction)
+        te = (e * te[0] + dm[0], e * te[1] + dm[1], e * te[2] + dm[2])
+        node = node_torque(r, rel, te)
+        s0, s1, s2 = (dd0, dd1, dd2) if done | carried else lead   # (on from the leading step, as settle_ball)
+        fits = (C[C_SOCKET, j] != 0.0) & turns & small
+        out[S_OK, j] = (SETTLED if done | carried else AHEAD) if fits else 0.0
+        out[S_PHI, j], out[S_PHI + 1, j], out[S_PHI + 2, j] = x0 + s0, x1 + s1, x2 + s2
+        out[S_NODE, j], out[S_NODE + 1, j], out[S_NODE + 2, j] = node
+        out[S_TAU_E, j], out[S_TAU_E + 1, j], out[S_TAU_E + 2, j] = te
+        out[S_LAB, j], out[S_LAB + 1, j], out[S_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
                                                                           node[2])
 
 
@@ -331,9 +420,9 @@ def settle_balls(p, model, state, out):
 
 def lane_tables(p, model):
     """Fill p.lane_constants and p.lane_ends from the joints and the model (settle_hinges,
-    settle_balls, weigh_hinges, settle_universals, weigh_balls): a column per joint, then its
-    last repeated to the padding (lane_count), where no joint is a lane's hinge, loose ball,
-    universal joint or held ball joint."""
+    settle_balls, weigh_hinges, settle_universals, weigh_balls, settle_sockets): a column per
+    joint, then its last repeated to the padding (lane_count), where no joint is a lane's hinge,
+    loose ball, universal joint or ball joint."""
     C, a, k = p.lane_constants, p.attach, p.attach.shape[0]
     C[C_AXIS:C_AXIS + 3, :k] = p.axis_a.T
     C[C_BEND:C_BEND + 3, :k] = p.bend.T
@@ -351,10 +440,13 @@ def lane_tables(p, model):
                            axis=1)   # (free_joint)
     C[C_SPRING2, :k], C[C_REST2, :k], C[C_DAMPERS, :k] = p.stiffness[:, 2], p.rest[:, 2], p.damping.sum(axis=1)
     C[C_GRIP, :k] = (p.dofs == BALL) & (C[C_HELD, :k] != 0.0) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])
+    C[C_DAMPER2, :k] = p.damping[:, 2]
     held = np.abs(p.stiffness) + p.static + p.kinetic + p.damping
     C[C_LOOSE, :k] = (p.dofs == BALL) & np.all(held == 0.0, axis=1) & np.all(p.lower == -np.inf, axis=1) & \
         np.all(p.upper == np.inf, axis=1) & (p.table_offsets[3::3] == p.table_offsets[0:-1:3])   # (loose_ball)
     C[C_CONE, :k] = np.where(p.cone < np.pi, np.cos(p.cone), -np.inf)   # (cone_cosine)
+    C[C_SOCKET, :k] = (p.dofs == BALL) & (C[C_LOOSE, :k] == 0.0) & (p.cone >= np.pi) & \
+        (p.table_offsets[3::3] == p.table_offsets[0:-1:3])
     kv = model.attach_vertex[a]
     C[C_IL, :k] = model.voronoi_inv_rest_length[kv]
     C[C_U0:C_U0 + 3, :k] = model.voronoi_rest_curvature[kv].T
@@ -363,5 +455,5 @@ def lane_tables(p, model):
     p.lane_ends[0, :k], p.lane_ends[1, :k] = model.attach_node[a], model.attach_element[a]
     if k > 0:
         C[:, k:] = C[:, k - 1:k]
-        C[C_HINGE, k:] = C[C_LOOSE, k:] = C[C_UNIVERSAL, k:] = C[C_GRIP, k:] = 0.0
+        C[C_HINGE, k:] = C[C_LOOSE, k:] = C[C_UNIVERSAL, k:] = C[C_GRIP, k:] = C[C_SOCKET, k:] = 0.0
         p.lane_ends[:, k:] = p.lane_ends[:, k - 1:k]

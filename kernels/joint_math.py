@@ -228,3 +228,64 @@ def ball_weighed(c0, c1, c2, q, static, kinetic, turning, damped, dt):
     stays = ((size > limit) == False) | (damped & ((dt > 0.0) == False))  # noqa: E712
     k = 0.0 if stays else kinetic / size
     return stays, k * q[0], k * q[1], k * q[2]
+
+
+@njit(**INNER)
+def ball_axes_rate(p0, p1, p2, y):
+    """Return (H00, H11, H22, H01, H02, H12), H_ik = d k_i / d phi_k . y, k_i the columns of
+    J_r(phi) (ball_axes) and y a vector: with alpha = a'/t, beta = b'/t (a, b of ball_axes),
+    d k_i / d phi_k = phi_k (-(beta t^2 + 2 b) e_i - alpha phi x e_i + beta phi_i phi)
+    - a e_k x e_i + b phi_i e_k + b delta_ik phi."""
+    t2 = p0 * p0 + p1 * p1 + p2 * p2
+    sa = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 / 40320.0))
+    sb = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
+    sal = -1.0 / 12.0 + t2 * (1.0 / 180.0 - t2 / 6720.0)
+    sbe = -1.0 / 60.0 + t2 * (1.0 / 1260.0 - t2 / 60480.0)
+    w2 = max(t2, 0.01)   # (the closed forms kept finite where the series are taken: ball_axes)
+    t = math.sqrt(w2)
+    st, ct = sin_cos(t)
+    small = t2 < 0.01
+    a = sa if small else (1.0 - ct) / w2
+    b = sb if small else (t - st) / (w2 * t)
+    al = sal if small else (t * st - 2.0 * (1.0 - ct)) / (w2 * w2)
+    be = sbe if small else ((1.0 - ct) * t - 3.0 * (t - st)) / (w2 * w2 * t)
+    ph = (p0, p1, p2)
+    z = cross(y[0], y[1], y[2], p0, p1, p2)   # (phi x e_i) . y = (y x phi)_i
+    pp = dot3(ph, y)
+    u = (-(be * t2 + 2.0 * b) * y[0] - al * z[0] + be * pp * p0,
+         -(be * t2 + 2.0 * b) * y[1] - al * z[1] + be * pp * p1,
+         -(be * t2 + 2.0 * b) * y[2] - al * z[2] + be * pp * p2)   # u_i: the part along phi_k
+    # (e_k x e_i) . y: e_0 x e_1 = e_2, e_0 x e_2 = -e_1, e_1 x e_2 = e_0
+    h00 = p0 * u[0] + b * y[0] * p0 + b * pp
+    h11 = p1 * u[1] + b * y[1] * p1 + b * pp
+    h22 = p2 * u[2] + b * y[2] * p2 + b * pp
+    h01 = p1 * u[0] - a * (-y[2]) + b * y[1] * p0   # i = 0, k = 1: e_1 x e_0 = -e_2
+    h02 = p2 * u[0] - a * y[1] + b * y[2] * p0      # i = 0, k = 2: e_2 x e_0 = e_1
+    h12 = p2 * u[1] - a * (-y[0]) + b * y[2] * p1   # i = 1, k = 2: e_2 x e_1 = -e_0
+    return h00, h11, h22, h01, h02, h12
+
+
+@njit(**INNER)
+def ball_exact(t, cc, c2, e, m, x, k, w):
+    """Return (A00, A11, A22, A01, A02, A12) to add to a ball joint's Newton matrix
+    w_i^T B w_k / L for its exact derivative, -d/d phi_k of the generalised torque -e w_i . m
+    (settle_ball) at coordinates x, its axes k = (k0, k1, k2) (ball_axes) and w_i = J k_i: D_w_k
+    J k_i . m (jacobian_rate), and e (d k_i / d phi_k) . J^T m, the axes turning with phi
+    (ball_axes_rate)."""
+    h = ball_axes_rate(x[0], x[1], x[2], inverse_jacobian(t, cc, -e, m))
+    k0, k1, k2 = k
+    w0, w1, w2 = w
+    return (dot3(jacobian_rate(t, cc, c2, e, w0, k0), m) + e * h[0],
+            dot3(jacobian_rate(t, cc, c2, e, w1, k1), m) + e * h[1],
+            dot3(jacobian_rate(t, cc, c2, e, w2, k2), m) + e * h[2],
+            dot3(jacobian_rate(t, cc, c2, e, w1, k0), m) + e * h[3],
+            dot3(jacobian_rate(t, cc, c2, e, w2, k0), m) + e * h[4],
+            dot3(jacobian_rate(t, cc, c2, e, w2, k1), m) + e * h[5])
+
+
+@njit(**INNER)
+def positive_sym3(a00, a01, a02, a11, a12, a22):
+    """Return whether the symmetric A is positive definite (its leading minors, Sylvester)."""
+    minor = a00 * a11 - a01 * a01
+    return (a00 > 0.0) & (minor > 0.0) & (minor * a22 - a00 * a12 * a12 + 2.0 * a01 * a02 * a12 - a11 * a02 * a02
+                                          > 0.0)

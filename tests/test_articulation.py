@@ -18,7 +18,7 @@ from scipy.special import ellipk
 
 import cosnet
 from cosnet.core.rotations import matrix_from_quat
-from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, G_OK, GRIPPED, OK, SETTLED, U_OK, UNIVERSALS
+from cosnet.kernels.joint_lanes import AHEAD, BALL_OK, G_OK, GRIPPED, OK, S_OK, SETTLED, SOCKETED, U_OK, UNIVERSALS
 from nets import resumed
 
 G = 9.81
@@ -339,6 +339,33 @@ def test_welded_end_has_no_joint_state():
         cosnet.joint_state(sim, arm)
 
 
+def lane_chain(make, hang=False, row=None, **extra):
+    """A chain of twelve links from a fixed pivot, along x (or hanging along -z), its joints
+    make(**extra) at line starts and at line ends, stepped 10 x 300 steps under gravity out of
+    its plane; returns (sim, the joints' angles, the lanes' row ``row`` of the joints) at each
+    sample."""
+    net = cosnet.Net()
+    nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
+    lines = []
+    for i in range(12):
+        nodes.append(net.add_node((0.0, 0.0, -0.15 * (i + 1)) if hang else (0.15 * (i + 1), 0.0, 0.0)))
+        if i % 2:   # drawn from its far node: the joint at its end
+            lines.append(net.add_line(nodes[i + 1], nodes[i], material=SOFT, section=SECTION, elements=4,
+                                      end_joint=make(**extra)))
+        else:
+            lines.append(net.add_line(nodes[i], nodes[i + 1], material=SOFT, section=SECTION, elements=4,
+                                      start_joint=make(**extra)))
+    sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 3.0, -G))])   # (out of the chain's plane too)
+    angles, taken = [], []
+    for _ in range(10):
+        sim.run(steps=300)
+        angles.append([cosnet.joint_state(sim, line, "end" if i % 2 else "start")["angle"]
+                       for i, line in enumerate(lines)])
+        if row is not None:
+            taken.append(sim.effect_params(sim.effects[-1]).lanes[row][:12].copy())
+    return sim, np.array(angles), np.array(taken)
+
+
 @pytest.mark.parametrize("make, row, within", [
     (lambda **kw: cosnet.Hinge(axis=Y, **kw), OK, 1e-9),
     (lambda **kw: cosnet.Hinge(axis=Y, stiffness=0.5, rest=0.2, limits=(-0.25, 0.3), **kw), OK, 1e-9),
@@ -350,9 +377,12 @@ def test_welded_end_has_no_joint_state():
     (lambda **kw: cosnet.Universal(axes=(Y, (0.0, 0.0, 1.0)), stiffness=0.5, damping=2e-3,
                                    friction=(0.05, 0.04), **kw), UNIVERSALS + U_OK, 1e-9),
     (lambda **kw: cosnet.Ball(stiffness=(0.5, 0.3, 0.2), rest=(0.1, -0.05, 0.3), damping=2e-3,
-                              friction=(0.05, 0.04), **kw), GRIPPED + G_OK, 1e-9)],
+                              friction=(0.05, 0.04), **kw), GRIPPED + G_OK, 1e-9),
+    (lambda **kw: cosnet.Ball(stiffness=(0.5, 0.3, 0.2), rest=(0.1, -0.05, 0.3), **kw), SOCKETED + S_OK, 1e-9),
+    (lambda **kw: cosnet.Ball(stiffness=0.5, damping=(2e-3, 1e-3, 5e-4), **kw), SOCKETED + S_OK, 1e-9)],
     ids=["pins", "springs and limits", "dampers and friction", "loose balls", "cardans",
-         "cardans with springs and limits", "cardans with dampers and friction", "balls with dampers and friction"])
+         "cardans with springs and limits", "cardans with dampers and friction", "balls with dampers and friction",
+         "balls with springs", "balls with springs and dampers"])
 def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make, row, within):
     """A hanging chain of twelve links on hinges without a spring table, or on loose ball joints
     (its joints at line starts and at line ends), settles them in vector lanes; the same chain
@@ -363,32 +393,14 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     lanes took every joint: a hinge's friction check and first Newton step (and settled it
     there, or, the step too long to carry, the iteration went on from it), a ball joint's
     balance; a ball joint's friction weighed, the joint settled there where it holds it (the
-    others turned by the scalar iteration)."""
-    def chain(**extra):
-        net = cosnet.Net()
-        nodes = [net.add_node((0.0, 0.0, 0.0), fixed=True)]
-        lines = []
-        for i in range(12):
-            nodes.append(net.add_node((0.15 * (i + 1), 0.0, 0.0)))
-            if i % 2:   # drawn from its far node: the joint at its end
-                lines.append(net.add_line(nodes[i + 1], nodes[i], material=SOFT, section=SECTION, elements=4,
-                                          end_joint=make(**extra)))
-            else:
-                lines.append(net.add_line(nodes[i], nodes[i + 1], material=SOFT, section=SECTION, elements=4,
-                                          start_joint=make(**extra)))
-        sim = cosnet.Simulation(net, [cosnet.Gravity((0.0, 3.0, -G))])   # (out of the chain's plane too)
-        angles = []
-        for _ in range(10):
-            sim.run(steps=300)
-            angles.append([cosnet.joint_state(sim, line, "end" if i % 2 else "start")["angle"]
-                           for i, line in enumerate(lines)])
-        return sim, np.array(angles)
-    lanes, angles = chain()
-    iterated, angles_it = chain(spring_table=([-1.0, 1.0], [0.0, 0.0]))
+    others turned by the scalar iteration); a ball joint with springs, or springs and dampers,
+    by its first evaluation and its exact Newton step."""
+    lanes, angles, _ = lane_chain(make)
+    iterated, angles_it, _ = lane_chain(make, spring_table=([-1.0, 1.0], [0.0, 0.0]))
     taken = lanes.effect_params(lanes.effects[-1]).lanes[row][:12]   # (the joints, not the vector's padding)
     if row == GRIPPED + G_OK:   # held joints settled there, turning ones left to the iteration
         turned = lanes.effect_params(lanes.effects[-1]).sliding[:, 0] != 0.0
-        assert np.array_equal(taken == SETTLED, ~turned) and np.all(taken[turned] == 0.0)
+        assert np.array_equal(taken == SETTLED, ~turned) and np.all(taken[turned] == AHEAD)
     else:
         assert np.all(np.isin(taken, (SETTLED,) if row == BALL_OK else (SETTLED, AHEAD)))
     assert np.ptp(angles, axis=0).max() > 0.2            # the joints swung (rad)
@@ -404,15 +416,31 @@ def test_joints_settled_in_vector_lanes_move_as_the_iteration_settles_them(make,
     assert np.abs(lanes.state.x - iterated.state.x).max() < within / 10.0    # m, on a 1.8 m chain
 
 
+def test_ball_joints_turned_in_lanes_carry_their_exact_step():
+    """A chain of twelve links on ball joints with springs, hanging and swinging gently, turns
+    its joints in vector lanes by one evaluation and the exact Newton step, its loads carried
+    along it (settle_sockets: the step below ONE_STEP, as in most joints at most evaluations
+    here); it moves as the same chain settled by the scalar iteration (a spring table of zero
+    torque) to 1e-9 rad."""
+    make = lambda **kw: cosnet.Ball(stiffness=(0.5, 0.3, 0.2), **kw)   # noqa: E731
+    lanes, angles, taken = lane_chain(make, hang=True, row=SOCKETED + S_OK)
+    iterated, angles_it, _ = lane_chain(make, hang=True, spring_table=([-1.0, 1.0], [0.0, 0.0]))
+    assert np.all(np.isin(taken, (SETTLED, AHEAD))) and np.mean(taken == SETTLED) > 0.8
+    assert np.ptp(angles, axis=0).max() > 0.05            # the joints turned (rad)
+    assert np.abs(angles - angles_it).max() < 1e-9
+    assert np.abs(lanes.state.x - iterated.state.x).max() < 1e-10
+
+
 def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     """The lanes' rows (joint_lanes.lane_tables, numpy over all joints) mark as loose exactly the
     ball joints the scalar path settles in closed form (articulation.loose_ball), hold each
     cone's cosine as the scalar path takes it (cone_cosine), mark as hinges those without a
     spring table, and universal joints likewise, as held those with friction or a damper
-    (free_joint), and ball joints held so without a spring table as those whose friction the
-    lanes weigh; the padding to whole vectors marks none."""
+    (free_joint), ball joints held so without a spring table as those whose friction the
+    lanes weigh, and ball joints neither loose nor with a spring table or a cone as those the
+    lanes turn; the padding to whole vectors marks none."""
     from cosnet.kernels.articulation import BALL, cone_cosine, free_joint, loose_ball
-    from cosnet.kernels.joint_lanes import C_CONE, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_UNIVERSAL
+    from cosnet.kernels.joint_lanes import C_CONE, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_SOCKET, C_UNIVERSAL
     joints = [cosnet.Ball(), cosnet.Ball(cone=0.4), cosnet.Ball(stiffness=1.0), cosnet.Ball(damping=0.1),
               cosnet.Ball(friction=(0.2, 0.1)), cosnet.Ball(spring_table=([-1.0, 1.0], [0.0, 0.0])),
               cosnet.Hinge(axis=Y), cosnet.Hinge(axis=Y, friction=(0.2, 0.1)),
@@ -438,7 +466,12 @@ def test_the_lanes_take_the_joints_the_scalar_path_would_settle_so():
     grips = [held[j] and p.dofs[j] == BALL and p.table_offsets[3 * j + 3] == p.table_offsets[3 * j] for j in range(k)]
     assert grips == [False, False, False, True, True] + [False] * (k - 5)
     assert np.array_equal(p.lane_constants[C_GRIP, :k] != 0.0, grips)
-    assert p.lane_constants.shape[1] == 16 and not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL, C_GRIP], k:].any()
+    sockets = [p.dofs[j] == BALL and not loose[j] and p.cone[j] >= np.pi and
+               p.table_offsets[3 * j + 3] == p.table_offsets[3 * j] for j in range(k)]
+    assert sockets == [False, False, True, True, True] + [False] * (k - 5)
+    assert np.array_equal(p.lane_constants[C_SOCKET, :k] != 0.0, sockets)
+    assert p.lane_constants.shape[1] == 16
+    assert not p.lane_constants[[C_LOOSE, C_HINGE, C_UNIVERSAL, C_GRIP, C_SOCKET], k:].any()
 
 
 def test_spoilt_joint_table_is_refused_in_one_line():
@@ -679,3 +712,55 @@ def test_ball_joint_friction_is_one_pair_of_torques():
     with pytest.raises(ValueError, match="one static and one kinetic torque") as e:
         cosnet.Ball(friction=((1.0, 2.0, 1.0), 0.5))
     assert "\n" not in str(e.value)
+
+
+def test_ball_joint_newton_matrix_is_the_derivative_of_its_torques():
+    """A ball joint's exact Newton matrix (the leading term w_i^T B w_k / L plus
+    joint_math.ball_exact: the inverse Jacobian's rate and the axes turning with phi) is minus
+    the derivative of its generalised torques -e (J k_i) . m over its coordinates, by central
+    differences, at a line's start and end, a turned and a nearly straight joint (ball_axes'
+    series), and a boundary point bent by up to 0.15 rad; the axes' turning is a part of it
+    that matters there."""
+    from numba import njit
+    from cosnet.kernels.articulation import boundary_turn
+    from cosnet.kernels.joint_math import ball_axes, ball_exact, bend_rate, dot3, inverse_jacobian
+    from cosnet.kernels.rotations import quat_exp, quat_mul
+
+    @njit
+    def terms(f, q, start, il, u0, bend, x):
+        r = quat_exp(x[0], x[1], x[2])
+        k = ball_axes(x[0], x[1], x[2])
+        t, cc, c2, m, _, e = boundary_turn(f, q, start, il, u0, bend, r)
+        w = (inverse_jacobian(t, cc, e, k[0]), inverse_jacobian(t, cc, e, k[1]), inverse_jacobian(t, cc, e, k[2]))
+        bw = (bend_rate(il, bend, w[0]), bend_rate(il, bend, w[1]), bend_rate(il, bend, w[2]))
+        g = (-e * dot3(w[0], m), -e * dot3(w[1], m), -e * dot3(w[2], m))
+        lead = (dot3(w[0], bw[0]), dot3(w[1], bw[1]), dot3(w[2], bw[2]), dot3(w[0], bw[1]), dot3(w[0], bw[2]),
+                dot3(w[1], bw[2]))
+        return g, lead, ball_exact(t, cc, c2, e, m, x, k, w)
+
+    @njit
+    def turned(a, v):   # a exp(v) (quaternions; v a rotation vector)
+        b = quat_exp(v[0], v[1], v[2])
+        return quat_mul(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3])
+
+    rng = np.random.default_rng(7)
+    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    for start in (True, False):
+        for size in (4.5, 0.7, 0.03):
+            f = turned((1.0, 0.0, 0.0, 0.0), tuple(rng.normal(size=3)))
+            x = tuple(rng.normal(size=3) * size / np.sqrt(3.0))
+            q = turned(turned(f, x), tuple(rng.normal(size=3) * 0.15 / np.sqrt(3.0)))   # G bent to E
+            il, u0, bend = 40.0, tuple(rng.normal(size=3) * 0.5), (2.0, 3.0, 1.5)
+            _, lead, exact = terms(f, q, start, il, u0, bend, x)
+            step = 1e-6
+            numeric = np.zeros((3, 3))
+            for k in range(3):
+                up, down = np.array(x), np.array(x)
+                up[k] += step
+                down[k] -= step
+                numeric[:, k] = -(np.array(terms(f, q, start, il, u0, bend, tuple(up))[0]) -
+                                  np.array(terms(f, q, start, il, u0, bend, tuple(down))[0])) / (2.0 * step)
+            within = 1e-6 * np.abs(numeric).max()
+            for n, (i, k) in enumerate(pairs):
+                assert abs(lead[n] + exact[n] - numeric[i, k]) < within, (start, size, i, k)
+            assert np.abs(exact).max() > 100.0 * within   # (the leading term alone is not it)

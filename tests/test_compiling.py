@@ -572,10 +572,10 @@ def test_joints_compile_only_what_the_nets_joints_have():
         reached.append(_reached(LOAD_KERNELS[type(p)], typeof(p), record_type(sim.model), record_type(sim.state),
                                 typeof(empty_loads(sim.model))))
     free_universal, ball = reached
-    # a universal joint settles by its exact step (settle_universal), a ball by the iteration,
+    # a universal joint settles by its exact step (settle_universal), a ball by the iteration (settle_ball),
     # a loose one in closed form (loose_turn)
-    assert "settle_universal" in free_universal and "settle_joint" not in free_universal
-    assert "settle_joint" in ball and "joint_turn" in ball
+    assert "settle_universal" in free_universal and "settle_ball" not in free_universal
+    assert "settle_ball" in ball and "joint_turn" in ball
     for name in ("start_turning", "ball_axes", "loose_turn"):
         assert name not in free_universal, name
         assert name in ball, name
