@@ -171,6 +171,16 @@ def settle_hinges(p, model, state, dt, out, weighed):
         out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
 
 
+@njit(**INLINE)
+def lane_point(C, ends, state, j):
+    """Return (F, q, start, e, 1/L, B, u0) of column j's boundary Voronoi point from the lanes'
+    rows (articulation.boundary_point's, and e = -1 at a line's start, 1 at its end)."""
+    nq, qe = state.node_q[ends[0, j]], state.q[ends[1, j]]
+    f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+    return (f, (qe[0], qe[1], qe[2], qe[3]), C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0), C[C_IL, j],
+            (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j]), (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]))
+
+
 # boundary_quat inlined by numba where settle_universals takes it twice: called, LLVM left that
 # loop several times slower (130 ns a joint against 24)
 turned_boundary = njit(**INLINE)(boundary_quat.py_func)
@@ -200,17 +210,12 @@ def settle_universals(p, model, state, dt, out):
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
     for j in range(C.shape[1]):
         i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
-        nq, qe = state.node_q[ends[0, j]], state.q[ends[1, j]]
-        q = (qe[0], qe[1], qe[2], qe[3])
-        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
+        f, q, start, e, il, bend, u0 = lane_point(C, ends, state, j)
         a, b = (C[C_AXIS, j], C[C_AXIS + 1, j], C[C_AXIS + 2, j]), (C[C_AXIS_B, j], C[C_AXIS_B + 1, j],
                                                                      C[C_AXIS_B + 2, j])
         lo0, hi0, lo1, hi1 = C[C_LOWER, j], C[C_UPPER, j], C[C_LOWER1, j], C[C_UPPER1, j]
         k0, k1, rest0, rest1 = C[C_SPRING, j], C[C_SPRING1, j], C[C_REST, j], C[C_REST1, j]
         d0, d1 = C[C_DAMPER, j] * inv_dt, C[C_DAMPER1, j] * inv_dt
-        start, e = C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0)
-        il, bend = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
-        u0 = (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j])
         p0, p1 = phi[i], phi[i + 1]
         m0, m1, f0, f1, checked = True, True, 0.0, 0.0, True
         wnode, wte = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
@@ -299,16 +304,13 @@ def weigh_balls(p, model, state, dt, out):
     phi, sliding = p.phi.reshape(3 * n), p.sliding.reshape(3 * n)
     for j in range(C.shape[1]):
         i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
-        nq, q = state.node_q[ends[0, j]], state.q[ends[1, j]]
-        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
-        start = C[C_START, j] != 0.0
+        f, q, start, _, il, bend, u0 = lane_point(C, ends, state, j)
         p0, p1, p2 = phi[i], phi[i + 1], phi[i + 2]
         r = quat_exp(p0, p1, p2)
         c0, c1, c2 = ball_axes(p0, p1, p2)
         turn, small, _ = boundary_quat(f, q, start, r)
         t = small_rotation(turn[0], turn[1], turn[2], turn[3])
-        m = boundary_moment((t[0], t[1], t[2]), C[C_IL, j], (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j]),
-                            (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j]))
+        m = boundary_moment((t[0], t[1], t[2]), il, u0, bend)
         tau, te = boundary_pair((t[0], t[1], t[2]), t[3], m, start)
         # (start_turning's, without a table)
         q0 = dot3(c0, tau) - C[C_SPRING, j] * (p0 - C[C_REST, j])
@@ -346,12 +348,7 @@ def settle_sockets(p, model, state, dt, out, gripped):
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
     for j in range(C.shape[1]):
         i = 3 * min(j, n - 1)   # (a padding column: the last joint's state)
-        nq, qe = state.node_q[ends[0, j]], state.q[ends[1, j]]
-        q = (qe[0], qe[1], qe[2], qe[3])
-        f = quat_mul(nq[0], nq[1], nq[2], nq[3], C[C_FRAME, j], C[C_FRAME + 1, j], C[C_FRAME + 2, j], C[C_FRAME + 3, j])
-        start, e = C[C_START, j] != 0.0, (1.0 if C[C_START, j] == 0.0 else -1.0)
-        il, bend = C[C_IL, j], (C[C_BEND, j], C[C_BEND + 1, j], C[C_BEND + 2, j])
-        u0 = (C[C_U0, j], C[C_U0 + 1, j], C[C_U0 + 2, j])
+        f, q, start, e, il, bend, u0 = lane_point(C, ends, state, j)
         d0, d1, d2 = C[C_DAMPER, j] * inv_dt, C[C_DAMPER1, j] * inv_dt, C[C_DAMPER2, j] * inv_dt
         k0, k1, k2 = C[C_SPRING, j], C[C_SPRING1, j], C[C_SPRING2, j]
         held = C[C_HELD, j] != 0.0
