@@ -31,8 +31,9 @@ d_i / dt) delta_ik (B in G's components, L the boundary point's length), to roun
 hinge that turns takes its exact derivative once its first step is above the tolerance, and a
 step so found below ONE_STEP is not evaluated again: its loads are carried along it to first
 order (settle_hinge), one evaluation of the boundary point a step where two were needed; a
-universal joint likewise (settle_universal; a ball joint so settled measured no faster:
-three coordinates' exact derivative costs about what an evaluation does). A loose ball joint,
+universal joint likewise (settle_universal), and a ball joint (settle_ball, its three axes
+turning with phi: joint_math.ball_exact; its leading-term steps otherwise, in their own terms,
+w_i = J k_i, where the load kernel took settle_joint's before). A loose ball joint,
 nothing on R but the boundary point, needs no iteration: it balances where that point is
 unstrained, R in closed form (loose_turn), and passes no torque; with a cone, so while that
 balance lies within it. In a net of LANE_MIN joints or more, a hinge without a spring table
@@ -583,8 +584,9 @@ def settle_joint(p, j, model, state, dt, f):
     coordinates where its loads balance (the module's equation) from phi^- = p.phi[j] after
     dt, the friction torque on each and whether each moves (3-tuples), and at phi the torque
     on the node through the joint (X's components: R tau_G) and the body torque on the end
-    element, by Newton's method with the leading term of the derivative (a hinge or
-    universal joint: settle_axes)."""
+    element, by Newton's method with the leading term of the derivative (the energy and the
+    fields settle every joint so; the load kernel a hinge or universal joint by settle_axes, a
+    ball joint by settle_ball)."""
     prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt, f)
     m0, m1, m2 = moves
     f0, f1, f2 = fric

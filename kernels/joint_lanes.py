@@ -3,8 +3,8 @@
 Branch-free loops over rows of one number a joint, which LLVM runs in vector lanes (all but
 settle_universals); kernels/articulation.py's module docstring says how, and which joints go
 on to its scalar path: weigh_hinges, settle_hinges, settle_universals, settle_balls,
-weigh_balls and settle_sockets, whose rows the load kernel reads, and the rows of constants they read
-(lane_tables)."""
+weigh_balls and settle_sockets, whose rows the load kernel reads, and the rows of constants
+they read (lane_tables)."""
 
 
 import numpy as np
@@ -71,7 +71,7 @@ LANE_MIN = 4
 # settle_sockets runs where at least one joint in SOCKET_SHARE of the lanes' columns turns: its
 # vector loop takes every column, held joints too, where the scalar iteration takes only those
 # that turn, each about five columns' cost (a chain of 100 ball joints with springs: 17-18 ns
-# a joint in lanes, 84-88 by settle_ball; with friction, which holds 98 % of them, the lanes
+# a joint in lanes, 84-88 by the scalar iteration; with friction, which holds 98 % of them, the lanes
 # added 17 ns a joint to the step)
 SOCKET_SHARE = 5
 
