@@ -427,7 +427,8 @@ def test_ball_joints_turned_in_lanes_carry_their_exact_step():
     evaluations here); it moves as the same chain settled by the scalar iteration (a spring
     table of zero torque) to 1e-9 rad. (The joints of the lanes' test of the same kind: one
     variant compiled for both.)"""
-    make = lambda **kw: cosnet.Ball(stiffness=(0.5, 0.3, 0.2), damping=(2e-3, 1e-3, 5e-4), **kw)   # noqa: E731
+    make = lambda **kw: cosnet.Ball(stiffness=(0.5, 0.3, 0.2), rest=(0.02, -0.01, 0.03),   # noqa: E731
+                                   damping=(2e-2, 1e-2, 5e-3), **kw)
     lanes, angles, taken = lane_chain(make, hang=True, row=SOCKETED + S_OK)
     iterated, angles_it, _ = lane_chain(make, hang=True, spring_table=([-1.0, 1.0], [0.0, 0.0]))
     assert np.all(np.isin(taken, (SETTLED, AHEAD))) and np.mean(taken == SETTLED) > 0.8
