@@ -292,7 +292,7 @@ def settle_universals(p, model, state, dt, out):
 
 @njit(**PASS)
 def weigh_balls(p, model, state, dt, out):
-    """Update out (LANE_ROWS - GRIPPED, k) for every joint by the friction of a ball joint without
+    """Update out (SOCKETED - GRIPPED, k) for every joint by the friction of a ball joint without
     a spring table weighed at phi^- (start_joint, start_turning), in vector lanes: row G_OK
     SETTLED where the joint is such a ball joint with friction or a damper, its friction holds
     it (it stays at phi^-) and its boundary point there turns by less than 0.2 rad; rows
