@@ -43,7 +43,9 @@ weighed at phi^- (a joint it holds is settled there), then settle_hinge's first 
 both of its Newton steps computed and the one settle_hinge would take selected, with no
 branch; one whose evaluation is its balance (its step ends the iteration or is carried) is
 done, one whose exact step is too long to carry goes on through settle_hinge from the lanes'
-next point. A universal joint without a spring table takes its friction's weighing and
+next point. (Where friction holds all but fewer than one in TURNING_SHARE of the columns,
+settle_hinges does not run: the held hinges take weigh_hinges' loads, the others the scalar
+path.) A universal joint without a spring table takes its friction's weighing and
 settle_universal's first evaluation in the same way, its two coordinates' Newton steps selected
 without a branch (settle_universals, in one loop over the lanes' rows that LLVM keeps scalar);
 the others (spring tables, boundary points turned past 0.2 rad) go through the scalar path as
@@ -54,7 +56,7 @@ the time), one that turns goes on through the iteration, which on the scalar pat
 takes the weighed loads of a joint held whole. A ball joint that turns, neither loose nor with
 a spring table or a cone, settles by settle_ball (the leading term's steps, and an exact step
 below ONE_STEP carried, as a hinge's), in lanes by its first evaluation (settle_sockets, where
-at least one in SOCKET_SHARE of the lanes' columns turns: the lanes take every column).
+at least one in TURNING_SHARE of the lanes' columns turns: the lanes take every column).
 The lanes read each joint's constants from rows of one number a joint (lane_tables): read
 from the record's rows of three, whose length is no constant to LLVM, the loop ran in lanes
 only under a run-time test that a row holds one number, and so never did. The joints' own
@@ -80,10 +82,11 @@ from .compiler import CACHED, INLINE, INNER
 from .compose import load_kernel
 from . import joint_lanes
 from .elastic import end_frame
-from .joint_lanes import AHEAD, BALL_OK, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_SOCKET, C_UNIVERSAL, FRIC, G_FRIC, \
-    G_LAB, G_NODE, G_OK, G_TAU_E, GRIPPED, LAB, LANE_MIN, MOVES, NODE, OK, PHI, S_LAB, S_NODE, S_OK, S_PHI, S_TAU_E, \
-    SETTLED, SOCKETED, TAU_E, TURN, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, U_TAU_E, UNIVERSALS, WEIGHED, \
-    SOCKET_SHARE, settle_balls, settle_hinges, settle_sockets, settle_universals, weigh_balls, weigh_hinges
+from .joint_lanes import AHEAD, BALL_OK, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_SOCKET, C_UNIVERSAL, FRIC, GRIPPED, \
+    G_FRIC, G_LAB, G_NODE, G_OK, G_TAU_E, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, SOCKETED, S_LAB, S_NODE, S_OK, \
+    S_PHI, S_TAU_E, TAU_E, TURN, TURNING_SHARE, UNIVERSALS, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, U_TAU_E, \
+    WEIGHED, W_FRIC, W_LAB, W_MOVES, W_NODE, W_OK, W_TAU_E, settle_balls, settle_hinges, settle_sockets, \
+    settle_universals, weigh_balls, weigh_hinges
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_exact, ball_weighed, \
     bend_rate, boundary_moment, boundary_pair, boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, \
     hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, node_torque, positive_sym3, small_rate
@@ -106,7 +109,7 @@ GRIPS = True    # some joint is a ball joint with friction or a damper and witho
 SOCKETS = True  # some joint is a ball joint neither loose nor with a spring table, a cone or friction, of
                 # LANE_MIN joints or more (joint_lanes.settle_sockets, which then takes those with friction
                 # too: a net whose such joints all have friction, held most of the time, settles the few
-                # turning by the scalar iteration, SOCKET_SHARE, and compiles no lanes for them)
+                # turning by the scalar iteration, TURNING_SHARE, and compiles no lanes for them)
 OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS", "GRIPS", "SOCKETS")
 
 
@@ -690,11 +693,20 @@ def add_articulations(p, model, state, loads):
     p.last[0] = state.clock[0]
     spent = 0.0
     L = p.lanes
+    C = p.lane_constants
+    W = L[WEIGHED:UNIVERSALS]   # (rows of their own: LLVM then needs no test of their overlap with the others)
+    pinned = False   # whether the hinges' friction held so many that settle_hinges did not run
     if PINS:
-        W = L[WEIGHED:UNIVERSALS]   # (rows of their own: LLVM then needs no test of their overlap with the others)
         if HELD:
             weigh_hinges(p, model, state, dt, W)
-        settle_hinges(p, model, state, dt, L, W)
+            turning = 0
+            for j in range(p.attach.shape[0]):
+                turning += (C[C_HINGE, j] != 0.0) & (W[W_MOVES, j] != 0.0)
+            pinned = turning * TURNING_SHARE < C.shape[1]
+        if pinned:   # the held ones as weighed, the few that turn by the scalar iteration (TURNING_SHARE)
+            L[OK, :] = 0.0
+        else:
+            settle_hinges(p, model, state, dt, L, W)
     if LOOSE:
         settle_balls(p, model, state, L)
     U = L[UNIVERSALS:GRIPPED]
@@ -704,12 +716,12 @@ def add_articulations(p, model, state, loads):
     if GRIPS:
         weigh_balls(p, model, state, dt, H)
     if SOCKETS:
-        C, turning = p.lane_constants, 0
+        turning = 0
         for j in range(p.attach.shape[0]):
             turning += (C[C_SOCKET, j] != 0.0) & ((C[C_HELD, j] == 0.0) | (H[G_OK, j] == AHEAD))
-        if turning * SOCKET_SHARE >= C.shape[1]:
+        if turning * TURNING_SHARE >= C.shape[1]:
             settle_sockets(p, model, state, dt, S, H)
-        else:   # the few that turn by the scalar iteration (SOCKET_SHARE)
+        else:   # the few that turn by the scalar iteration (TURNING_SHARE)
             S[S_OK, :] = 0.0
     for j in range(p.attach.shape[0]):
         a = p.attach[j]
@@ -725,6 +737,13 @@ def add_articulations(p, model, state, loads):
             (tx, ty, tz), te = (L[NODE, j], L[NODE + 1, j], L[NODE + 2, j]), (L[TAU_E, j], L[TAU_E + 1, j],
                                                                             L[TAU_E + 2, j])
             lab = (L[LAB, j], L[LAB + 1, j], L[LAB + 2, j])
+        elif PINS and HELD and pinned and (C[C_HINGE, j] != 0.0) & (W[W_MOVES, j] == 0.0) & (W[W_OK, j] != 0.0):
+            # a hinge its friction holds, as weigh_hinges weighed it (settle_hinges' values there)
+            phi, fric, moves = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), (W[W_FRIC, j], 0.0, 0.0), \
+                (False, False, False)
+            (tx, ty, tz), te = (W[W_NODE, j], W[W_NODE + 1, j], W[W_NODE + 2, j]), (W[W_TAU_E, j], W[W_TAU_E + 1, j],
+                                                                                  W[W_TAU_E + 2, j])
+            lab = (W[W_LAB, j], W[W_LAB + 1, j], W[W_LAB + 2, j])
         elif GRIPS and H[G_OK, j] == SETTLED:   # held by its friction where it was
             phi, fric, moves = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), zero, (False, False, False)
             (tx, ty, tz), te = (H[G_NODE, j], H[G_NODE + 1, j], H[G_NODE + 2, j]), (H[G_TAU_E, j], H[G_TAU_E + 1, j],

@@ -25,21 +25,21 @@ OK, PHI, NODE, TAU_E, LAB, FRIC, MOVES = 0, 1, 2, 5, 8, 11, 12
 BALL_OK, TURN = 13, 14
 # and of weigh_hinges (from WEIGHED on: a block settle_hinges reads while writing the rows above)
 WEIGHED = 17
-W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E = 0, 1, 2, 3, 6
+W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E, W_LAB = 0, 1, 2, 3, 6, 9
 # and of settle_universals (from UNIVERSALS on, a block of its own): whether the joint settled
 # there, its two coordinates, the torques on its node and end element, the first in the lab,
 # each coordinate's friction torque and whether it moved
-UNIVERSALS = 26
+UNIVERSALS = 29
 U_OK, U_PHI, U_NODE, U_TAU_E, U_LAB, U_FRIC, U_MOVES = 0, 1, 3, 6, 9, 12, 14
 # and of weigh_balls (from GRIPPED on): whether the joint's friction holds it there, the torques on
 # its node and end element, the first in the lab, the friction's generalised torques
-GRIPPED = 42
+GRIPPED = 45
 G_OK, G_NODE, G_TAU_E, G_LAB, G_FRIC = 0, 1, 4, 7, 10
 # and of settle_sockets (from SOCKETED on): whether the joint settled there, its coordinates, the
 # torques on its node and end element, the first in the lab
-SOCKETED = 55
+SOCKETED = 58
 S_OK, S_PHI, S_NODE, S_TAU_E, S_LAB = 0, 1, 4, 7, 10
-LANE_ROWS = 68
+LANE_ROWS = 71
 SETTLED, AHEAD = 1.0, 2.0   # in rows OK, BALL_OK, UNIVERSALS + U_OK, GRIPPED + G_OK and SOCKETED + S_OK
 # rows of p.lane_constants (lane_tables): the joints' constants the lanes read, a row for each
 # number (kernels/articulation.py's docstring says why); C_CONE holds cone_cosine; C_AXIS_B and
@@ -68,12 +68,12 @@ HELD = True   # kernels/articulation.py's option: some joint has friction or a d
 # took 125.)
 LANE_WIDTH = 8
 LANE_MIN = 4
-# settle_sockets runs where at least one joint in SOCKET_SHARE of the lanes' columns turns: its
-# vector loop takes every column, held joints too, where the scalar iteration takes only those
-# that turn, each about five columns' cost (a chain of 100 ball joints with springs: 17-18 ns
-# a joint in lanes, 84-88 by the scalar iteration; with friction, which holds 98 % of them, the lanes
-# added 17 ns a joint to the step)
-SOCKET_SHARE = 5
+# settle_hinges and settle_sockets run where at least one joint in TURNING_SHARE of the lanes'
+# columns turns: their vector loops take every column, held joints too, where the scalar
+# iteration takes only those that turn, each about five columns' cost (a chain of 100 ball
+# joints with springs: 17-18 ns a joint in lanes, 84-88 by the scalar iteration; with friction,
+# which holds 98 % of them, the lanes added 17 ns a joint to the step)
+TURNING_SHARE = 5
 
 
 def lane_count(k: int) -> int:
@@ -86,9 +86,10 @@ def weigh_hinges(p, model, state, dt, out):
     """Update out (LANE_ROWS - WEIGHED, k) for every joint by the friction of a hinge without a
     spring table weighed at phi^- (start_joint, start_motion), in vector lanes: rows W_MOVES
     and W_FRIC whether it may move and the friction torque it then meets (1.0 and 0.0 for a
-    hinge without friction or a damper), W_NODE (3) and W_TAU_E (3) the torques on the node
-    and the end element at phi^- (the loads of a hinge its friction holds), and W_OK whether
-    its boundary point there turns by less than 0.2 rad (settle_hinges reads them)."""
+    hinge without friction or a damper), W_NODE (3), W_TAU_E (3) and W_LAB (3) the torques on
+    the node and the end element at phi^-, the first in the lab (the loads of a hinge its
+    friction holds), and W_OK whether its boundary point there turns by less than 0.2 rad
+    (settle_hinges reads them, and the load kernel where settle_hinges does not run)."""
     C, ends, n = p.lane_constants, p.lane_ends, p.attach.shape[0]
     phi, sliding = p.phi.reshape(3 * n), p.sliding.reshape(3 * n)
     for j in range(C.shape[1]):
@@ -110,9 +111,11 @@ def weigh_hinges(p, model, state, dt, out):
         out[W_OK, j] = 1.0 if small | (held == False) else 0.0  # noqa: E712
         out[W_MOVES, j] = 0.0 if held & stays else 1.0
         out[W_FRIC, j] = fric if held else 0.0
-        out[W_NODE, j], out[W_NODE + 1, j], out[W_NODE + 2, j] = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1],
-                                                                             tau[2])
+        node = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
+        out[W_NODE, j], out[W_NODE + 1, j], out[W_NODE + 2, j] = node
         out[W_TAU_E, j], out[W_TAU_E + 1, j], out[W_TAU_E + 2, j] = te
+        out[W_LAB, j], out[W_LAB + 1, j], out[W_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
+                                                                          node[2])
 
 
 @njit(**PASS)
