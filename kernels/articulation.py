@@ -106,10 +106,8 @@ CARDANS = True  # some joint is a universal joint without a spring table, of LAN
                 # (joint_lanes.settle_universals)
 GRIPS = True    # some joint is a ball joint with friction or a damper and without a spring table, of LANE_MIN
                 # joints or more (joint_lanes.weigh_balls)
-SOCKETS = True  # some joint is a ball joint neither loose nor with a spring table, a cone or friction, of
-                # LANE_MIN joints or more (joint_lanes.settle_sockets, which then takes those with friction
-                # too: a net whose such joints all have friction, held most of the time, settles the few
-                # turning by the scalar iteration, TURNING_SHARE, and compiles no lanes for them)
+SOCKETS = True  # some joint is a ball joint neither loose nor with a spring table or a cone, of LANE_MIN joints
+                # or more (joint_lanes.settle_sockets)
 OPTIONS = ("BALLS", "HELD", "PINS", "LOOSE", "CARDANS", "GRIPS", "SOCKETS")
 
 
@@ -857,10 +855,8 @@ def articulation_record(p):
     k = p.attach.shape[0]
     balls = bool(np.any(p.dofs == BALL))
     held = not all(free_joint.py_func(p, j) for j in range(k))
-    pins, loose, cardans, grips = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
-                                   for row in (C_HINGE, C_LOOSE, C_UNIVERSAL, C_GRIP))
-    slides = np.all(p.static + p.kinetic == 0.0, axis=1)   # (no friction)
-    sockets = k >= LANE_MIN and bool(np.any((p.lane_constants[C_SOCKET, :k] != 0.0) & slides))
+    pins, loose, cardans, grips, sockets = (k >= LANE_MIN and bool(np.any(p.lane_constants[row] != 0.0))
+                                            for row in (C_HINGE, C_LOOSE, C_UNIVERSAL, C_GRIP, C_SOCKET))
     return VARIANTS.record(p, (balls, held, pins, loose, cardans, grips, sockets))
 
 
