@@ -25,7 +25,7 @@ OK, PHI, NODE, TAU_E, LAB, FRIC, MOVES = 0, 1, 2, 5, 8, 11, 12
 BALL_OK, TURN = 13, 14
 # and of weigh_hinges (from WEIGHED on: a block settle_hinges reads while writing the rows above)
 WEIGHED = 17
-W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E, W_LAB = 0, 1, 2, 3, 6, 9
+W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E, W_LAB = 0, 1, 2, 3, 6, 9   # (NODE, TAU_E, LAB in turn: put_loads)
 # and of settle_universals (from UNIVERSALS on, a block of its own): whether the joint settled
 # there, its two coordinates, the torques on its node and end element, the first in the lab,
 # each coordinate's friction torque and whether it moved
@@ -81,6 +81,15 @@ def lane_count(k: int) -> int:
     return -(-k // LANE_WIDTH) * LANE_WIDTH
 
 
+@njit(**INLINE)
+def put_loads(out, row, j, f, node, te):
+    """Write column j's torques on the node (X's components) and on the end element, and the
+    first in the lab (F node: the reaction), to out's rows row.. row + 8."""
+    out[row, j], out[row + 1, j], out[row + 2, j] = node
+    out[row + 3, j], out[row + 4, j], out[row + 5, j] = te
+    out[row + 6, j], out[row + 7, j], out[row + 8, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
+
+
 @njit(**PASS)
 def weigh_hinges(p, model, state, dt, out):
     """Update out (LANE_ROWS - WEIGHED, k) for every joint by the friction of a hinge without a
@@ -111,11 +120,7 @@ def weigh_hinges(p, model, state, dt, out):
         out[W_OK, j] = 1.0 if small | (held == False) else 0.0  # noqa: E712
         out[W_MOVES, j] = 0.0 if held & stays else 1.0
         out[W_FRIC, j] = fric if held else 0.0
-        node = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
-        out[W_NODE, j], out[W_NODE + 1, j], out[W_NODE + 2, j] = node
-        out[W_TAU_E, j], out[W_TAU_E + 1, j], out[W_TAU_E + 2, j] = te
-        out[W_LAB, j], out[W_LAB + 1, j], out[W_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
-                                                                          node[2])
+        put_loads(out, W_NODE, j, f, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te)
 
 
 @njit(**PASS)
@@ -324,11 +329,7 @@ def weigh_balls(p, model, state, dt, out):
                                          C[C_DAMPERS, j] > 0.0, dt)
         out[G_OK, j] = (SETTLED if stays else AHEAD) if (C[C_GRIP, j] != 0.0) & small else 0.0
         out[G_FRIC, j], out[G_FRIC + 1, j], out[G_FRIC + 2, j] = f0, f1, f2
-        node = quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2])
-        out[G_NODE, j], out[G_NODE + 1, j], out[G_NODE + 2, j] = node
-        out[G_TAU_E, j], out[G_TAU_E + 1, j], out[G_TAU_E + 2, j] = te
-        out[G_LAB, j], out[G_LAB + 1, j], out[G_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
-                                                                          node[2])
+        put_loads(out, G_NODE, j, f, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te)
 
 
 @njit(**PASS)
@@ -394,10 +395,7 @@ def settle_sockets(p, model, state, dt, out, gripped):
         fits = (C[C_SOCKET, j] != 0.0) & turns & small
         out[S_OK, j] = (SETTLED if done | carried else AHEAD) if fits else 0.0
         out[S_PHI, j], out[S_PHI + 1, j], out[S_PHI + 2, j] = x0 + s0, x1 + s1, x2 + s2
-        out[S_NODE, j], out[S_NODE + 1, j], out[S_NODE + 2, j] = node
-        out[S_TAU_E, j], out[S_TAU_E + 1, j], out[S_TAU_E + 2, j] = te
-        out[S_LAB, j], out[S_LAB + 1, j], out[S_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
-                                                                          node[2])
+        put_loads(out, S_NODE, j, f, node, te)
 
 
 @njit(**PASS)
