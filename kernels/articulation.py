@@ -83,10 +83,9 @@ from .compose import load_kernel
 from . import joint_lanes
 from .elastic import end_frame
 from .joint_lanes import AHEAD, BALL_OK, C_GRIP, C_HELD, C_HINGE, C_LOOSE, C_SOCKET, C_UNIVERSAL, FRIC, GRIPPED, \
-    G_FRIC, G_LAB, G_NODE, G_OK, G_TAU_E, LAB, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, SOCKETED, S_LAB, S_NODE, S_OK, \
-    S_PHI, S_TAU_E, TAU_E, TURN, TURNING_SHARE, UNIVERSALS, U_FRIC, U_LAB, U_MOVES, U_NODE, U_OK, U_PHI, U_TAU_E, \
-    WEIGHED, W_FRIC, W_LAB, W_MOVES, W_NODE, W_OK, W_TAU_E, settle_balls, settle_hinges, settle_sockets, \
-    settle_universals, weigh_balls, weigh_hinges
+    G_FRIC, G_NODE, G_OK, LANE_MIN, MOVES, NODE, OK, PHI, SETTLED, SOCKETED, S_NODE, S_OK, S_PHI, TURN, TURNING_SHARE, \
+    UNIVERSALS, U_FRIC, U_MOVES, U_NODE, U_OK, U_PHI, WEIGHED, W_FRIC, W_MOVES, W_NODE, W_OK, lane_loads, \
+    settle_balls, settle_hinges, settle_sockets, settle_universals, weigh_balls, weigh_hinges
 from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes, ball_exact, ball_weighed, \
     bend_rate, boundary_moment, boundary_pair, boundary_quat, carried_torque, cone_cosine, dot3, friction_weighed, \
     hinge_terms, hinge_torques, inverse_jacobian, jacobian_rate, loose_turn, node_torque, positive_sym3, small_rate
@@ -732,33 +731,23 @@ def add_articulations(p, model, state, loads):
         elif PINS and L[OK, j] == SETTLED:   # a hinge's other coordinates stay where they are
             phi, fric, moves = (L[PHI, j], p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), \
                 (L[MOVES, j] != 0.0, False, False)
-            (tx, ty, tz), te = (L[NODE, j], L[NODE + 1, j], L[NODE + 2, j]), (L[TAU_E, j], L[TAU_E + 1, j],
-                                                                            L[TAU_E + 2, j])
-            lab = (L[LAB, j], L[LAB + 1, j], L[LAB + 2, j])
+            (tx, ty, tz), te, lab = lane_loads(L, NODE, j)
         elif PINS and HELD and pinned and (C[C_HINGE, j] != 0.0) & (W[W_MOVES, j] == 0.0) & (W[W_OK, j] != 0.0):
             # a hinge its friction holds, as weigh_hinges weighed it (settle_hinges' values there)
             phi, fric, moves = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), (W[W_FRIC, j], 0.0, 0.0), \
                 (False, False, False)
-            (tx, ty, tz), te = (W[W_NODE, j], W[W_NODE + 1, j], W[W_NODE + 2, j]), (W[W_TAU_E, j], W[W_TAU_E + 1, j],
-                                                                                  W[W_TAU_E + 2, j])
-            lab = (W[W_LAB, j], W[W_LAB + 1, j], W[W_LAB + 2, j])
+            (tx, ty, tz), te, lab = lane_loads(W, W_NODE, j)
         elif GRIPS and H[G_OK, j] == SETTLED:   # held by its friction where it was
             phi, fric, moves = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), zero, (False, False, False)
-            (tx, ty, tz), te = (H[G_NODE, j], H[G_NODE + 1, j], H[G_NODE + 2, j]), (H[G_TAU_E, j], H[G_TAU_E + 1, j],
-                                                                                  H[G_TAU_E + 2, j])
-            lab = (H[G_LAB, j], H[G_LAB + 1, j], H[G_LAB + 2, j])
+            (tx, ty, tz), te, lab = lane_loads(H, G_NODE, j)
         elif SOCKETS and S[S_OK, j] == SETTLED:   # turning, against the friction weighed (if any)
             phi, moves = (S[S_PHI, j], S[S_PHI + 1, j], S[S_PHI + 2, j]), (True, True, True)
-            fric = (H[G_FRIC, j], H[G_FRIC + 1, j], H[G_FRIC + 2, j]) if p.lane_constants[C_HELD, j] != 0.0 else zero
-            (tx, ty, tz), te = (S[S_NODE, j], S[S_NODE + 1, j], S[S_NODE + 2, j]), (S[S_TAU_E, j], S[S_TAU_E + 1, j],
-                                                                                  S[S_TAU_E + 2, j])
-            lab = (S[S_LAB, j], S[S_LAB + 1, j], S[S_LAB + 2, j])
+            fric = (H[G_FRIC, j], H[G_FRIC + 1, j], H[G_FRIC + 2, j]) if C[C_HELD, j] != 0.0 else zero
+            (tx, ty, tz), te, lab = lane_loads(S, S_NODE, j)
         elif CARDANS and U[U_OK, j] == SETTLED:   # the third coordinate stays 0
             phi, fric = (U[U_PHI, j], U[U_PHI + 1, j], 0.0), (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
             moves = (U[U_MOVES, j] != 0.0, U[U_MOVES + 1, j] != 0.0, False)
-            (tx, ty, tz), te = (U[U_NODE, j], U[U_NODE + 1, j], U[U_NODE + 2, j]), (U[U_TAU_E, j], U[U_TAU_E + 1, j],
-                                                                                  U[U_TAU_E + 2, j])
-            lab = (U[U_LAB, j], U[U_LAB + 1, j], U[U_LAB + 2, j])
+            (tx, ty, tz), te, lab = lane_loads(U, U_NODE, j)
         else:
             f = end_frame(model, state, a)   # (once: the balance and the reaction both take it)
             if PINS and L[OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
@@ -768,8 +757,7 @@ def add_articulations(p, model, state, loads):
                                                    L[PHI, j], p.phi[j, 0], L[FRIC, j])
                 phi, fric, moves = (x, p.phi[j, 1], p.phi[j, 2]), (L[FRIC, j], 0.0, 0.0), (True, False, False)
             elif SOCKETS and S[S_OK, j] == AHEAD:   # on from the lanes' Newton step, as settled would go
-                held = p.lane_constants[C_HELD, j] != 0.0
-                fric = (H[G_FRIC, j], H[G_FRIC + 1, j], H[G_FRIC + 2, j]) if held else zero
+                fric = (H[G_FRIC, j], H[G_FRIC + 1, j], H[G_FRIC + 2, j]) if C[C_HELD, j] != 0.0 else zero
                 moves = (True, True, True)
                 phi, (tx, ty, tz), te = settle_ball(
                     boundary_point(p, j, model, state, f), axis_constants(p, j, 0, inv_dt),

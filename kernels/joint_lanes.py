@@ -18,14 +18,14 @@ from .joint_math import BALL, HINGE, NEWTON_TOL, ONE_STEP, UNIVERSAL, ball_axes,
 from .rotations import axis_quat, cross, quat_exp, quat_mul, quat_rotate, quat_rotate_inv, small_rotation, solve_sym3
 
 # rows of p.lanes (settle_hinges): whether the joint settled there, its coordinate, the torques
-# on its node (X's components) and end element, the first in the lab, its friction torque and
-# whether it moved
+# on its node (X's components) and end element, the first in the lab (NODE, TAU_E and LAB, and
+# each block's like rows below, in turn: put_loads), its friction torque and whether it moved
 OK, PHI, NODE, TAU_E, LAB, FRIC, MOVES = 0, 1, 2, 5, 8, 11, 12
 # and of settle_balls: whether the joint settled there, its coordinates
 BALL_OK, TURN = 13, 14
 # and of weigh_hinges (from WEIGHED on: a block settle_hinges reads while writing the rows above)
 WEIGHED = 17
-W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E, W_LAB = 0, 1, 2, 3, 6, 9   # (NODE, TAU_E, LAB in turn: put_loads)
+W_OK, W_MOVES, W_FRIC, W_NODE, W_TAU_E, W_LAB = 0, 1, 2, 3, 6, 9
 # and of settle_universals (from UNIVERSALS on, a block of its own): whether the joint settled
 # there, its two coordinates, the torques on its node and end element, the first in the lab,
 # each coordinate's friction torque and whether it moved
@@ -84,15 +84,22 @@ def lane_count(k: int) -> int:
 @njit(**INLINE)
 def put_loads(out, row, j, f, node, te):
     """Write column j's torques on the node (X's components) and on the end element, and the
-    first in the lab (F node: the reaction), to out's rows row.. row + 8."""
+    first in the lab (F node: the reaction), to out's rows row.. row + 8 (lane_loads reads them)."""
     out[row, j], out[row + 1, j], out[row + 2, j] = node
     out[row + 3, j], out[row + 4, j], out[row + 5, j] = te
     out[row + 6, j], out[row + 7, j], out[row + 8, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
 
 
+@njit(**INLINE)
+def lane_loads(rows, row, j):
+    """Return (node torque, tau_E, reaction) of column j as put_loads wrote them from row on."""
+    return ((rows[row, j], rows[row + 1, j], rows[row + 2, j]), (rows[row + 3, j], rows[row + 4, j], rows[row + 5, j]),
+            (rows[row + 6, j], rows[row + 7, j], rows[row + 8, j]))
+
+
 @njit(**PASS)
 def weigh_hinges(p, model, state, dt, out):
-    """Update out (LANE_ROWS - WEIGHED, k) for every joint by the friction of a hinge without a
+    """Update out (UNIVERSALS - WEIGHED, k) for every joint by the friction of a hinge without a
     spring table weighed at phi^- (start_joint, start_motion), in vector lanes: rows W_MOVES
     and W_FRIC whether it may move and the friction torque it then meets (1.0 and 0.0 for a
     hinge without friction or a damper), W_NODE (3), W_TAU_E (3) and W_LAB (3) the torques on
@@ -174,9 +181,7 @@ def settle_hinges(p, model, state, dt, out, weighed):
         out[OK, j] = (SETTLED if not moves or done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
         out[PHI, j] = x + carried if moves else prev
         out[FRIC, j], out[MOVES, j] = fric, (1.0 if moves else 0.0)
-        out[NODE, j], out[NODE + 1, j], out[NODE + 2, j] = node
-        out[TAU_E, j], out[TAU_E + 1, j], out[TAU_E + 2, j] = te
-        out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
+        put_loads(out, NODE, j, f, node, te)
 
 
 @njit(**INLINE)
@@ -196,7 +201,7 @@ turned_boundary = njit(**INLINE)(boundary_quat.py_func)
 
 @njit(**PASS)
 def settle_universals(p, model, state, dt, out):
-    """Update out (LANE_ROWS - UNIVERSALS, k) for every joint as settle_axes settles a
+    """Update out (GRIPPED - UNIVERSALS, k) for every joint as settle_axes settles a
     universal joint without a spring table by settle_universal's first evaluation, its
     branches taken as selects (settle_hinges' way for its two coordinates): with friction or
     a damper, each coordinate's friction weighed at phi^- first, as start_joint weighs it (a
@@ -292,10 +297,7 @@ def settle_universals(p, model, state, dt, out):
         out[U_PHI, j], out[U_PHI + 1, j] = nx0, nx1
         out[U_FRIC, j], out[U_FRIC + 1, j] = f0, f1
         out[U_MOVES, j], out[U_MOVES + 1, j] = (1.0 if m0 else 0.0), (1.0 if m1 else 0.0)
-        out[U_NODE, j], out[U_NODE + 1, j], out[U_NODE + 2, j] = node
-        out[U_TAU_E, j], out[U_TAU_E + 1, j], out[U_TAU_E + 2, j] = te
-        out[U_LAB, j], out[U_LAB + 1, j], out[U_LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1],
-                                                                          node[2])
+        put_loads(out, U_NODE, j, f, node, te)
 
 
 @njit(**PASS)
