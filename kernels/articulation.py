@@ -210,11 +210,11 @@ def start_motion(p, j, i, torque, prev, dt):
 
 @njit(**INNER)
 def start_turning(p, j, model, state, f, prev, dt):
-    """Return (moves, f0, f1, f2, R, tau_G, tau_E) of ball joint j (its end frame f) at
+    """Return (moves, f0, f1, f2, node torque, tau_E) of ball joint j (its end frame f) at
     phi^- = prev: whether it may turn in this evaluation, the friction's generalised torques
     f_i = c_i . F on its coordinates (a ball joint's friction is one torque F on its rotation
-    as a whole, not one per coordinate: joint_math.ball_weighed), and what was found at phi^-
-    (start_joint's held)."""
+    as a whole, not one per coordinate: joint_math.ball_weighed), and the loads found at phi^-
+    (start_joint's held): the torque on the node, R tau_G, and tau_E."""
     r, c0, c1, c2 = joint_turn(p, j, prev)
     tau, te, _, _, _ = boundary_torques(p, j, model, state, f, r)
     q0 = dot3(c0, tau) - p.stiffness[j, 0] * (prev[0] - p.rest[j, 0]) - spring_table(p, j, 0, prev[0])[0]
@@ -223,7 +223,7 @@ def start_turning(p, j, model, state, f, prev, dt):
     turning = p.sliding[j, 0] + p.sliding[j, 1] + p.sliding[j, 2] != 0.0
     damped = (p.damping[j, 0] + p.damping[j, 1] + p.damping[j, 2]) > 0.0
     stays, f0, f1, f2 = ball_weighed(c0, c1, c2, (q0, q1, q2), p.static[j, 0], p.kinetic[j, 0], turning, damped, dt)
-    return not stays, f0, f1, f2, r, tau, te
+    return not stays, f0, f1, f2, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te
 
 
 @njit(**INLINE)
@@ -484,13 +484,13 @@ def settle_universal(point, a, b, c0, c1, ang, tq, phi, prev, moves, fric):
 
 
 @njit(**INNER)
-def settle_ball(point, c0, c1, c2, ang, tq, phi, prev, moves, fric, cone):
+def settle_ball(point, c0, c1, c2, ang, tq, phi, prev, fric, cone):
     """Return (phi, node torque, tau_E) of a ball joint by Newton's method from phi (3-tuple):
     its coordinates where its loads balance, the torque on the node (X's components) and the
     body torque on the end element; point: its boundary point (boundary_point), c0, c1, c2 its
-    coordinates' constants (axis_constants), ang / tq the spring tables, ``moves`` whether it
-    turns (its friction's weighing: it holds all three coordinates or none), ``fric`` the
-    friction's generalised torques, ``cone`` its cone (rad; pi: none). Each coordinate's body
+    coordinates' constants (axis_constants), ang / tq the spring tables, ``fric`` the friction's
+    generalised torques of a joint that turns (its friction holds all three coordinates or
+    none: a held one takes its weighed loads), ``cone`` its cone (rad; pi: none). Each coordinate's body
     axis k_i (joint_math.ball_axes) maps to w_i = J k_i at the boundary point, the generalised
     torque -e w_i . m, and the derivative's leading term w_i^T B w_k / L: settle_hinge's terms
     for three axes that turn with phi. The steps take the leading term, to NEWTON_TOL, as
@@ -511,8 +511,6 @@ def settle_ball(point, c0, c1, c2, ang, tq, phi, prev, moves, fric, cone):
         g0, s0, slope0 = axis_balance(c0, ang, tq, -e * dot3(w0, m), x0, prev[0], fric[0])
         g1, s1, slope1 = axis_balance(c1, ang, tq, -e * dot3(w1, m), x1, prev[1], fric[1])
         g2, s2, slope2 = axis_balance(c2, ang, tq, -e * dot3(w2, m), x2, prev[2], fric[2])
-        if not moves:
-            break
         a00, a11, a22 = dot3(w0, bw0) + s0, dot3(w1, bw1) + s1, dot3(w2, bw2) + s2
         a01, a02, a12 = dot3(w0, bw1), dot3(w0, bw2), dot3(w1, bw2)
         step = solve_sym3(a00, a01, a02, a11, a12, a22, g0, g1, g2)
@@ -553,21 +551,21 @@ def start_joint(p, j, model, state, dt, f):
     (settle_joint): its coordinates at the last evaluation, dt before this one; whether each
     may move and the friction torque it then meets; where its Newton iteration starts, those
     carried on at their last rate; and where the friction was weighed at phi^- (a joint with
-    friction or a damper), what was found there (whether, R, tau_G, tau_E): the joint's loads
-    if no coordinate moves (settle_axes, settle_joint)."""
+    friction or a damper), what was found there (whether, the torque on the node, R tau_G, and
+    tau_E): the joint's loads if no coordinate moves (settle_axes, settle_joint, settled)."""
     prev = (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2])
     n = p.dofs[j]
-    held = (False, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    held = (False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     if not HELD or free_joint(p, j):   # every coordinate moves: no torque to compare with a friction
         m0, m1, m2, f0, f1, f2 = n > 0, n > 1, n > 2, 0.0, 0.0, 0.0
     elif BALLS and n == BALL:
-        m0, f0, f1, f2, r, tau, te = start_turning(p, j, model, state, f, prev, dt)
+        m0, f0, f1, f2, torque, te = start_turning(p, j, model, state, f, prev, dt)
         m1, m2 = m0, m0
-        held = (True, r, tau, te)
+        held = (True, torque, te)
     else:
         r, c0, c1, c2 = joint_turn(p, j, prev)
         tau, te, _, _, _ = boundary_torques(p, j, model, state, f, r)
-        held = (True, r, tau, te)
+        held = (True, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), te)
         m0, f0 = start_motion(p, j, 0, dot3(c0, tau), prev, dt)
         m1, f1 = start_motion(p, j, 1, dot3(c1, tau), prev, dt)
         m2, f2 = start_motion(p, j, 2, dot3(c2, tau), prev, dt)
@@ -593,8 +591,7 @@ def settle_joint(p, j, model, state, dt, f):
     m0, m1, m2 = moves
     f0, f1, f2 = fric
     if held[0] and not (m0 or m1 or m2):   # held where it was: its loads are the friction check's
-        r, tau = held[1], held[2]
-        return prev, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
+        return prev, fric, moves, held[1], held[2]
     for it in range(NEWTON_STEPS):
         r, c0, c1, c2 = joint_turn(p, j, phi)
         tau, te, _, _, rel = boundary_torques(p, j, model, state, f, r)
@@ -627,8 +624,7 @@ def settle_axes(p, j, model, state, dt, f):
     turning joints' functions take numbers, which a call passes in registers.)"""
     prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt, f)
     if held[0] and not (moves[0] or moves[1]):   # held where it was: its loads are the friction check's
-        r, tau = held[1], held[2]
-        return phi, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
+        return phi, fric, moves, held[1], held[2]
     a, point = p.axis_a[j], boundary_point(p, j, model, state, f)
     if p.dofs[j] == HINGE:
         x, torque, te = settle_hinge(point, (a[0], a[1], a[2]), axis_constants(p, j, 0, inv_dt), p.table_angle,
@@ -669,11 +665,10 @@ def settled(p, j, model, state, dt, f):
                 return phi, zero, (True, True, True), zero, zero
         prev, moves, fric, phi, inv_dt, held = start_joint(p, j, model, state, dt, f)
         if held[0] and not moves[0]:   # held where it was: its loads are the friction check's
-            r, tau = held[1], held[2]
-            return prev, fric, moves, quat_rotate(r[0], r[1], r[2], r[3], tau[0], tau[1], tau[2]), held[3]
+            return prev, fric, moves, held[1], held[2]
         x, torque, te = settle_ball(boundary_point(p, j, model, state, f), axis_constants(p, j, 0, inv_dt),
                                     axis_constants(p, j, 1, inv_dt), axis_constants(p, j, 2, inv_dt), p.table_angle,
-                                    p.table_torque, phi, prev, moves[0], fric, p.cone[j])
+                                    p.table_torque, phi, prev, fric, p.cone[j])
         return x, fric, moves, torque, te
     return settle_axes(p, j, model, state, dt, f)
 
@@ -762,8 +757,8 @@ def add_articulations(p, model, state, loads):
                 phi, (tx, ty, tz), te = settle_ball(
                     boundary_point(p, j, model, state, f), axis_constants(p, j, 0, inv_dt),
                     axis_constants(p, j, 1, inv_dt), axis_constants(p, j, 2, inv_dt), p.table_angle, p.table_torque,
-                    (S[S_PHI, j], S[S_PHI + 1, j], S[S_PHI + 2, j]), (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), True,
-                    fric, p.cone[j])
+                    (S[S_PHI, j], S[S_PHI + 1, j], S[S_PHI + 2, j]), (p.phi[j, 0], p.phi[j, 1], p.phi[j, 2]), fric,
+                    p.cone[j])
             elif CARDANS and U[U_OK, j] == AHEAD:   # on from the lanes' Newton step, as settle_axes would go
                 ax, bx = p.axis_a[j], p.axis_b[j]
                 fric = (U[U_FRIC, j], U[U_FRIC + 1, j], 0.0)
