@@ -183,22 +183,33 @@ def friction_weighed(q0, static, kinetic, sliding, damping, dt):
     return stays, (0.0 if stays else math.copysign(kinetic, q0))
 
 
-@njit(**INNER)
-def ball_axes(p0, p1, p2):
-    """Return the columns of the right Jacobian J_r(phi) = (1 - b t^2) 1 - a [phi]x + b phi phi^T
-    of exp (a = (1 - cos t)/t^2, b = (t - sin t)/t^3, t = |phi|): the body axes turned by
-    d phi_0, d phi_1, d phi_2 (3-tuples), a and b taken once for the three. (Both of a and b's
-    forms computed and one selected, the closed one kept finite at t = 0: the lanes,
-    joint_lanes.weigh_balls, then run it without a branch.)"""
-    t2 = p0 * p0 + p1 * p1 + p2 * p2
+@njit(**INLINE)
+def ball_coefficients(t2):
+    """Return (a, b, alpha, beta) of the right Jacobian of exp at |phi|^2 = t2 (ball_axes):
+    a = (1 - cos t)/t^2, b = (t - sin t)/t^3 and their derivatives over t, alpha = a'/t,
+    beta = b'/t, by series below t^2 = 0.01, in closed form above. (Both forms computed and one
+    selected, the closed one kept finite where the series are taken: the lanes then run it
+    without a branch; a caller that takes a and b alone leaves the rest to LLVM to drop.)"""
     sa = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 / 40320.0))
     sb = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
+    sal = -1.0 / 12.0 + t2 * (1.0 / 180.0 - t2 / 6720.0)
+    sbe = -1.0 / 60.0 + t2 * (1.0 / 1260.0 - t2 / 60480.0)
     w2 = max(t2, 0.01)
     t = math.sqrt(w2)
     st, ct = sin_cos(t)
     small = t2 < 0.01
-    a = sa if small else (1.0 - ct) / w2
-    b = sb if small else (t - st) / (w2 * t)
+    return ((sa if small else (1.0 - ct) / w2), (sb if small else (t - st) / (w2 * t)),
+            (sal if small else (t * st - 2.0 * (1.0 - ct)) / (w2 * w2)),
+            (sbe if small else ((1.0 - ct) * t - 3.0 * (t - st)) / (w2 * w2 * t)))
+
+
+@njit(**INNER)
+def ball_axes(p0, p1, p2):
+    """Return the columns of the right Jacobian J_r(phi) = (1 - b t^2) 1 - a [phi]x + b phi phi^T
+    of exp (a, b: ball_coefficients, t = |phi|): the body axes turned by d phi_0, d phi_1,
+    d phi_2 (3-tuples), a and b taken once for the three."""
+    t2 = p0 * p0 + p1 * p1 + p2 * p2
+    a, b, _, _ = ball_coefficients(t2)
     c = 1.0 - b * t2
     b0, b1, b2 = b * p0, b * p1, b * p2
     a0, a1, a2 = a * p0, a * p1, a * p2
@@ -233,22 +244,11 @@ def ball_weighed(c0, c1, c2, q, static, kinetic, turning, damped, dt):
 @njit(**INNER)
 def ball_axes_rate(p0, p1, p2, y):
     """Return (H00, H11, H22, H01, H02, H12), H_ik = d k_i / d phi_k . y, k_i the columns of
-    J_r(phi) (ball_axes) and y a vector: with alpha = a'/t, beta = b'/t (a, b of ball_axes),
+    J_r(phi) (ball_axes) and y a vector: with a, b, alpha, beta of ball_coefficients,
     d k_i / d phi_k = phi_k (-(beta t^2 + 2 b) e_i - alpha phi x e_i + beta phi_i phi)
     - a e_k x e_i + b phi_i e_k + b delta_ik phi."""
     t2 = p0 * p0 + p1 * p1 + p2 * p2
-    sa = 0.5 - t2 * (1.0 / 24.0 - t2 * (1.0 / 720.0 - t2 / 40320.0))
-    sb = 1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0 - t2 / 362880.0))
-    sal = -1.0 / 12.0 + t2 * (1.0 / 180.0 - t2 / 6720.0)
-    sbe = -1.0 / 60.0 + t2 * (1.0 / 1260.0 - t2 / 60480.0)
-    w2 = max(t2, 0.01)   # (the closed forms kept finite where the series are taken: ball_axes)
-    t = math.sqrt(w2)
-    st, ct = sin_cos(t)
-    small = t2 < 0.01
-    a = sa if small else (1.0 - ct) / w2
-    b = sb if small else (t - st) / (w2 * t)
-    al = sal if small else (t * st - 2.0 * (1.0 - ct)) / (w2 * w2)
-    be = sbe if small else ((1.0 - ct) * t - 3.0 * (t - st)) / (w2 * w2 * t)
+    a, b, al, be = ball_coefficients(t2)
     ph = (p0, p1, p2)
     z = cross(y[0], y[1], y[2], p0, p1, p2)   # (phi x e_i) . y = (y x phi)_i
     pp = dot3(ph, y)
