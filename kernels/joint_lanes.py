@@ -181,7 +181,11 @@ def settle_hinges(p, model, state, dt, out, weighed):
         out[OK, j] = (SETTLED if not moves or done or not abs(exact) > ONE_STEP else AHEAD) if fits else 0.0
         out[PHI, j] = x + carried if moves else prev
         out[FRIC, j], out[MOVES, j] = fric, (1.0 if moves else 0.0)
-        put_loads(out, NODE, j, f, node, te)
+        # (written out, not put_loads: through it, this loop took a chain of 10 friction hinges
+        # from +31 % to +56-65 % over the welded chain)
+        out[NODE, j], out[NODE + 1, j], out[NODE + 2, j] = node
+        out[TAU_E, j], out[TAU_E + 1, j], out[TAU_E + 2, j] = te
+        out[LAB, j], out[LAB + 1, j], out[LAB + 2, j] = quat_rotate(f[0], f[1], f[2], f[3], node[0], node[1], node[2])
 
 
 @njit(**INLINE)
