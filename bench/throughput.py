@@ -1,8 +1,10 @@
 """Throughput: element-steps per second of cosnet's compiled stepper.
 
 Cases: a clamped rod of 100 and 1,000 elements under gravity, and nets of 100 and 1,000
-lines x 10 elements (a chain joined at point junctions); a chain of 10^5 elements on 1 and
-2 threads, timed in alternation. Run: python bench/throughput.py
+lines x 10 elements (a chain joined at point junctions); on 1 and on 2 threads, each pair
+timed in alternation, chains of 2 * 10^4, 5 * 10^4 and 10^5 elements and rods of 2 * 10^4
+and 5 * 10^4 (where two threads start to pay: the default thread count,
+simulation.PARALLEL_MIN_ELEMENTS, docs/threads.md). Run: python bench/throughput.py
 """
 
 import sys
@@ -48,20 +50,28 @@ def main():
     start = cpu_times()
     threads = measure_threads("chain 10000 x 10", big, 100 // div, 5 if quick else 9)
     stolen = stolen_since(start)
+    speedups = {"chain 10000 x 10": threads[0]["us_per_step"] / threads[1]["us_per_step"]}
+    for name, net in (("chain 2000 x 10", chain(2_000)), ("chain 5000 x 10", chain(5_000)),
+                      ("rod 20000", rod(20_000)), ("rod 50000", rod(50_000))):
+        pair = measure_threads(name, net, max(10, 4_000_000 // net.element_count // div), 5 if quick else 9)
+        speedups[name] = pair[0]["us_per_step"] / pair[1]["us_per_step"]
+        threads += pair
     results += threads
     table("cosnet throughput (Verlet, gravity)",
           ["case", "elements", "threads", "steps/s", "element-steps/s", "us/step"],
           [[r["case"], r["elements"], r["threads"], r["steps_per_s"], r["element_steps_per_s"], r["us_per_step"]]
            for r in results])
-    speedup = threads[1]["element_steps_per_s"] / threads[0]["element_steps_per_s"]
+    speedup = speedups["chain 10000 x 10"]
     print(f"\n2 threads vs 1 on {big.element_count:,} elements: {speedup:.2f}x "
-          f"({100 * stolen:.0f}% of the CPU time stolen by the hypervisor meanwhile)")
+          f"({100 * stolen:.0f}% of the CPU time stolen by the hypervisor meanwhile); " +
+          ", ".join(f"{k} {v:.2f}x" for k, v in speedups.items() if k != "chain 10000 x 10"))
     big1 = cosnet.Simulation(big, effects=[cosnet.Gravity()], threads=1)
     calls = {"rod 100": call_cost(small, 1e-6 * results[0]["us_per_step"]),
              "chain 10000 x 10": call_cost(big1, 1e-6 * threads[0]["us_per_step"], 5)}
     print("cost of a run() call beyond its steps: " +
           ", ".join(f"{k} {1e6 * v:.0f} us" for k, v in calls.items()))
-    write_json(__file__, {"throughput": results, "thread_speedup": speedup, "cpu_stolen": stolen,
+    write_json(__file__, {"throughput": results, "thread_speedup": speedup, "thread_speedups": speedups,
+                          "cpu_stolen": stolen,
                           "run_call_cost_s": calls})
 
 

@@ -30,7 +30,10 @@ from ..core.rotations import matrix_from_quat
 from .watch import InstabilityError, Watch, locate  # noqa: F401  (InstabilityError: cosnet's export)
 
 STEPPERS = {"verlet": advance_verlet, "pefrl": advance_pefrl}
-PARALLEL_MIN_ELEMENTS = 20_000  # below this a parallel region's launch costs more than it saves
+# Below this many elements the threaded loops' launches (waking the sleeping pool: kernels/backend.py)
+# cost more than the second thread saves: bench/throughput.py times 1 against 2 threads about it
+# (docs/threads.md).
+PARALLEL_MIN_ELEMENTS = 50_000
 
 
 def check_threads(threads) -> int:
@@ -84,7 +87,7 @@ class Simulation:
         step of the linearised net's highest mode ``stable_dt(tight=True)``. A dt above the
         bound is refused unless ``force_dt=True``.
     safety: the fraction of the estimated stability limit taken as the automatic step, in (0, 1].
-    threads: None picks one thread for nets under 20,000 elements and numba's thread count
+    threads: None picks one thread for nets under 50,000 elements and numba's thread count
         above; an integer from 1 to that count forces that many (1 = serial loops). Results
         are bit-identical run to run for a given thread count (docs/threads.md).
     fast_modes: how lines treat their fast modes (rotary inertia, stretch and shear waves):
