@@ -4,7 +4,9 @@ Cost: a hanging chain of LINKS steel links (5 elements each, 0.2 m; or 50 elemen
 joint ten times sparser) whose junctions are welded, free hinges, ball joints, universal joints
 (Cardan: about y in the node, z in the joint), ball joints with a spring, or hinges, universal
 or ball joints with a spring, a damper and friction; every net stepped at the welded chain's
-stable step, interleaved rounds, one thread. Each row also gives the net's own stable step against the welded one's.
+stable step, one thread, the median of three copies of each, timed in interleaved rounds
+(harness.median_of_copies: a copy's step time depends on where its arrays lie). Each row also
+gives the net's own stable step against the welded one's.
 
 Rings: a stiff 100-element steel wire between two pins with 0, 1, 10 or 50 rings of 1 kg
 sliding on it with friction, each pulled down by a node load, in air and in water (the wire
@@ -29,7 +31,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import cosnet
-from harness import best_interleaved, table, write_json
+from harness import best_interleaved, median_of_copies, table, write_json
 
 STEEL = cosnet.Material(E=2.1e11, poisson=0.3, density=7850.0)
 G = 9.81
@@ -64,10 +66,15 @@ def chain(links, joint, elements=5):
 
 def cost(links, rounds, elements=5):
     welded = cosnet.Simulation(chain(links, JOINTS["welded"], elements), [cosnet.Gravity()], threads=1)
-    sims = {name: cosnet.Simulation(chain(links, make, elements), [cosnet.Gravity()], dt=welded.dt, force_dt=True,
-                                    threads=1) for name, make in JOINTS.items()}
     steps = max(500, 1_500_000 // (links * elements))
-    times = best_interleaved([lambda s=s: s.run(steps=steps) for s in sims.values()], rounds)
+
+    def build(make):   # each copy a simulation of its own (harness.median_of_copies)
+        sim = cosnet.Simulation(chain(links, make, elements), [cosnet.Gravity()], dt=welded.dt, force_dt=True,
+                                threads=1)
+        return lambda: sim.run(steps=steps)
+    sims = {name: cosnet.Simulation(chain(links, make, elements), [cosnet.Gravity()], threads=1)
+            for name, make in JOINTS.items()}   # (each kind's own stable step)
+    times = median_of_copies([lambda make=make: build(make) for make in JOINTS.values()], 3, rounds)
     base = times[0] / steps
     out = []
     for (name, sim), t in zip(sims.items(), times):
