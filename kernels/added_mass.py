@@ -30,7 +30,7 @@ from numba import njit
 from .backend import PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (CALM, CARRIES, CURRENT, NODES, FluidParams, calm_now, end_arm, has_added_mass, kick_changes,
+from .fluid import (ARMS, CALM, CARRIES, CURRENT, NODES, FluidParams, calm_now, end_arm, has_added_mass, kick_changes,
                     kick_drag_vertices, node_free, sample_rows, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
@@ -182,9 +182,11 @@ def end_sums(p, model, state, G, nd):
             continue
         i = model.attach_vertex[a]
         gx, gy, gz = G[0][i], G[1][i], G[2][i]
-        r = end_arm(model, state, a)
-        c = cross(r[0], r[1], r[2], gx, gy, gz)
-        fx, fy, fz, mx, my, mz = fx + gx, fy + gy, fz + gz, mx + c[0], my + c[1], mz + c[2]
+        fx, fy, fz = fx + gx, fy + gy, fz + gz
+        if ARMS:   # (a variant's option: some free node's ends have arms)
+            r = end_arm(model, state, a)
+            c = cross(r[0], r[1], r[2], gx, gy, gz)
+            mx, my, mz = mx + c[0], my + c[1], mz + c[2]
     return (fx, fy, fz), (mx, my, mz)
 
 

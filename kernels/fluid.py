@@ -542,12 +542,10 @@ def wet_shares(za, zb, s):
     return 0.5 * (1.0 - tc) * (1.0 - tc), 0.5 * (1.0 - tc * tc)
 
 
-@njit(**INNER)
-def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
-    """Return the force of position and time on vertex i (line l, row j): its share of the
-    upthrust of the elements beside it, and the medium's inertia force l_i (rho A (1 + C_a))
-    A split along the tangent (the latter where the vertex is wet), each a 3-tuple."""
-    x = state.x
+@njit(**CACHED, inline="always")
+def vertex_upthrust(p, model, x, j, l, i, lo, hi):
+    """Return the upthrust on vertex i of line l (row j; its vertices lo..hi-1; x the
+    positions): its shares of the elements beside it (wet_shares)."""
     up = 0.0
     if p.buoyancy[j] != 0.0:
         e0 = model.line_element_offsets[l] + (i - lo)
@@ -556,6 +554,15 @@ def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
         if i < hi - 1:
             up += model.element_rest_length[e0] * wet_shares(x[i, 2], x[i + 1, 2], p.surface)[0]
         up *= p.buoyancy[j]
+    return up
+
+
+@njit(**INNER)
+def vertex_force(p, model, state, j, l, i, lo, hi, tan, wet, acc):
+    """Return the force of position and time on vertex i (line l, row j): its share of the
+    upthrust of the elements beside it, and the medium's inertia force l_i (rho A (1 + C_a))
+    A split along the tangent (the latter where the vertex is wet), each a 3-tuple."""
+    up = vertex_upthrust(p, model, state.x, j, l, i, lo, hi)
     wl = model.voronoi_rest_length[i] if wet else 0.0
     return (0.0, 0.0, up), split(wl * p.inertia_n[j], wl * p.inertia_t[j], acc[0], acc[1], acc[2], tan[0], tan[1],
                                  tan[2])

@@ -15,20 +15,22 @@ from .compiler import CACHED, INNER
 from .compose import flow_kernel
 from .fluid import (ARMS, CARRIES, MOVING, NODES, FluidParams, add_split, buoy_of, calm_now, carrying_span, end_arm,
                     ends_entrained, entrained_line, has_added_mass, linear_law, node_free, push_vertices,
-                    sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force)
+                    sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force,
+                    vertex_upthrust)
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
 
 
 @njit(**INNER)
 def node_end(p, model, state, a):
-    """Return (row, wet, r, tan, lv, U, A) of line end a of a node: the row of its line (-1:
-    not in the medium), whether it is wet, its lab offset r from the node's centre of mass,
-    its tangent, Voronoi length, and the medium's velocity and acceleration there."""
+    """Return (row, wet, r, tan, lv, U, A) of line end a of a node the medium moves
+    (node_free): the row of its line (-1: not in the medium), whether it is wet, its lab offset
+    r from the node's centre of mass, its tangent, Voronoi length, and the medium's velocity
+    and acceleration there."""
     l = a // 2
     j = p.line_row[l] if l < p.line_row.shape[0] else -1
     vt = model.attach_vertex[a]
-    r = end_arm(model, state, a)
+    r = end_arm(model, state, a) if ARMS else (0.0, 0.0, 0.0)   # (ARMS: some free node's ends have them)
     wet, um, acc, tan = sampled(p, vt)
     return j, wet and j >= 0, r, tan, model.voronoi_rest_length[vt], um, acc
 
@@ -168,17 +170,42 @@ def push_nodes(p, model, state, h):
 
 
 @njit(**INNER)
+def node_lift(p, model, state, nd):
+    """Return (upward force, torque about the centre of mass: its x and y), lab, of the forces
+    on free node nd in a still medium: the upthrust on its line ends and its buoy (node_forces'
+    where the medium's acceleration, and with it the inertia force, is nil)."""
+    fz = tx = ty = 0.0
+    x = state.x
+    for s in range(model.node_attach_offsets[nd], model.node_attach_offsets[nd + 1]):
+        a = model.node_attach_list[s]
+        l = a // 2
+        j = p.line_row[l] if l < p.line_row.shape[0] else -1
+        if j < 0:
+            continue
+        up = vertex_upthrust(p, model, x, j, l, model.attach_vertex[a], model.line_vertex_offsets[l],
+                             model.line_vertex_offsets[l + 1])
+        fz += up
+        if ARMS:   # r x (0, 0, up)
+            r = end_arm(model, state, a)
+            tx, ty = tx + r[1] * up, ty - r[0] * up
+    b = buoy_of(p, nd) if CARRIES else -1
+    if CARRIES and b >= 0:
+        fz += p.buoy_sample[b, 0] * p.medium[0] * p.medium[1] * p.buoy_volume[b]
+    return fz, tx, ty
+
+
+@njit(**INNER)
 def add_node_upthrust(p, model, state, loads):
     """Update loads.node_f and loads.node_tau (lab) at the free nodes by the forces on them in a
-    still medium: the upthrust on their wet line ends and buoys (node_forces; the inertia force
-    is nil there), a load of the kick as the lines' own upthrust is (kernels/added_mass.py),
-    divided by the node's mass with the rest."""
+    still medium: the upthrust on their wet line ends and buoys (node_lift), a load of the
+    kick as the lines' own upthrust is (kernels/added_mass.py), divided by the node's mass
+    with the rest."""
     for nd in range(model.node_mass.shape[0]):
         if node_free(p, model, nd):
-            f, _, t = node_forces(p, model, state, nd)
-            for k in range(3):
-                loads.node_f[nd, k] += f[k]
-                loads.node_tau[nd, k] += t[k]
+            fz, tx, ty = node_lift(p, model, state, nd)
+            loads.node_f[nd, 2] += fz
+            loads.node_tau[nd, 0] += tx
+            loads.node_tau[nd, 1] += ty
 
 
 @njit(**CACHED, inline="always")
