@@ -5,7 +5,8 @@ the median of three copies of each: harness.median_of_copies), per step and per 
 Scene: a steel wire (r = 20 mm) of N elements, 1 m each, pinned at both ends 2 m under the
 surface, under gravity; and the same 1000 elements as a chain of 200 lines of 5, joined at
 point junctions of 10 kg (a net's twine between knots: the nodes' share of the medium's
-work); every step is taken at the dry net's stable step. Run: python bench/fluid.py
+work); every step is taken at the dry net's stable step; and the wire of 50,000 elements as lines of
+5, dry and in water, on 1 and on 2 threads (on_threads). Run: python bench/fluid.py
 [--quick]; writes bench/fluid.json (docs/fluid.md shows its table).
 """
 
@@ -15,12 +16,13 @@ import numpy as np
 
 import cosnet
 from cosnet.kernels.stepping import CHUNK_STEPS
-from harness import median_of_copies, table, write_json
+from harness import best_interleaved, median_of_copies, table, write_json
 
 SEA = 1025.0
 WIRE = cosnet.Material(E=1e11, poisson=0.3, density=7850.0)
 
 KNOT = dict(mass=10.0, inertia=(0.1, 0.1, 0.1))   # the junctions of a chain of lines
+THREADED, STEPS_THREADED = 50_000, 100   # on_threads: the net's elements, and steps a timing
 
 
 def wire(n, lines=1):
@@ -76,7 +78,33 @@ def main():
             rows.append([n, lines, name, 1e6 * per, 1e9 * per / n, 100.0 * (per / base - 1)])
     table("fluid: cost per step of a submerged wire (one thread, the dry line's step)",
           ["elements", "lines", "case", "us/step", "ns/element-step", "over dry %"], rows)
-    write_json(__file__, {"command": " ".join(["python", "bench/fluid.py", *sys.argv[1:]]), "runs": results})
+    threads = on_threads(quick)
+    table("fluid: the wire as a net of short lines on 1 and 2 threads",
+          ["elements", "lines", "case", "threads", "us/step"],
+          [[r["elements"], r["lines"], r["case"], r["threads"], r["us_per_step"]] for r in threads])
+    write_json(__file__, {"command": " ".join(["python", "bench/fluid.py", *sys.argv[1:]]), "runs": results,
+                          "threads": threads})
+
+
+def on_threads(quick):
+    """The wire of THREADED elements as lines of 5 (a net's twine between knots, at the size
+    where a net runs on two threads by default: simulation.PARALLEL_MIN_ELEMENTS), dry and
+    with drag + added mass + buoyancy, each on 1 and on 2 threads, timed in alternation:
+    the elastic step's loops run on the threads, the medium's passes on one."""
+    n, lines = THREADED, THREADED // 5
+    dt = cosnet.Simulation(wire(n, lines), [cosnet.Gravity()], threads=1, fast_modes="rotary").dt
+    runs, fns = [], []
+    for name, kw in (("dry (gravity)", None), ("drag + added mass + buoyancy", FLUIDS["drag + added mass + buoyancy"])):
+        for k in (1, 2):
+            medium = [] if kw is None else [cosnet.Fluid(SEA, surface=0.0, **kw)]
+            sim = cosnet.Simulation(wire(n, lines), [cosnet.Gravity(), *medium], dt=dt, force_dt=True, threads=k,
+                                    fast_modes="rotary")
+            runs.append({"elements": n, "lines": lines, "case": name, "threads": k})
+            fns.append(lambda sim=sim: sim.run(steps=STEPS_THREADED))
+    times = best_interleaved(fns, 3 if quick else 7)
+    for r, t in zip(runs, times):
+        r["us_per_step"] = 1e6 * t / STEPS_THREADED
+    return runs
 
 
 if __name__ == "__main__":
