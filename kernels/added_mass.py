@@ -25,13 +25,13 @@ ends (force and moment about its centre of mass); a fixed or driven one leaves t
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .backend import PASS, STEP
+from .backend import NODE_BLOCK, PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (ARMS, CALM, CARRIES, CURRENT, NODES, FluidParams, calm_now, end_arm, has_added_mass, kick_changes,
-                    kick_drag_vertices, node_free, sample_rows, split, still_medium, turns)
+from .fluid import (ARMS, CALM, CARRIES, CURRENT, NODES, THREADS, FluidParams, calm_now, end_arm, has_added_mass,
+                    kick_changes, kick_drag_vertices, node_free, sample_rows, set_decay, split, still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
@@ -40,6 +40,13 @@ TURNING_ROWS = 6  # rows of p.turning: the forces G at the line ends (3, the las
                   # interior vertices, scratch), the last kick's whole change of the velocity D at the interior
                   # vertices (3: add_inner_turning, or with the drag's flow fluid.kick_drag_vertices; at a line end,
                   # its node's midpoint velocity for the pass: add_turning_forces)
+KICK_BLOCK = 128   # lines per task of the kick's threaded pass over the lines (kick_threaded)
+
+
+def threaded_blocks(lines: int, nodes: int) -> int:
+    """The rows of FluidParams.block_sums for a medium of ``lines`` lines on a net of ``nodes``
+    nodes: the blocks of kick_threaded's longest loop."""
+    return max((lines + KICK_BLOCK - 1) // KICK_BLOCK, (nodes + NODE_BLOCK - 1) // NODE_BLOCK, 1)
 
 
 @njit(**CACHED, inline="always")
@@ -191,33 +198,39 @@ def end_sums(p, model, state, G, nd):
 
 
 @njit(**INNER)
-def add_turning_forces(p, model, state, loads, h):
-    """Update loads.f (nv, 3) at the interior vertices, loads.node_f and loads.node_tau at the
-    free nodes by the turning fluid's forces at the kick's midpoint velocities (module
-    docstring), and the interior vertices' loads with the upthrust to what the kick divides
-    by their masses (add_inner_turning, end_turning; kick_fluid the rest); p.supplied by
-    their work over the kick of h, which with the resampled entrained energy (flow_fluid) is
-    what the line and its fluid exchange with the medium: nothing in still water, to the
-    step's order. (One kernel of its own: the records passed to each of several cost more
-    compiling than their arithmetic.)"""
+def turning_rates(p, model, state, loads, n0, n1):
+    """Update p.node_rate at the free nodes among n0..n1-1 by their accelerations with the kick's
+    loads and the last kick's turning forces G on their line ends (add_turning_forces)."""
+    G, _ = turning_rows(p)
+    for nd in range(n0, n1):
+        if node_free(p, model, nd):
+            g, _ = end_sums(p, model, state, G, nd)
+            fn = loads.node_f[nd]
+            a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
+            d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
+            p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
+
+
+@njit(**INNER)
+def add_turning_forces(p, model, state, loads, h, j0, j1):
+    """Update loads.f (nv, 3) at the interior vertices of rows j0..j1-1's lines by the turning
+    fluid's forces at the kick's midpoint velocities (module docstring), and their loads with
+    the upthrust to what the kick divides by their masses (add_inner_turning, end_turning;
+    kick_fluid the rest), and its forces G at the lines' ends (add_end_sums gives them to the
+    free nodes); return their power, whose work over the kick of h, with the resampled
+    entrained energy (flow_fluid), is what the line and its fluid exchange with the medium:
+    nothing in still water, to the step's order. The velocities half a kick on come from the
+    loads and the last kick's forces G: an O(h) error in G is an O(h^2) one in the midpoint,
+    and the step stays second order for one evaluation a kick instead of two (a line end: its
+    node's motion; its translation on, a node's acceleration taken once for all its ends, in
+    p.node_rate: turning_rates). (One kernel of its own: the records passed to each of several
+    cost more compiling than their arithmetic.)"""
     G, D = turning_rows(p)
     S, v, f = sample_rows(p), columns(state.v), columns(loads.f)
     ci, vlen = p.chord_inverse, model.voronoi_rest_length
     calm = calm_now(p)
-    # the velocities half a kick on, with the loads and the last kick's forces G: an O(h)
-    # error in G is an O(h^2) one in the midpoint, and the step stays second order for one
-    # evaluation a kick instead of two (a line end: its node's motion; its translation on,
-    # a node's acceleration taken once for all its ends, in p.node_rate)
-    if NODES:
-        for nd in range(model.node_mass.shape[0]):
-            if node_free(p, model, nd):
-                g, _ = end_sums(p, model, state, G, nd)
-                fn = loads.node_f[nd]
-                a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
-                d = solve_sym3(a00, a01, a02, a11, a12, a22, fn[0] + g[0], fn[1] + g[1], fn[2] + g[2])
-                p.node_rate[nd, 0], p.node_rate[nd, 1], p.node_rate[nd, 2] = d[0], d[1], d[2]
     work = 0.0
-    for j in range(p.lines.shape[0]):
+    for j in range(j0, j1):
         l, lo, hi = turning_span(p, model, j)
         if hi == 0:
             continue
@@ -242,14 +255,20 @@ def add_turning_forces(p, model, state, loads, h):
         if change:
             for i in range(lo + 1, hi - 1):
                 D[0][i], D[1][i], D[2][i] = G[0][i], G[1][i], G[2][i]
-    if NODES:
-        for nd in range(model.node_mass.shape[0]):
-            if node_free(p, model, nd):
-                g, m = end_sums(p, model, state, G, nd)
-                for k in range(3):
-                    loads.node_f[nd, k] += g[k]
-                    loads.node_tau[nd, k] += m[k]
-    p.supplied[0] += h * work
+    return work
+
+
+@njit(**INNER)
+def add_end_sums(p, model, state, loads, n0, n1):
+    """Update loads.node_f and loads.node_tau at the free nodes among n0..n1-1 by the turning
+    fluid's forces G on their line ends (add_turning_forces) and their moments."""
+    G, _ = turning_rows(p)
+    for nd in range(n0, n1):
+        if node_free(p, model, nd):
+            g, m = end_sums(p, model, state, G, nd)
+            for k in range(3):
+                loads.node_f[nd, k] += g[k]
+                loads.node_tau[nd, k] += m[k]
 
 
 @njit(**PASS)
@@ -273,11 +292,11 @@ def divide_line(f, S, vmass, first, n, up):
 
 
 @njit(**INNER)
-def divide_node_loads(p, model, loads):
-    """Update loads.node_f at the free nodes the medium adds mass to, m A^-1 f (A the node's
-    mass matrix with its added mass: fluid_step.node_mass_matrix), so that the kick's f / m is
-    A^-1 f."""
-    for nd in range(model.node_mass.shape[0]):
+def divide_node_loads(p, model, loads, n0, n1):
+    """Update loads.node_f at the free nodes among n0..n1-1 the medium adds mass to, m A^-1 f
+    (A the node's mass matrix with its added mass: fluid_step.node_mass_matrix), so that the
+    kick's f / m is A^-1 f."""
+    for nd in range(n0, n1):
         if not node_free(p, model, nd):
             continue
         a00, a01, a02, a11, a12, a22 = held_mass(p, model, nd, np.bool_(True))
@@ -289,43 +308,128 @@ def divide_node_loads(p, model, loads):
         fn[0], fn[1], fn[2] = m * g[0], m * g[1], m * g[2]
 
 
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def kick_nodes_first(n0, n1, p, model, state, loads):
+    """Update loads.node_f and loads.node_tau at the free nodes among n0..n1-1 by the upthrust in
+    a still medium (add_node_upthrust), and p.node_rate by their accelerations where some
+    line's fluid turns (turning_rates): what the kick's pass over the lines reads of them."""
+    if still_medium(p) and lifts_nodes(p):
+        add_node_upthrust(p, model, state, loads, n0, n1)
+    if CARRIES and p.turning.shape[1] > 0:
+        turning_rates(p, model, state, loads, n0, n1)
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def kick_lines(j0, j1, p, model, state, loads, h):
+    """Update loads.f at the interior vertices of rows j0..j1-1's lines by the upthrust (as
+    sample_upthrust found it) and the turning fluid's forces (add_turning_forces), turned so
+    that the kick's f / m is M^-1 f, M the vertex mass with the added mass of the wet line
+    parts, m + a_n (1 - t t^T) + a_t t t^T (each line's interior in one pass: the upthrust
+    alone where it carries no added mass, else with the division, in add_inner_turning where
+    its fluid turns); then state.v there by the drag's flow between the kick's halves, with
+    these loads (fluid.kick_drag_vertices). Return (the turning forces' power, the energy the
+    drag dissipated, the work it supplied)."""
+    f, S = columns(loads.f), sample_rows(p)
+    vmass = model.vertex_mass
+    nl = model.line_vertex_offsets.shape[0] - 1
+    voff = model.line_vertex_offsets
+    for j in range(j0, j1):
+        l = p.lines[j]
+        if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and p.added_n[j] == 0.0 and p.added_t[j] == 0.0:
+            add_upthrust(f[2], S[13], uint(voff[l] + 1), voff[l + 1] - voff[l] - 2)
+    work = 0.0
+    if CARRIES:
+        if p.turning.shape[1] > 0:
+            work = add_turning_forces(p, model, state, loads, h, j0, j1)
+        for j in range(j0, j1):
+            l = p.lines[j]
+            if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0) or turns(p, j):
+                continue
+            divide_line(f, S, vmass, uint(voff[l] + 1), voff[l + 1] - voff[l] - 2,
+                        1.0 if p.buoyancy[j] != 0.0 else 0.0)
+    d, g = kick_drag_vertices(p, model, state, loads, h, j0, j1)
+    return work, d, g
+
+
+@njit(**STEP)  # not inline="always": called inside prange (see backend.py)
+def kick_nodes_last(n0, n1, p, model, state, loads, h):
+    """Update loads.node_f and loads.node_tau at the free nodes among n0..n1-1 by the turning
+    fluid's forces on their line ends (add_end_sums), node_f to what the kick divides by
+    their masses (divide_node_loads), then state.node_v at the free point junctions by the
+    drag's flow between the kick's halves, with these loads (fluid_step.kick_drag_nodes).
+    Return (the energy dissipated, the work supplied)."""
+    if CARRIES:
+        if p.turning.shape[1] > 0:
+            add_end_sums(p, model, state, loads, n0, n1)
+        if has_added_mass(p):
+            divide_node_loads(p, model, loads, n0, n1)
+    return kick_drag_nodes(p, model, state, loads.node_f, h, n0, n1)
+
+
+@njit(**INNER, parallel=True)
+def kick_threaded(p, model, state, loads, h):
+    """kick_fluid's passes in blocks of KICK_BLOCK lines and of NODE_BLOCK nodes on the step's
+    threads, three threaded loops a kick (the nodes the lines read; the lines; the nodes that
+    read the lines' ends), each block's sums in a row of p.block_sums (a reduction would
+    allocate); a loop of a single block, or of more than p.block_sums holds, runs in the
+    calling thread (backend.SOLO). Return (the turning forces' power, the energy dissipated,
+    the work supplied)."""
+    nn, nj, sums = model.node_mass.shape[0], p.lines.shape[0], p.block_sums
+    bn, bl = (nn + NODE_BLOCK - 1) // NODE_BLOCK, (nj + KICK_BLOCK - 1) // KICK_BLOCK
+    serial_nodes, serial_lines = bn <= 1 or bn > sums.shape[0], bl <= 1 or bl > sums.shape[0]
+    if NODES:
+        if serial_nodes:
+            kick_nodes_first(np.int64(0), nn, p, model, state, loads)
+        else:
+            for b in prange(bn):
+                kick_nodes_first(b * NODE_BLOCK, min((b + 1) * NODE_BLOCK, nn), p, model, state, loads)
+    if serial_lines:
+        work, dissipated, supplied = kick_lines(np.int64(0), nj, p, model, state, loads, h)
+    else:
+        for b in prange(bl):
+            sums[b, 0], sums[b, 1], sums[b, 2] = kick_lines(b * KICK_BLOCK, min((b + 1) * KICK_BLOCK, nj), p, model,
+                                                            state, loads, h)
+        work = dissipated = supplied = 0.0
+        for b in range(bl):
+            work, dissipated, supplied = work + sums[b, 0], dissipated + sums[b, 1], supplied + sums[b, 2]
+    if NODES:
+        if serial_nodes:
+            d, g = kick_nodes_last(np.int64(0), nn, p, model, state, loads, h)
+            dissipated, supplied = dissipated + d, supplied + g
+        else:
+            for b in prange(bn):
+                sums[b, 0], sums[b, 1] = kick_nodes_last(b * NODE_BLOCK, min((b + 1) * NODE_BLOCK, nn), p, model,
+                                                         state, loads, h)
+            for b in range(bn):
+                dissipated, supplied = dissipated + sums[b, 0], supplied + sums[b, 1]
+    return work, dissipated, supplied
+
+
 @inertia_kernel(FluidParams)
 @njit(**STEP)
 def kick_fluid(p, model, state, arg):
     """Update loads.f (nv, 3) at the wet interior vertices and loads.node_f at the free nodes
-    given arg = (loads, h), the kick's loads and length: the upthrust (as sample_upthrust
-    found it; in a still medium the nodes' too, with its torque in loads.node_tau:
-    add_node_upthrust) and the turning fluid's forces added (add_turning_forces), then all
-    turned so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet line
-    parts (the vertex mass m + a_n (1 - t t^T) + a_t t t^T; a node's sum over its wet ends:
-    divide_node_loads). (Each line's interior in one pass: the upthrust alone where it
-    carries no added mass, else with the division, in add_line_forces where its fluid turns.)
-    Then state.v at the interior vertices and state.node_v at the free point junctions by the
-    drag's flow between the kick's halves, with these loads (fluid.kick_drag_vertices,
-    fluid_step.kick_drag_nodes)."""
+    given arg = (loads, h), the kick's loads and length: the upthrust (in a still medium the
+    nodes' too, with its torque in loads.node_tau) and the turning fluid's forces added, then
+    all turned so that the kick's f / m is M^-1 f, M the mass with the added mass of the wet
+    line parts (a node's: the sum over its wet ends, divide_node_loads); then state.v at the
+    interior vertices and state.node_v at the free point junctions by the drag's flow between
+    the kick's halves, with these loads: kick_nodes_first, kick_lines and kick_nodes_last over
+    every node and line, or in blocks on the threads (THREADS: kick_threaded). p.supplied and
+    p.dissipated by the work done."""
     loads, h = arg
-    f, S = columns(loads.f), sample_rows(p)
-    vmass = model.vertex_mass
-    nl = model.line_vertex_offsets.shape[0] - 1
-    if NODES and still_medium(p) and lifts_nodes(p):
-        add_node_upthrust(p, model, state, loads)
-    for j in range(p.lines.shape[0]):
-        l = p.lines[j]
-        if l >= 0 and l < nl and p.buoyancy[j] != 0.0 and p.added_n[j] == 0.0 and p.added_t[j] == 0.0:
-            add_upthrust(f[2], S[13], uint(model.line_vertex_offsets[l] + 1),
-                         model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2)
-    if CARRIES:
-        if p.turning.shape[1] > 0:
-            add_turning_forces(p, model, state, loads, h)
-        for j in range(p.lines.shape[0]):
-            l = p.lines[j]
-            if l < 0 or l >= nl or (p.added_n[j] == 0.0 and p.added_t[j] == 0.0) or turns(p, j):
-                continue
-            divide_line(f, S, vmass, uint(model.line_vertex_offsets[l] + 1),
-                        model.line_vertex_offsets[l + 1] - model.line_vertex_offsets[l] - 2,
-                        1.0 if p.buoyancy[j] != 0.0 else 0.0)
-        if NODES and has_added_mass(p):
-            divide_node_loads(p, model, loads)
-    kick_drag_vertices(p, model, state, loads, h)
-    if NODES:
-        kick_drag_nodes(p, model, state, loads.node_f, h)
+    set_decay(p, model, h)
+    if THREADS:
+        work, dissipated, supplied = kick_threaded(p, model, state, loads, h)
+        p.supplied[0] += h * work
+    else:
+        nn = model.node_mass.shape[0]
+        if NODES:
+            kick_nodes_first(np.int64(0), nn, p, model, state, loads)
+        work, dissipated, supplied = kick_lines(np.int64(0), p.lines.shape[0], p, model, state, loads, h)
+        p.supplied[0] += h * work
+        if NODES:
+            d, g = kick_nodes_last(np.int64(0), nn, p, model, state, loads, h)
+            dissipated, supplied = dissipated + d, supplied + g
+    p.dissipated[0] += dissipated
+    p.supplied[0] += supplied

@@ -73,7 +73,9 @@ CURRENT = True       # it may flow somewhere, or at some time
 ARMS = True          # some node the medium moves has a line end off its centre of mass: the drag's moment turns
                      # it, in a pass over the nodes of its own (fluid_step.drag_nodes) that a net of point
                      # junctions (knots, shackles, a towed weight) has no use for
-OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS")
+THREADS = True       # the step runs on threads: the kick's passes over the lines and the nodes run in blocks on
+                     # them (added_mass.kick_threaded), parallel code a run on one thread has no use for
+OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS", "THREADS")
 
 
 class FluidParams(NamedTuple):
@@ -142,7 +144,9 @@ class FluidParams(NamedTuple):
                              # sample found it (where some line carries added mass): the turning fluid's
                              # terms (kernels/added_mass.vertex_turning)
     node_rate: np.ndarray    # (nn, 3) scratch: each free node's acceleration the turning fluid's predictor
-                             # takes (kernels/added_mass.add_turning_forces)
+                             # takes (kernels/added_mass.turning_rates)
+    block_sums: np.ndarray   # (blocks, 3) scratch: the sums of each block of lines or nodes the threaded kick
+                             # runs (added_mass.kick_threaded: a threaded loop's reduction would allocate)
 
 
 @njit(**CACHED, inline="always")
@@ -743,37 +747,46 @@ def turns(p, j):
 
 
 @njit(**INNER)
-def kick_drag_vertices(p, model, state, loads, h):
-    """Update state.v of the interior vertices by the exact flow of drag for the kick's length
-    h, between the kick's two halves (K/2 F K/2: kick_drag_vertex; the kick that follows gives
-    the whole impulse of loads.f, as the added mass left it): the tangential and normal parts
-    of the relative velocity u each keep their direction, their size s becoming s r with
-    r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the linear one, m with the
-    added mass of that direction. p.dissipated and p.supplied by its work; rows 3-5 of
+def set_decay(p, model, h):
+    """Update p.decay for the linear law at the kick's length h where it changed: the decay of
+    a wet vertex's relative velocity over the drag's flow, exp(-c h l / m) (m with the added
+    mass of that direction), depends on h alone: a run of equal kicks takes its exponentials
+    once instead of two a vertex a kick."""
+    if not (RESISTANCE and linear_law(p) and p.decay_h[0] != h):
+        return
+    vlen = model.voronoi_rest_length
+    nl = model.line_vertex_offsets.shape[0] - 1
+    for j in range(p.lines.shape[0]):
+        l = p.lines[j]
+        if 0 <= l < nl:
+            for i in range(model.line_vertex_offsets[l] + 1, model.line_vertex_offsets[l + 1] - 1):
+                p.decay[0, i] = math.exp(-h * p.drag_n[j] * vlen[i] * p.wet_inverse[0, i])
+                p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
+    p.decay_h[0] = h
+
+
+@njit(**INNER)
+def kick_drag_vertices(p, model, state, loads, h, j0, j1):
+    """Update state.v of the interior vertices of rows j0..j1-1's lines by the exact flow of
+    drag for the kick's length h, between the kick's two halves (K/2 F K/2: kick_drag_vertex;
+    the kick that follows gives the whole impulse of loads.f, as the added mass left it): the
+    tangential and normal parts of the relative velocity u each keep their direction, their
+    size s becoming s r with r = 1 / (1 + k s h / m) for Morison's law, exp(-k h / m) for the
+    linear one (p.decay: set_decay), m with the added mass of that direction. Rows 3-5 of
     p.turning, where the line's fluid turns, by the kick's whole change of the velocity (the
-    next kick's prediction of its midpoint: added_mass.predicted). One flow a kick at its middle
-    where two halves on its sides took two passes; the step stays a symmetric sequence
-    (second order) and stable however stiff the drag. (A loop per law over contiguous columns
-    with unsigned indices, branch-free, which LLVM vectorises; see layout.columns.)"""
+    next kick's prediction of its midpoint: added_mass.predicted). Return (the energy
+    dissipated, the work supplied). One flow a kick at its middle where two halves on its
+    sides took two passes; the step stays a symmetric sequence (second order) and stable
+    however stiff the drag. (A loop per law over contiguous columns with unsigned indices,
+    branch-free, which LLVM vectorises; see layout.columns.)"""
     v, f, S, c = columns(state.v), columns(loads.f), sample_rows(p), columns(state.x)
     vlen, vmass, im = model.voronoi_rest_length, model.vertex_mass, model.vertex_inv_mass
     nl = model.line_vertex_offsets.shape[0] - 1
-    if RESISTANCE and linear_law(p) and p.decay_h[0] != h:
-        # the linear law's decay of a wet vertex's relative velocity over the flow, exp(-c h l / m)
-        # (m with the added mass of that direction), depends on h alone: a run of equal kicks
-        # takes its exponentials once instead of two a vertex a kick
-        for j in range(p.lines.shape[0]):
-            l = p.lines[j]
-            if 0 <= l < nl:
-                for i in range(model.line_vertex_offsets[l] + 1, model.line_vertex_offsets[l + 1] - 1):
-                    p.decay[0, i] = math.exp(-h * p.drag_n[j] * vlen[i] * p.wet_inverse[0, i])
-                    p.decay[1, i] = math.exp(-h * p.drag_t[j] * vlen[i] * p.wet_inverse[1, i])
-        p.decay_h[0] = h
     decay = (p.decay[0], p.decay[1])
     D = kick_changes(p)
     calm = calm_now(p)
     dissipated = supplied = 0.0
-    for j in range(p.lines.shape[0]):
+    for j in range(j0, j1):
         l = p.lines[j]
         if l < 0 or l >= nl or (p.drag_n[j] == 0.0 and p.drag_t[j] == 0.0):
             continue
@@ -784,8 +797,7 @@ def kick_drag_vertices(p, model, state, loads, h):
                               calm, decay, turns(p, j))
         dissipated += d
         supplied += g
-    p.dissipated[0] += dissipated
-    p.supplied[0] += supplied
+    return dissipated, supplied
 
 
 @njit(**CACHED, inline="always")

@@ -195,12 +195,12 @@ def node_lift(p, model, state, nd):
 
 
 @njit(**INNER)
-def add_node_upthrust(p, model, state, loads):
-    """Update loads.node_f and loads.node_tau (lab) at the free nodes by the forces on them in a
-    still medium: the upthrust on their wet line ends and buoys (node_lift), a load of the
-    kick as the lines' own upthrust is (kernels/added_mass.py), divided by the node's mass
-    with the rest."""
-    for nd in range(model.node_mass.shape[0]):
+def add_node_upthrust(p, model, state, loads, n0, n1):
+    """Update loads.node_f and loads.node_tau (lab) at the free nodes among n0..n1-1 by the
+    forces on them in a still medium: the upthrust on their wet line ends and buoys
+    (node_lift), a load of the kick as the lines' own upthrust is (kernels/added_mass.py),
+    divided by the node's mass with the rest."""
+    for nd in range(n0, n1):
         if node_free(p, model, nd):
             fz, tx, ty = node_lift(p, model, state, nd)
             loads.node_f[nd, 2] += fz
@@ -342,17 +342,17 @@ def drag_nodes(p, model, state, h):
 
 
 @njit(**INNER)
-def kick_drag_nodes(p, model, state, node_f, h):
-    """Update the velocities of the free point junctions by the drag's step (drag_node) for
-    the kick's length h between the kick's two halves, as the lines' interior vertices take
-    theirs (fluid.kick_drag_vertices: K/2 F K/2, the half kick of the loads node_f, which the
-    kick then gives whole, taken back after the flow): one evaluation a step where half
-    flows on both sides of the kick took two. (Where a line end has an arm, the drag's
-    moment turns the node, and its half kick would need the node's rotation's: drag_nodes.)
-    p.dissipated and p.supplied by its work."""
+def kick_drag_nodes(p, model, state, node_f, h, n0, n1):
+    """Update the velocities of the free point junctions among n0..n1-1 by the drag's step
+    (drag_node) for the kick's length h between the kick's two halves, as the lines' interior
+    vertices take theirs (fluid.kick_drag_vertices: K/2 F K/2, the half kick of the loads
+    node_f, which the kick then gives whole, taken back after the flow): one evaluation a
+    step where half flows on both sides of the kick took two. (Where a line end has an arm,
+    the drag's moment turns the node, and its half kick would need the node's rotation's:
+    drag_nodes.) Return (the energy dissipated, the work supplied)."""
     added, calm = has_added_mass(p), calm_now(p)
     dissipated = supplied = 0.0
-    for nd in range(model.node_mass.shape[0]):
+    for nd in range(n0, n1):
         if not node_free(p, model, nd) or (ARMS and not point_junction(model, nd)):
             continue
         vn, s = state.node_v[nd], 0.5 * h * model.node_inv_mass[nd]
@@ -362,8 +362,7 @@ def kick_drag_nodes(p, model, state, node_f, h):
         vn[0], vn[1], vn[2] = vn[0] - ax, vn[1] - ay, vn[2] - az
         dissipated += d
         supplied += g
-    p.dissipated[0] += dissipated
-    p.supplied[0] += supplied
+    return dissipated, supplied
 
 
 @njit(**INNER)

@@ -19,11 +19,12 @@ def _register(cls, kernels):
 VARIANTS = Variants(FluidParams, lambda: (fluid, fluid_step, added_mass), OPTIONS, _register, __name__)
 
 
-def options_of(p, model=None) -> tuple:
+def options_of(p, model=None, threads=1) -> tuple:
     """The options record ``p``'s data needs, one per entry of OPTIONS, True where that part
     of the medium may act (by the kernels' own tests, run in Python): of each pair (the drag's
     law, a medium at rest or flowing) the one its data has. The nodes' arms are the model's:
-    without it (``model`` None), some node may have one."""
+    without it (``model`` None), some node may have one. THREADS where the step runs on more
+    than one thread (``threads``)."""
     moving = not fluid.still_medium.py_func(p)
     carries = fluid.has_added_mass.py_func(p) or p.buoy_node.shape[0] > 0
     nodes = p.buoy_node.shape[0] > 0 or bool(np.any(p.node_skip == 0.0))   # (fixed nodes are skipped too)
@@ -31,13 +32,13 @@ def options_of(p, model=None) -> tuple:
     arms = model is None or bool(np.any(np.any(model.attach_offset != 0.0, axis=1)
                                         & (model.node_inv_mass > 0.0)[model.attach_node]
                                         & (p.node_skip == 0.0)[model.attach_node]))   # (fluid_step.point_junction)
-    return moving, carries, p.wave_a.shape[0] > 0, nodes, not linear, linear, calm, not calm, arms
+    return moving, carries, p.wave_a.shape[0] > 0, nodes, not linear, linear, calm, not calm, arms, threads > 1
 
 
-def fluid_record(p, model=None):
+def fluid_record(p, model=None, threads=1):
     """``p`` (a FluidParams) as the record of the variant its data needs (on ``model``: the
-    nodes' arms), sharing its arrays."""
-    return VARIANTS.record(p, options_of(p, model))
+    nodes' arms; on ``threads`` threads), sharing its arrays."""
+    return VARIANTS.record(p, options_of(p, model, threads))
 
 
 __getattr__ = VARIANTS.module_getattr   # a variant's record class by its name, as pickle looks for it

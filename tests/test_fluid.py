@@ -614,7 +614,8 @@ def forcing(monkeypatch, *names):
     from cosnet.kernels import fluid, fluid_variants
     options_of, on = fluid_variants.options_of, {fluid.OPTIONS.index(name) for name in names}
     monkeypatch.setattr(fluid_variants, "options_of",
-                        lambda p, model=None: tuple(o or k in on for k, o in enumerate(options_of(p, model))))
+                        lambda p, model=None, threads=1: tuple(o or k in on
+                                                                for k, o in enumerate(options_of(p, model, threads))))
 
 
 def swinging_wire(law, **medium):
@@ -860,3 +861,34 @@ def test_a_line_in_a_turbulent_current_moves_as_its_equation_of_motion_says():
     # the fluctuation is 0.15 m/s r.m.s.; the step's error is about 2e-6 m/s here, where leaving
     # out the medium's inertia force (rho A U' for a turbulent U) moves the answer by 2.6e-2
     np.testing.assert_allclose(sim.state.v[:, 1:], np.broadcast_to(exact, (sim.state.v.shape[0], 2)), atol=2e-5)
+
+
+def test_a_net_in_water_steps_alike_on_one_and_two_threads():
+    """A chain of 301 lines of 2 elements between pins, joined at 300 free knots, sinking and
+    swinging in still water with drag, added mass that turns and buoyancy: on two threads the
+    kick's passes over the lines and the nodes run in blocks on both (added_mass.kick_threaded;
+    more lines than a block of them, more knots than a block of nodes), and the net moves as on
+    one thread, to round-off (the accounts' sums, and the elastic step's threaded loops, add
+    in another order)."""
+    def run(threads):
+        net = cosnet.Net()
+        wire = cosnet.Material(E=1e9, G=1e9 / 2.6, density=WIRE_DENSITY)
+        ends = [net.add_node((0.0, 0.0, -5.0), fixed=True)]
+        for k in range(1, 301):
+            ends.append(net.add_node((0.1 * k, 0.0, -5.0), mass=0.05, inertia=(1e-4, 1e-4, 1e-4)))
+        ends.append(net.add_node((30.1, 0.0, -5.0), fixed=True))
+        for a, b in zip(ends, ends[1:]):
+            net.add_line(a, b, material=wire, section=cosnet.Circle(0.005), elements=2)
+        fluid = cosnet.Fluid(SEA, surface=0.0, drag=(1.2, 0.05), added_mass=(1.0, 0.2), buoyancy=True)
+        sim = cosnet.Simulation(net, [cosnet.Gravity(), fluid], threads=threads)
+        sim.state.node_v[1:-1, 1] = 0.5 * np.sin(np.linspace(0.0, np.pi, 300))
+        sim.run(steps=300)
+        return sim, fluid
+
+    (one, f1), (two, f2) = run(1), run(2)
+    assert type(f2.params(two)).__name__[-1] == "1" and type(f1.params(one)).__name__[-1] == "0"   # THREADS
+    assert f1.dissipated(one) > 1e-6 * abs(one.energy())    # the drag acts
+    assert np.abs(two.state.x - one.state.x).max() < 1e-10
+    assert np.abs(two.state.v - one.state.v).max() < 1e-8
+    assert f2.dissipated(two) == pytest.approx(f1.dissipated(one), rel=1e-9)
+    assert f2.supplied(two) == pytest.approx(f1.supplied(one), rel=1e-9, abs=1e-12)

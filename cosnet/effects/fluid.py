@@ -14,7 +14,7 @@ from ..core import checks
 from .contact import chosen_lines, chosen_parts
 from .drives import driven_nodes
 from .loads import Gravity, checked_table
-from ..kernels.added_mass import TURNING_ROWS
+from ..kernels.added_mass import TURNING_ROWS, threaded_blocks
 from ..kernels.fluid import LINEAR, MORISON, SAMPLE_ROWS, FluidParams
 from ..kernels.fluid_step import ENTRAINED, SAMPLE
 from ..kernels.fluid_variants import VARIANTS, fluid_record
@@ -409,8 +409,9 @@ class Fluid(Effect):
                            dissipated=np.zeros(1), supplied=np.zeros(1), **self._buoy_rows(on, rho, g, nn),
                            turning=np.zeros((TURNING_ROWS, nv if self._turns(rows) else 0)),
                            node_mass=np.zeros((nn, 6)),
-                           chord_inverse=np.zeros(nv), node_rate=np.zeros((nn, 3)))
-        p = fluid_record(p, on.model)   # of the variant that compiles only the parts its data can use
+                           chord_inverse=np.zeros(nv), node_rate=np.zeros((nn, 3)),
+                           block_sums=np.zeros((threaded_blocks(len(lines), nn), 3)))
+        p = fluid_record(p, on.model, on.threads)   # of the variant that compiles only the parts its data can use
         # the entrained fluid's energy from the start
         if np.any(rows["added_n"]) or np.any(rows["added_t"]) or np.any(p.buoy_added):
             typed_call(VARIANTS.of(p).kernel("fluid_entry"), p, on.model, on.state, SAMPLE)

@@ -52,13 +52,15 @@ class Key:
 class Binding(NamedTuple):
     """What an effect binds to: the net as declared, its flattened ``model``, the ``state``
     as built (cosnet.engine.flatten), the ``effects`` declared with it and the ``records`` of
-    those bound before it (a simulation binds them in order; implied effects come last)."""
+    those bound before it (a simulation binds them in order; implied effects come last), and
+    the thread count the simulation steps on."""
 
     net: Any
     model: Any
     state: Any
     effects: tuple = ()
     records: tuple = ()
+    threads: int = 1   # the step's thread count (an effect whose kernels have a threaded variant picks it)
 
     @property
     def time(self) -> float:

@@ -145,7 +145,8 @@ class Simulation:
             if not isinstance(e, Effect):
                 raise ValueError(f"Simulation: effects must be cosnet effects, got {e!r}")
         self.effects = after_added_mass(self.effects) + implied_effects(net, self.grids)
-        on = Binding(net, self.model, self.state, tuple(self.effects))
+        self.threads = self._choose_threads(threads)
+        on = Binding(net, self.model, self.state, tuple(self.effects), threads=self.threads)
         bound: list = []
         for e in self.effects:   # in order: an effect may share arrays of one bound before it (sliders, a fluid's)
             bound.append(e.bind(on._replace(records=tuple(bound))))
@@ -160,7 +161,6 @@ class Simulation:
         self.advance_kernel = STEPPERS[stepper]
         self._new_step_table()
         self._scratch_state = None
-        self.threads = self._choose_threads(threads)
         self.backend = backend_for(self.model, self.threads)
         if isinstance(dt, str) and dt != "tight":
             raise ValueError(f"Simulation: dt must be a positive number, None or 'tight', got {dt!r}")
