@@ -90,7 +90,7 @@ def on_threads(quick):
     """The wire of THREADED elements as lines of 5 (a net's twine between knots, at the size
     where a net runs on two threads by default: simulation.PARALLEL_MIN_ELEMENTS), dry and
     with drag + added mass + buoyancy, each on 1 and on 2 threads, timed in alternation:
-    the elastic step's loops and the fluid's kick run on the threads, its sample on one."""
+    the elastic step's loops and the fluid's sample and kick run on the threads."""
     n, lines = THREADED, THREADED // 5
     dt = cosnet.Simulation(wire(n, lines), [cosnet.Gravity()], threads=1, fast_modes="rotary").dt
     runs, fns = [], []

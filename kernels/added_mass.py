@@ -30,8 +30,9 @@ from numba import njit, prange
 from .backend import NODE_BLOCK, PASS, STEP
 from .compiler import CACHED, INNER
 from .compose import inertia_kernel
-from .fluid import (ARMS, CALM, CARRIES, CURRENT, NODES, THREADS, FluidParams, calm_now, end_arm, has_added_mass,
-                    kick_changes, kick_drag_vertices, node_free, sample_rows, set_decay, split, still_medium, turns)
+from .fluid import (ARMS, CALM, CARRIES, CURRENT, LINE_BLOCK, NODES, THREADS, FluidParams, calm_now, end_arm,
+                    has_added_mass, kick_changes, kick_drag_vertices, node_free, sample_rows, set_decay, split,
+                    still_medium, turns)
 from .fluid_step import add_node_upthrust, arm_spin, held_mass, kick_drag_nodes, lifts_nodes
 from .layout import columns, uint
 from .rotations import cross, solve_sym3
@@ -40,13 +41,12 @@ TURNING_ROWS = 6  # rows of p.turning: the forces G at the line ends (3, the las
                   # interior vertices, scratch), the last kick's whole change of the velocity D at the interior
                   # vertices (3: add_inner_turning, or with the drag's flow fluid.kick_drag_vertices; at a line end,
                   # its node's midpoint velocity for the pass: add_turning_forces)
-KICK_BLOCK = 128   # lines per task of the kick's threaded pass over the lines (kick_threaded)
 
 
 def threaded_blocks(lines: int, nodes: int) -> int:
     """The rows of FluidParams.block_sums for a medium of ``lines`` lines on a net of ``nodes``
     nodes: the blocks of kick_threaded's longest loop."""
-    return max((lines + KICK_BLOCK - 1) // KICK_BLOCK, (nodes + NODE_BLOCK - 1) // NODE_BLOCK, 1)
+    return max((lines + LINE_BLOCK - 1) // LINE_BLOCK, (nodes + NODE_BLOCK - 1) // NODE_BLOCK, 1)
 
 
 @njit(**CACHED, inline="always")
@@ -368,14 +368,14 @@ def kick_nodes_last(n0, n1, p, model, state, loads, h):
 
 @njit(**INNER, parallel=True)
 def kick_threaded(p, model, state, loads, h):
-    """kick_fluid's passes in blocks of KICK_BLOCK lines and of NODE_BLOCK nodes on the step's
+    """kick_fluid's passes in blocks of LINE_BLOCK lines and of NODE_BLOCK nodes on the step's
     threads, three threaded loops a kick (the nodes the lines read; the lines; the nodes that
     read the lines' ends), each block's sums in a row of p.block_sums (a reduction would
     allocate); a loop of a single block, or of more than p.block_sums holds, runs in the
     calling thread (backend.SOLO). Return (the turning forces' power, the energy dissipated,
     the work supplied)."""
     nn, nj, sums = model.node_mass.shape[0], p.lines.shape[0], p.block_sums
-    bn, bl = (nn + NODE_BLOCK - 1) // NODE_BLOCK, (nj + KICK_BLOCK - 1) // KICK_BLOCK
+    bn, bl = (nn + NODE_BLOCK - 1) // NODE_BLOCK, (nj + LINE_BLOCK - 1) // LINE_BLOCK
     serial_nodes, serial_lines = bn <= 1 or bn > sums.shape[0], bl <= 1 or bl > sums.shape[0]
     if NODES:
         if serial_nodes:
@@ -387,7 +387,7 @@ def kick_threaded(p, model, state, loads, h):
         work, dissipated, supplied = kick_lines(np.int64(0), nj, p, model, state, loads, h)
     else:
         for b in prange(bl):
-            sums[b, 0], sums[b, 1], sums[b, 2] = kick_lines(b * KICK_BLOCK, min((b + 1) * KICK_BLOCK, nj), p, model,
+            sums[b, 0], sums[b, 1], sums[b, 2] = kick_lines(b * LINE_BLOCK, min((b + 1) * LINE_BLOCK, nj), p, model,
                                                             state, loads, h)
         work = dissipated = supplied = 0.0
         for b in range(bl):

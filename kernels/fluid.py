@@ -75,6 +75,8 @@ ARMS = True          # some node the medium moves has a line end off its centre 
                      # junctions (knots, shackles, a towed weight) has no use for
 THREADS = True       # the step runs on threads: the kick's passes over the lines and the nodes run in blocks on
                      # them (added_mass.kick_threaded), parallel code a run on one thread has no use for
+LINE_BLOCK = 128     # lines per task of the threaded passes over the lines (added_mass.kick_threaded,
+                     # fluid_step.sample_threaded)
 OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS", "THREADS")
 
 
@@ -469,6 +471,22 @@ def sample_medium(p, model, state):
     masses and upthrust as that sample wrote them, the same numbers: its tangents alone are
     written (a wire or a net wholly submerged, the common case, writes four rows a vertex
     fewer a kick). (Loops over vertices without calls or branches, which LLVM vectorises.)"""
+    set_wave_phases(p, state.clock[0])
+    return sample_lines(p, model, state, np.int64(0), p.lines.shape[0])
+
+
+@njit(**CACHED, inline="always")
+def set_wave_phases(p, t):
+    """Update p.wave_now by each wave component's phase at time t (sample_lines reads them)."""
+    if MOVING and WAVES:
+        for w in range(p.wave_a.shape[0]):
+            p.wave_now[w] = wave_phase(p.wave_w[w], p.wave_phase[w], t)
+
+
+@njit(**INNER)
+def sample_lines(p, model, state, j0, j1):
+    """Update p.sample at the vertices of rows j0..j1-1's lines as sample_medium does (the wave
+    components' phases set: set_wave_phases); return their share of its value."""
     x = state.x
     c, S, v = columns(x), sample_rows(p), columns(state.v)
     t = state.clock[0]
@@ -477,10 +495,7 @@ def sample_medium(p, model, state):
     c0, c1, c2, surface = p.current[0], p.current[1], p.current[2], p.surface
     vlen, dry, wet0, wet1 = model.voronoi_rest_length, model.vertex_inv_mass, p.wet_inverse[0], p.wet_inverse[1]
     de = 0.0
-    if MOVING and WAVES:
-        for w in range(p.wave_a.shape[0]):
-            p.wave_now[w] = wave_phase(p.wave_w[w], p.wave_phase[w], t)
-    for j in range(p.lines.shape[0]):
+    for j in range(j0, j1):
         l = p.lines[j]
         if l < 0 or l >= nl:
             continue

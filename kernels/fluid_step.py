@@ -8,15 +8,16 @@ flow_fluid, which runs the nodes' drag and the moving medium's impulses in halve
 
 import math
 
-from numba import njit
+import numpy as np
+from numba import njit, prange
 
-from .backend import ENTRY, STEP
+from .backend import ENTRY, NODE_BLOCK, STEP
 from .compiler import CACHED, INNER
 from .compose import flow_kernel
-from .fluid import (ARMS, CARRIES, MOVING, NODES, FluidParams, add_split, buoy_of, calm_now, carrying_span, end_arm,
-                    ends_entrained, entrained_line, has_added_mass, linear_law, node_free, push_vertices,
-                    sample_buoys, sample_medium, sample_rows, sampled, split, still_medium, vertex_force,
-                    vertex_upthrust)
+from .fluid import (ARMS, CARRIES, LINE_BLOCK, MOVING, NODES, THREADS, FluidParams, add_split, buoy_of, calm_now,
+                    carrying_span, end_arm, ends_entrained, entrained_line, has_added_mass, linear_law, node_free,
+                    push_vertices, sample_buoys, sample_lines, sample_medium, sample_rows, sampled, set_wave_phases,
+                    split, still_medium, vertex_force, vertex_upthrust)
 from .layout import columns, uint
 from .rotations import cross, quat_rotate, quat_rotate_inv, solve_sym3
 
@@ -52,11 +53,12 @@ def node_mass_matrix(p, model, state, nd):
 
 
 @njit(**INNER)
-def sample_node_masses(p, model, state):
-    """Update p.node_mass at the free nodes given the sample: each node's mass matrix with the
-    added mass (node_mass_matrix), once a kick for the flows and the kick that divide by it
-    (a loop over its line ends each: a node's share of the step where lines are short)."""
-    for nd in range(model.node_mass.shape[0]):
+def sample_node_masses(p, model, state, n0, n1):
+    """Update p.node_mass at the free nodes among n0..n1-1 given the sample: each node's mass
+    matrix with the added mass (node_mass_matrix), once a kick for the flows and the kick that
+    divide by it (a loop over its line ends each: a node's share of the step where lines are
+    short)."""
+    for nd in range(n0, n1):
         if node_free(p, model, nd):
             a = node_mass_matrix(p, model, state, nd)
             for k in range(6):
@@ -410,6 +412,38 @@ def buoys_entrained(p, model, state):
     return e
 
 
+@njit(**INNER, parallel=True)
+def sample_threaded(p, model, state):
+    """Update p.sample as sample_medium does and return its value, in blocks of LINE_BLOCK lines
+    on the step's threads, each block's share of the value in a row of p.block_sums (a
+    reduction would allocate); a single block, or more than p.block_sums holds, runs in the
+    calling thread (backend.SOLO)."""
+    set_wave_phases(p, state.clock[0])
+    nj, sums = p.lines.shape[0], p.block_sums
+    bl = (nj + LINE_BLOCK - 1) // LINE_BLOCK
+    if bl <= 1 or bl > sums.shape[0]:
+        return sample_lines(p, model, state, np.int64(0), nj)
+    for b in prange(bl):
+        sums[b, 0] = sample_lines(p, model, state, b * LINE_BLOCK, min((b + 1) * LINE_BLOCK, nj))
+    de = 0.0
+    for b in range(bl):
+        de += sums[b, 0]
+    return de
+
+
+@njit(**INNER, parallel=True)
+def masses_threaded(p, model, state):
+    """Update p.node_mass as sample_node_masses does at every node, in blocks of NODE_BLOCK on
+    the step's threads (a single block in the calling thread)."""
+    nn = model.node_mass.shape[0]
+    bn = (nn + NODE_BLOCK - 1) // NODE_BLOCK
+    if bn <= 1:
+        sample_node_masses(p, model, state, np.int64(0), nn)
+        return
+    for b in prange(bn):
+        sample_node_masses(p, model, state, b * NODE_BLOCK, min((b + 1) * NODE_BLOCK, nn))
+
+
 SAMPLE, SAMPLE_NODES, ENTRAINED = 0, 1, 2   # what fluid_entry does
 
 
@@ -431,7 +465,7 @@ def fluid_entry(p, model, state, task):
         return 0.0
     if task == SAMPLE_NODES:
         if CARRIES and NODES:
-            sample_node_masses(p, model, state)
+            sample_node_masses(p, model, state, np.int64(0), model.node_mass.shape[0])
         return 0.0
     sample_medium(p, model, state)
     if CARRIES:
@@ -480,17 +514,23 @@ def flow_fluid(p, model, state, h):
             before = entrained_energy(p, model, state) if not still else 0.0
             if still and NODES:
                 before = buoys_entrained(p, model, state)
-            de = sample_medium(p, model, state)
+            de = sample_threaded(p, model, state) if THREADS else sample_medium(p, model, state)
             if NODES:
                 if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
                     sample_buoys(p, state, state.clock[0])
-                sample_node_masses(p, model, state)
+                if THREADS:
+                    masses_threaded(p, model, state)
+                else:
+                    sample_node_masses(p, model, state, np.int64(0), model.node_mass.shape[0])
             after_sample = entrained_energy(p, model, state) if not still else de
             if still and NODES:
                 after_sample += buoys_entrained(p, model, state)
             p.supplied[0] += after_sample - before
         else:
-            sample_medium(p, model, state)
+            if THREADS:
+                sample_threaded(p, model, state)
+            else:
+                sample_medium(p, model, state)
             if CARRIES and NODES and p.buoy_node.shape[0] > 0:
                 sample_buoys(p, state, state.clock[0])
     if after == 1:
