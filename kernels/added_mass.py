@@ -421,15 +421,14 @@ def kick_fluid(p, model, state, arg):
     set_decay(p, model, h)
     if THREADS:
         work, dissipated, supplied = kick_threaded(p, model, state, loads, h)
-        p.supplied[0] += h * work
     else:
         nn = model.node_mass.shape[0]
         if NODES:
             kick_nodes_first(np.int64(0), nn, p, model, state, loads)
         work, dissipated, supplied = kick_lines(np.int64(0), p.lines.shape[0], p, model, state, loads, h)
-        p.supplied[0] += h * work
         if NODES:
             d, g = kick_nodes_last(np.int64(0), nn, p, model, state, loads, h)
             dissipated, supplied = dissipated + d, supplied + g
+    p.supplied[0] += h * work
     p.dissipated[0] += dissipated
     p.supplied[0] += supplied

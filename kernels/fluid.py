@@ -73,8 +73,9 @@ CURRENT = True       # it may flow somewhere, or at some time
 ARMS = True          # some node the medium moves has a line end off its centre of mass: the drag's moment turns
                      # it, in a pass over the nodes of its own (fluid_step.drag_nodes) that a net of point
                      # junctions (knots, shackles, a towed weight) has no use for
-THREADS = True       # the step runs on threads: the kick's passes over the lines and the nodes run in blocks on
-                     # them (added_mass.kick_threaded), parallel code a run on one thread has no use for
+THREADS = True       # the step runs on threads: the sample and the kick's passes over the lines and the nodes run
+                     # in blocks on them (fluid_step.sample_threaded, added_mass.kick_threaded), parallel code a
+                     # run on one thread has no use for
 LINE_BLOCK = 128     # lines per task of the threaded passes over the lines (added_mass.kick_threaded,
                      # fluid_step.sample_threaded)
 OPTIONS = ("MOVING", "CARRIES", "WAVES", "NODES", "DRAG", "RESISTANCE", "CALM", "CURRENT", "ARMS", "THREADS")

@@ -508,13 +508,15 @@ def flow_fluid(p, model, state, h):
     after = p.turn[0] & 1
     still = still_medium(p)   # (then the medium's inertia force is nil at the lines' vertices)
     if after == 0:
-        if CARRIES and has_added_mass(p):
+        before = 0.0
+        if CARRIES and has_added_mass(p):   # (the test, not a variable holding it: numba prunes on the option)
             # (in a still medium, the lines' share of the change is the sample's own; where the
             # medium moves no node, there are no buoys either and nothing at the nodes to sample)
             before = entrained_energy(p, model, state) if not still else 0.0
             if still and NODES:
                 before = buoys_entrained(p, model, state)
-            de = sample_threaded(p, model, state) if THREADS else sample_medium(p, model, state)
+        de = sample_threaded(p, model, state) if THREADS else sample_medium(p, model, state)
+        if CARRIES and has_added_mass(p):
             if NODES:
                 if p.buoy_node.shape[0] > 0:   # (a call passing the records costs more than a short line's sample)
                     sample_buoys(p, state, state.clock[0])
@@ -526,13 +528,8 @@ def flow_fluid(p, model, state, h):
             if still and NODES:
                 after_sample += buoys_entrained(p, model, state)
             p.supplied[0] += after_sample - before
-        else:
-            if THREADS:
-                sample_threaded(p, model, state)
-            else:
-                sample_medium(p, model, state)
-            if CARRIES and NODES and p.buoy_node.shape[0] > 0:
-                sample_buoys(p, state, state.clock[0])
+        elif CARRIES and NODES and p.buoy_node.shape[0] > 0:
+            sample_buoys(p, state, state.clock[0])
     if after == 1:
         push_medium(p, model, state, h, still)
     if NODES and ARMS:
