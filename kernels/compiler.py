@@ -15,6 +15,7 @@ from numba.core import codegen
 from . import typing_memo  # noqa: F401  (numba's typing remembers what it found)
 from . import by_reference  # noqa: F401  (large records passed as one pointer, not hundreds of arguments)
 from . import linking  # noqa: F401  (no machine code for kernels only ever linked into others)
+from . import parfor_loads  # noqa: F401  (a threaded loop's call reads each record once)
 
 
 def _use_own_copies():

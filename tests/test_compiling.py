@@ -5,12 +5,17 @@ the CLI's status line says how many kernels remain and how long they take here; 
 process compiling a step's kick alongside compiles the kick the step calls, and ends with its
 block."""
 
+import collections
 import os
+import re
 import subprocess
 import sys
 import time
 
+import numba
+import numpy as np
 import pytest
+from numba import prange
 
 from procs import started, wait_until
 
@@ -742,3 +747,56 @@ def test_numba_linking_keeps_its_own_cache(tmp_path):
     import numba
     assert links_only == "False" and cache.endswith("-numba-linking")
     assert cache[:-len("-numba-linking")] == os.path.join(str(tmp_path), os.path.basename(numba.config.CACHE_DIR))
+
+
+RECORD = collections.namedtuple("RECORD", [f"a{i}" for i in range(12)])
+
+
+@numba.njit
+def _add_block(p, i0, i1):
+    for i in range(i0, i1):
+        p.a0[i] += p.a11[i] * p.a5[i]
+
+
+def _add_blocks(p, n):   # (as the fluid's threaded kick: a block function called in the loop)
+    for b in prange(n):
+        _add_block(p, 4 * b, 4 * b + 4)
+
+
+def test_a_threaded_loop_reads_its_record_once_and_compiles_the_same_code(monkeypatch):
+    """kernels/parfor_loads.py: where a prange loop that reads a record of 12 arrays is called,
+    the record is loaded from its variable once, not once per array (the twelve loads that
+    made LLVM's time grow as the square of a record's size are one), and the machine code and
+    the results are numba's own: the same loop compiled with numba's lowering as it is
+    computes the same values, bit for bit, with the same instructions."""
+    from numba.core import codegen
+
+    from cosnet.kernels import parfor_loads
+    optimise = codegen.CPUCodeLibrary._optimize_functions
+
+    def compiled(active, p):
+        modules: list = []
+
+        def seen(library, module):
+            modules.append(str(module))
+            return optimise(library, module)
+        monkeypatch.setattr(parfor_loads, "ACTIVE", active)
+        monkeypatch.setattr(codegen.CPUCodeLibrary, "_optimize_functions", seen)
+        kernel = numba.njit(parallel=True)(_add_blocks)
+        kernel(p, 3)
+        monkeypatch.undo()
+        caller = [m for m in modules if "_add_blocks" in m and "parfor_gufunc" in m and "@cfunc" not in m]
+        assert len(caller) == 1
+        return kernel, len(re.findall(r"= load \[12 x", caller[0]))
+
+    def asm(kernel):   # (less the names: a function's unique id, the loop's address)
+        return re.sub(r"0x[0-9a-f]+|B\d+v\d+|_\d+\b", "", kernel.inspect_asm(kernel.signatures[0]))
+
+    rng = np.random.default_rng(1)
+    ours = RECORD(*[rng.random(12) for _ in range(12)])
+    numbas = RECORD(*[a.copy() for a in ours])
+    sums = ours.a0 + ours.a11 * ours.a5
+    (kernel, loads), (numba_kernel, numba_loads) = compiled(True, ours), compiled(False, numbas)
+    assert loads == numba_loads - 11
+    assert np.array_equal(ours.a0, sums) and np.array_equal(numbas.a0, sums)
+    assert asm(kernel) == asm(numba_kernel)
