@@ -55,6 +55,7 @@ DRIFT_CONSTRAINTS: dict = {}
 KICK_CONSTRAINTS: dict = {}
 ACCOUNTS: dict = {}
 INERTIAS: dict = {}
+_TWINS: dict = {}   # a kernel -> its twin without entry wrapper (_inner)
 
 
 def _inner(kernel):
@@ -66,8 +67,11 @@ def _inner(kernel):
     would let either load the other's code, the twin's lacking the entry Python calls."""
     if kernel.targetoptions.get("no_cpython_wrapper"):
         return kernel
-    return keyed_twin(kernel, kernel.py_func, "without entry wrapper", no_cpython_wrapper=True,
-                      no_cfunc_wrapper=True)
+    held = _TWINS.get(kernel)   # (a kernel shared by several variants' records is registered for each)
+    if held is None:
+        held = _TWINS[kernel] = keyed_twin(kernel, kernel.py_func, "without entry wrapper", no_cpython_wrapper=True,
+                                           no_cfunc_wrapper=True)
+    return held
 
 
 def load_kernel(declaration):
@@ -129,8 +133,7 @@ _WRAPPERS: dict = {}   # (effect kernel, hook) -> the slot kernel calling it
 def slot_layout(groups):
     """Return [(hook index, group index, effect index, kernel)] in the order of the effect
     slots (after the CORE ones), given the three tuples (load, flow, constraint) of effect
-    record classes of a step. The same whether computed from numba types (when a step is
-    typed) or from the records (when bound)."""
+    record classes of a step (the records' own: a variant's numba type names its base)."""
     layout = []
     for k, (what, registry, g, required) in enumerate(HOOKS):
         for i, cls in enumerate(groups[g]):
@@ -140,10 +143,6 @@ def slot_layout(groups):
             if kernel is not None:
                 layout.append((k, g, i, kernel))
     return layout
-
-
-def _classes(groups):
-    return [tuple(getattr(t, "instance_class", t) for t in g) for g in groups]
 
 
 def slot_wrapper(kernel, hook):
@@ -229,8 +228,8 @@ def step_calls(records, model, state, loads, backend) -> list:
     groups = numba.typeof(tuple(records)).types
     calls = [(kernel, slot_argtypes(core)) for kernel in CORE]
     calls += [(slot_wrapper(kernel, k), slot_argtypes(core, groups[g].types[i]))
-              for k, g, i, kernel in slot_layout(_classes(g.types for g in groups))]
-    return calls
+              for k, g, i, kernel in records_layout(records)]   # (by the records' classes: a variant's
+    return calls                                                 # numba type is its base's, kernels/specialise.py)
 
 
 def bind_slots(table, records, model, state, loads, backend, flags_of, rows=None) -> None:

@@ -6,13 +6,17 @@ statements. Numba prunes a branch on a global constant before it types the funct
 calls in a pruned branch are never typed, compiled or linked; an option tested at run time
 would compile every part for every scene. ``specialise`` clones the jitted functions of some
 modules that read an option, directly or through another such function, with the options
-set: the modules' own functions stay the variant with every option on.
+set: the modules' own functions stay the variant with every option on. A clone depends on
+the options it reads alone, and variants that agree on those share it: a record of any
+variant has its base's numba type, so a shared clone is compiled once for all of them.
 """
 
 import types as _pytypes
 from typing import NamedTuple
 
+from numba.core import types as numba_types
 from numba.core.registry import CPUDispatcher
+from numba.core.typing.typeof import typeof_impl
 
 from .compiler import keyed_twin
 
@@ -22,12 +26,17 @@ def _jitted(module) -> dict:
             if isinstance(f, CPUDispatcher) and f.py_func.__module__ == module.__name__}
 
 
+_CLONES: dict = {}   # (module, name, the options it reads and their values) -> its clone
+
+
 def specialise(modules, options: dict, tag: str) -> dict:
     """Return {name: dispatcher}: the functions of ``modules`` that read any global of
     ``options`` or call such a function, compiled with those globals set to ``options``
-    (calling each other's clones). ``tag`` names the variant: it is part of each clone's cache
-    key, since functions that do not take the effect's record would otherwise share their
-    cached code between variants (same source, same argument types)."""
+    (calling each other's clones). A clone is made once per process for the values of the
+    options it reads, itself or through its callees, and shared by every variant that agrees
+    on those: variants that differ elsewhere compile it once. ``tag`` (the effect) and those
+    values are part of each clone's cache key, since the same source with the same argument
+    types would otherwise share its cached code between variants."""
     found = {}
     for m in modules:
         for name, f in _jitted(m).items():
@@ -35,19 +44,28 @@ def specialise(modules, options: dict, tag: str) -> dict:
                 raise ValueError(f"variants: {name} is defined in {found[name][0].__name__} and {m.__name__}")
             found[name] = (m, f)
 
-    def calls(name, members):
+    def callees(name):
         m, f = found[name]
         space = vars(m)
-        return any(n in options or (n in members and space.get(n) is found[n][1]) for n in f.py_func.__code__.co_names)
+        return {n for n in f.py_func.__code__.co_names if n in found and space.get(n) is found[n][1]}
 
-    members: set = set()
-    while True:
-        grown = {n for n in found if n not in members and calls(n, members)}
-        if not grown:
+    calls = {n: callees(n) for n in found}
+    reads = {n: set(found[n][1].py_func.__code__.co_names) & set(options) for n in found}
+    while True:   # what a function reads through its callees, to a fixed point
+        grown = {n: reads[n].union(*(reads[c] for c in calls[n])) for n in found}
+        if grown == reads:
             break
-        members |= grown
+        reads = grown
+    members = [n for n in found if reads[n]]
     spaces = {m: dict(vars(m), **options) for m in modules}
-    clones = {n: _clone(found[n][1], spaces[found[n][0]], tag) for n in members}
+    clones = {}
+    for n in members:
+        m = found[n][0]
+        values = tuple(sorted((o, options[o]) for o in reads[n]))
+        key = (m.__name__, n, values)
+        if key not in _CLONES:
+            _CLONES[key] = _clone(found[n][1], spaces[m], f"{tag}:" + ",".join(f"{o}={int(v)}" for o, v in values))
+        clones[n] = _CLONES[key]
     originals = {id(found[n][1]): clones[n] for n in members}
     for space in spaces.values():   # names bound to a member, its own module's or imported
         for name, value in space.items():
@@ -102,12 +120,19 @@ class Variants:
             raise ValueError(f"{self.base.__name__} variant {bits!r}: expected {len(self.options)} bits, "
                              f"one per option {self.options}")
         modules = tuple(self.modules())
-        clones = specialise(modules, {name: b == "1" for name, b in zip(self.options, bits)},
-                            f"{self.base.__name__}:{bits}")
+        clones = specialise(modules, {name: b == "1" for name, b in zip(self.options, bits)}, self.base.__name__)
         cls = type(f"{self.base.__name__}_{bits}", (self.base,), {"__slots__": (), "__module__": self.home})
+        typeof_impl.register(cls)(self._typeof)
         self.register(cls, clones)
         held = self._held[bits] = Variant(cls, clones, modules)
         return held
+
+    def _typeof(self, record, context):
+        # numba types a variant's record as its base's (the same fields, the same layout), so
+        # that a clone compiled for one variant is the clone of every variant that shares it;
+        # which kernels a step calls is chosen by the record's class (kernels.compose)
+        fields = [typeof_impl(v, context) for v in record]
+        return None if any(t is None for t in fields) else numba_types.BaseTuple.from_types(fields, self.base)
 
     def with_options(self, options) -> Variant:
         """The variant with ``options`` (a bool per option)."""

@@ -7,6 +7,7 @@ import math
 import weakref
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 
@@ -870,7 +871,12 @@ def test_a_net_in_water_steps_alike_on_one_and_two_threads():
     more lines than a block of them, more knots than a block of nodes), and the net moves as on
     one thread, to round-off (the accounts' sums, and the elastic step's threaded loops, add
     in another order). A net of a few lines on two threads keeps the variant without threaded
-    passes, whose loops would each run one block (fluid_variants.options_of)."""
+    passes, whose loops would each run one block (fluid_variants.options_of). The two variants
+    share the clones of every function that does not read THREADS, itself or through its
+    callees (kernels/specialise.py: the threaded variant compiles its loops and its hooks
+    alone), which their records' numba type, their base's, lets them call."""
+    from cosnet.kernels import fluid_variants
+
     def run(threads, knots=300, steps=300):
         net = cosnet.Net()
         wire = cosnet.Material(E=1e9, G=1e9 / 2.6, density=WIRE_DENSITY)
@@ -890,6 +896,11 @@ def test_a_net_in_water_steps_alike_on_one_and_two_threads():
     (one, f1), (two, f2) = run(1), run(2)
     small = run(2, knots=3, steps=0)
     assert [type(f.params(s)).__name__[-1] for s, f in ((one, f1), (two, f2), small)] == ["0", "1", "0"]   # THREADS
+    serial, threaded = (fluid_variants.VARIANTS.of(f.params(s)) for s, f in ((one, f1), (two, f2)))
+    assert serial.family["kick_lines"] is threaded.family["kick_lines"]
+    assert serial.family["kick_fluid"] is not threaded.family["kick_fluid"] and "kick_threaded" in threaded.family
+    assert numba.typeof(f2.params(two)) == numba.typeof(f1.params(one))
+    assert numba.typeof(f2.params(two)).instance_class is fluid_variants.FluidParams
     assert f1.dissipated(one) > 1e-6 * abs(one.energy())    # the drag acts
     assert np.abs(two.state.x - one.state.x).max() < 1e-10
     assert np.abs(two.state.v - one.state.v).max() < 1e-8
