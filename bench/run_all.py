@@ -52,6 +52,7 @@ SCRIPTS = [
     ("fluid", ["--quick"], [], 180),
     ("moordyn_compare", None, [], None),          # needs moordyn (the bench extra)
     ("joints", ["--quick"], [], 180),
+    ("step_profile", ["--quick"], [], 300),       # needs perf (Debian's linux-perf)
     ("sheaves", ["--quick"], [], 120),
     ("sweep", None, [], None),                    # Dask clusters of 1 and 2 workers
     ("contact_scaling@friction", ["--quick"], [], 180),

@@ -323,6 +323,14 @@ def joints_cost() -> str:
     return _table(head, rows) + measured_on(d["machine"], f", one thread, `{d['command']}`")
 
 
+def step_profile() -> str:
+    d = _json("step_profile.json")
+    rows = [[r["scene"], f"{r['us_per_step']:.3g}",
+             ", ".join(f"{k} {100 * v:.0f} %" for k, v in r["shares"].items())] for r in d["scenes"]]
+    return _table(["scene", "µs per step", "where it goes (share of the samples)"], rows) + measured_on(
+        d["machine"], f", one thread, {d['rate_per_s']:,} samples a second, `{d['command']}`")
+
+
 def rings_cost() -> str:
     d = _json("joints.json")
     rows = [[r["medium"], str(r["rings"]), f"{r['us_per_step']:.3g}",
@@ -452,7 +460,7 @@ def figure(expression: str, namespace: dict, where: str) -> str:
 
 TABLES = {"fluid_cost": fluid_cost, "joints_cost": joints_cost, "joints_accuracy": joints_accuracy,
           "rings_cost": rings_cost, "sheaves_cost": sheaves_cost, "sheaves_accuracy": sheaves_accuracy,
-          "moordyn": moordyn,
+          "moordyn": moordyn, "step_profile": step_profile,
           "soak": soak, "startup": startup, "snakes_rate": snakes_rate, "snakes_simulated": snakes_simulated,
           "snakes_accuracy": snakes_accuracy,
           "snakes_against": snakes_against, "throughput": throughput, "contact_friction": contact_friction,
