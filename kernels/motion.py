@@ -15,7 +15,7 @@ from numba import njit, prange
 from .backend import ENTRY, PASS, STEP, dispatch, each_node, inline_twin
 from .layout import columns, quat_columns
 from .compiler import INLINE, INNER, stable_cache_key
-from .rotations import cross, quat_cayley, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
+from .rotations import cross, quat_exp, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv
 
 # rows per task of the threaded element loops (each block runs the vectorised serial loop)
 BLOCK = 4096
@@ -70,17 +70,20 @@ def spin_about_axis(qw, qx, qy, qz, p0, p1, p2, inv_j, axis, h, cayley):
     """Return (q, p) advanced by the flow of inv_j p_i^2 / 2 for time h about body axis i:
     q <- q exp(phi e_i), p <- exp(-phi e_i) p with phi = h inv_j p_i (exact). With cayley,
     the angle is 2 atan(phi/2): the exact flow of another function of p_i alone, so still
-    symplectic with |p| and the lab angular momentum exact, O(phi^3) apart, free of trig."""
+    symplectic with |p| and the lab angular momentum exact, O(phi^3) apart, free of trig,
+    and q is turned by the factor (1, t e_i), t = phi/2, unnormalised: its norm, sqrt(1 +
+    t^2), only scales q, which every caller normalises once at the end (a square root and a
+    division a factor less, the costliest operations of a body's turn)."""
     p = (p0, p1, p2)
     phi = h * inv_j * p[axis]
     if cayley:
         t = 0.5 * phi
         n = 1.0 / (1.0 + t * t)
-        c = math.sqrt(n)
-        s = t * c
+        c, s = 1.0, t
+        cp, sp = (1.0 - t * t) * n, 2.0 * t * n   # the cosine and sine of 2 atan(t)
     else:
         c, s = math.cos(0.5 * phi), math.sin(0.5 * phi)
-    cp, sp = c * c - s * s, 2.0 * s * c
+        cp, sp = c * c - s * s, 2.0 * s * c
     if axis == 0:
         qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, c, s, 0.0, 0.0)
         return qw, qx, qy, qz, p0, cp * p1 + sp * p2, -sp * p1 + cp * p2
@@ -110,10 +113,10 @@ def spin_two_flows(qw, qx, qy, qz, p0, p1, p2, common, odd, axis, h, cayley):
     Casimir flow exp(h common p) (p unchanged), then the flow of odd p_axis^2/2 about that
     axis (spin_about_axis). The two flows commute, so this is the body's whole flow: exact,
     or by Cayley angles where ``cayley`` (the exact flow of a kinetic energy differing by
-    O(h^2), no trig)."""
+    O(h^2), no trig; each factor (1, phi/2) unnormalised, as spin_about_axis's)."""
     s = h * common
     if cayley:
-        ew, ex, ey, ez = quat_cayley(s * p0, s * p1, s * p2)
+        ew, ex, ey, ez = 1.0, 0.5 * s * p0, 0.5 * s * p1, 0.5 * s * p2
     else:
         ew, ex, ey, ez = quat_exp(s * p0, s * p1, s * p2)
     qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, ew, ex, ey, ez)
@@ -170,12 +173,21 @@ def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
 def spin_round(qw, qx, qy, qz, p0, p1, p2, i1, d2, h):
     """Return (q, p) after the order-2 free-rotation flow of a round section (J1 = J2): the
     Casimir flow by the Cayley angle of h p / J1 (p unchanged), then the flow of d2 p3^2/2
-    about e3 by its Cayley angle (spin_two_flows; no branch, no trig)."""
-    r = (qw, qx, qy, qz, p0, p1, p2)
-    for axis, _ in AXIS_3:   # (a plain int: see STRANG_123)
-        r = spin_two_flows(qw, qx, qy, qz, p0, p1, p2, i1, d2, axis, h, True)
-    qw, qx, qy, qz = quat_normalize(r[0], r[1], r[2], r[3])
-    return qw, qx, qy, qz, r[4], r[5], r[6]
+    about e3 by its Cayley angle, q normalised: spin_two_flows' Cayley path about e3, the
+    division of spin_about_axis's angle and q's normalisation taken as one (d below), so an
+    element turns by one square root and one division, the costliest operations of the
+    drift's pass (with three of each, each Cayley factor normalised on its own, the pass took
+    as long in this machine's quiet spells and twice as long in its slow ones)."""
+    s = 0.5 * h * i1
+    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, 1.0, s * p0, s * p1, s * p2)
+    t = 0.5 * h * d2 * p2
+    qw, qx, qy, qz = qw - t * qz, qx + t * qy, qy - t * qx, qz + t * qw   # q (1, t e3)
+    b = 1.0 + t * t
+    r = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    d = 1.0 / (b * r)
+    n, inv_b = d * b, d * r   # 1 / |q|, 1 / (1 + t^2)
+    cp, sp = (1.0 - t * t) * inv_b, 2.0 * t * inv_b   # the cosine and sine of 2 atan(t)
+    return qw * n, qx * n, qy * n, qz * n, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
 
 
 @njit(**INLINE)

@@ -114,7 +114,8 @@ def small_rotation(rw, rx, ry, rz):
     """Return (theta, c) of relative_rotation for a unit quaternion r with r_w > 0 and
     |theta| < 0.2, by series (no branch, no trig): theta = (2/w) atan(x)/x r_vec, x = s/w."""
     s2 = rx * rx + ry * ry + rz * rz
-    x2 = s2 / (rw * rw)
+    iw = 1.0 / rw   # (one division for x2 and f: a bending pass's costliest operation)
+    x2 = s2 * (iw * iw)
     # atan(x)/x = sum (-x2)^j / (2j + 1), Horner to j = 8 (written out: loops over tuples
     # become switches, which stop vectorisation)
     p = 1.0 / 15.0 - x2 / 17.0
@@ -125,7 +126,7 @@ def small_rotation(rw, rx, ry, rz):
     p = 1.0 / 5.0 - x2 * p
     p = 1.0 / 3.0 - x2 * p
     p = 1.0 - x2 * p
-    f = 2.0 * p / rw
+    f = 2.0 * p * iw
     t2 = f * f * s2
     c = 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 * (1.0 / 1209600.0 + t2 / 47900160.0)))
     return f * rx, f * ry, f * rz, c
@@ -151,13 +152,6 @@ def rotation_of(rw, rx, ry, rz, small):
     # with cos(theta/2) = w and sin(theta/2) = s: (1 + cos)/(2 theta sin) = w/(2 theta s)
     c = 1.0 / theta2 - rw / (2.0 * math.sqrt(theta2 * s2))
     return tx, ty, tz, c
-
-
-@njit(**OPTS)
-def quat_cayley(px, py, pz):
-    """Return the unit quaternion (1, phi/2)/|.|: a rotation about phi by 2 atan(|phi|/2)."""
-    n = 1.0 / math.sqrt(1.0 + 0.25 * (px * px + py * py + pz * pz))
-    return n, 0.5 * n * px, 0.5 * n * py, 0.5 * n * pz
 
 
 @njit(**OPTS)
