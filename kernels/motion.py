@@ -173,21 +173,12 @@ def spin_exact(qw, qx, qy, qz, p0, p1, p2, i1, d1, d2, h, order):
 def spin_round(qw, qx, qy, qz, p0, p1, p2, i1, d2, h):
     """Return (q, p) after the order-2 free-rotation flow of a round section (J1 = J2): the
     Casimir flow by the Cayley angle of h p / J1 (p unchanged), then the flow of d2 p3^2/2
-    about e3 by its Cayley angle, q normalised: spin_two_flows' Cayley path about e3, the
-    division of spin_about_axis's angle and q's normalisation taken as one (d below), so an
-    element turns by one square root and one division, the costliest operations of the
-    drift's pass (with three of each, each Cayley factor normalised on its own, the pass took
-    as long in this machine's quiet spells and twice as long in its slow ones)."""
-    s = 0.5 * h * i1
-    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, 1.0, s * p0, s * p1, s * p2)
-    t = 0.5 * h * d2 * p2
-    qw, qx, qy, qz = qw - t * qz, qx + t * qy, qy - t * qx, qz + t * qw   # q (1, t e3)
-    b = 1.0 + t * t
-    r = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    d = 1.0 / (b * r)
-    n, inv_b = d * b, d * r   # 1 / |q|, 1 / (1 + t^2)
-    cp, sp = (1.0 - t * t) * inv_b, 2.0 * t * inv_b   # the cosine and sine of 2 atan(t)
-    return qw * n, qx * n, qy * n, qz * n, cp * p0 + sp * p1, -sp * p0 + cp * p1, p2
+    about e3 by its Cayley angle (spin_two_flows; no branch, no trig), q normalised."""
+    r = (qw, qx, qy, qz, p0, p1, p2)
+    for axis, _ in AXIS_3:   # (a plain int: see STRANG_123)
+        r = spin_two_flows(qw, qx, qy, qz, p0, p1, p2, i1, d2, axis, h, True)
+    qw, qx, qy, qz = quat_normalize(r[0], r[1], r[2], r[3])
+    return qw, qx, qy, qz, r[4], r[5], r[6]
 
 
 @njit(**INLINE)
