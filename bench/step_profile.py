@@ -97,10 +97,10 @@ def function_name(mangled: str) -> str:
     return REST if parts[0] == "cpython" or "_3clocals_3e" in parts else ".".join(parts[-2:])
 
 
-def write_map(path) -> None:
+def write_map(path) -> set:
     """Write perf's map of the JIT code: every symbol numba's engine defines, its size the gap
     to the next one (1 MB at most), named by labels() where it is a kernel of the step, else
-    by its function (a helper the kernels call rather than inline)."""
+    by its function (a helper the kernels call rather than inline); return the names written."""
     engine = cpu_target.target_context.codegen()._engine
     named = labels()
     found = []
@@ -112,39 +112,44 @@ def write_map(path) -> None:
         if address:
             found.append((address, name))
     found.sort()
+    written = set()
     with open(path, "w") as f:
         for (a, name), (b, _) in zip(found, found[1:] + [(found[-1][0] + 4096, "")]):
-            f.write(f"{a:x} {min(b - a, 1 << 20):x} {named.get(name) or function_name(name)}\n")
+            row = named.get(name) or function_name(name)
+            f.write(f"{a:x} {min(b - a, 1 << 20):x} {row}\n")
+            written.add(row)
+    return written
 
 
 def profile(sim, seconds, steps=2000) -> dict:
     """Step sim for about ``seconds`` under perf; return its µs per step and the share of each row."""
     sim.run(steps=steps)   # (compiled, and its caches warm)
     map_path = f"/tmp/perf-{os.getpid()}.map"
-    write_map(map_path)
-    with tempfile.TemporaryDirectory() as tmp:
-        data = os.path.join(tmp, "perf.data")
-        rec = subprocess.Popen(["perf", "record", "-q", "-e", "cpu-clock", "-F", str(RATE), "-p", str(os.getpid()),
-                                "-o", data], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        try:
-            time.sleep(0.3)   # (perf attached)
-            t0, done = time.perf_counter(), 0
-            while time.perf_counter() - t0 < seconds:
-                sim.run(steps=steps)
-                done += steps
-            wall = time.perf_counter() - t0
-        finally:
-            rec.send_signal(2)
-            rec.wait(timeout=60)
-        out = subprocess.run(["perf", "script", "-i", data, "-F", "ip,sym"], capture_output=True, text=True,
-                             timeout=300).stdout
-    os.remove(map_path)
+    ours = write_map(map_path)
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            data = os.path.join(tmp, "perf.data")
+            rec = subprocess.Popen(["perf", "record", "-q", "-e", "cpu-clock", "-F", str(RATE), "-p",
+                                    str(os.getpid()), "-o", data], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            try:
+                time.sleep(0.3)   # (perf attached)
+                t0, done = time.perf_counter(), 0
+                while time.perf_counter() - t0 < seconds:
+                    sim.run(steps=steps)
+                    done += steps
+                wall = time.perf_counter() - t0
+            finally:
+                rec.send_signal(2)
+                rec.wait(timeout=60)
+            out = subprocess.run(["perf", "script", "-i", data, "-F", "ip,sym"], capture_output=True, text=True,
+                                 timeout=300).stdout
+    finally:
+        os.remove(map_path)
     counts = Counter((line.split(None, 1)[1:] or [REST])[0].strip() for line in out.splitlines() if line.strip())
     total = sum(counts.values())
     shares = Counter()
     for sym, n in counts.items():   # (a symbol of Python or the C library: the rest)
-        row = sym if (sym in CORE.values() or sym.endswith(")") or "." in sym) else REST
-        shares[row if n >= MINOR * total else REST] += n / total
+        shares[sym if sym in ours and n >= MINOR * total else REST] += n / total
     return {"us_per_step": 1e6 * wall / done, "samples": total, "shares": dict(shares.most_common())}
 
 
